@@ -1,0 +1,74 @@
+//! `arcsim import PLAN.dcm [-o plan.json]`: convert a DICOM RT Ion Plan into the native plan format.
+
+use std::path::{Path, PathBuf};
+
+use arcsim_dicom::DicomImportError;
+use arcsim_plan::{ArcPlan, RotationDirection};
+
+use crate::CliError;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// DICOM RT Ion Plan file (recognised by its content, whatever the extension).
+    input: PathBuf,
+    /// Where to write the plan (arcsim-plan/1 JSON); standard output when omitted.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+}
+
+/// Converts the plan, writes the JSON and prints a summary (to standard error when the JSON goes to
+/// standard output).
+pub fn run(args: Args) -> Result<(), CliError> {
+    let plan = arcsim_dicom::read_rt_ion_plan(&args.input).map_err(|e| dicom_error(&args.input, e))?;
+    let json = arcsim_plan::to_json(&plan);
+    let summary = summary(&plan);
+    match &args.output {
+        Some(path) => {
+            std::fs::write(path, &json)
+                .map_err(|e| CliError::failed(format!("cannot write {}: {e}", path.display())))?;
+            println!("{} -> {}", args.input.display(), path.display());
+            println!("{summary}");
+        }
+        None => {
+            print!("{json}");
+            eprintln!("{summary}");
+        }
+    }
+    Ok(())
+}
+
+/// A failed DICOM import as a CLI error (exit 1), prefixed with the file name.
+pub fn dicom_error(path: &Path, err: DicomImportError) -> CliError {
+    CliError::failed(format!("{}: {err}", path.display()))
+}
+
+/// "plan NAME: 2 arcs, ..." then one line per arc: direction, angle range, control points, layers,
+/// spots, MU.
+fn summary(plan: &ArcPlan) -> String {
+    let n = plan.arcs.len();
+    let mut out = format!("plan \"{}\": {n} arc{}", plan.name, if n == 1 { "" } else { "s" });
+    for (i, arc) in plan.arcs.iter().enumerate() {
+        let cps = &arc.control_points;
+        let layers: Vec<_> = cps.iter().flat_map(|cp| &cp.layers).collect();
+        let spots: u64 = layers.iter().filter_map(|l| l.spots.as_ref()).map(|s| u64::from(s.count)).sum();
+        let mu: f64 = layers
+            .iter()
+            .filter_map(|l| l.spots.as_ref())
+            .map(|s| s.total_mu.unwrap_or_else(|| s.mu.iter().flatten().sum()))
+            .sum();
+        let dir = match arc.direction {
+            RotationDirection::Cw => "CW",
+            RotationDirection::Cc => "CC",
+        };
+        let (first, last) = match (cps.first(), cps.last()) {
+            (Some(f), Some(l)) => (f.angle_deg, l.angle_deg),
+            _ => (f64::NAN, f64::NAN),
+        };
+        out.push_str(&format!(
+            "\n  arc {i}: {dir} {first} -> {last} deg, {} control points, {} layers, {spots} spots, {mu:.3} MU",
+            cps.len(),
+            layers.len()
+        ));
+    }
+    out
+}

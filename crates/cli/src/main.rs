@@ -1,0 +1,50 @@
+//! `arcsim`: how long does this proton-arc plan take on this gantry, where is the time lost, and what
+//! would other limits (J, A, V) buy? Each subcommand lives in a module of its own.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod error;
+mod generate;
+mod import;
+mod input;
+mod profile;
+mod validate;
+
+pub use error::CliError;
+
+#[derive(Parser)]
+#[command(name = "arcsim", version, about = "Simulate proton-arc delivery on a jerk-limited gantry")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Plan one minimum-time jerk-limited move (or a batch of moves from a CSV file).
+    Profile(profile::Args),
+    /// Check a plan: print every problem at once (exit 1), or a short summary (exit 0).
+    Validate(validate::Args),
+    /// Write a deterministic synthetic example plan (prostate, head-neck, two-arc, lung).
+    GeneratePlan(generate::Args),
+    /// Convert a DICOM RT Ion Plan into an arcsim plan (JSON) and summarise it.
+    Import(import::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Profile(args) => profile::run(args),
+        Command::Validate(args) => validate::run(args),
+        Command::GeneratePlan(args) => generate::run(args),
+        Command::Import(args) => import::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err}");
+            ExitCode::from(err.exit_code())
+        }
+    }
+}

@@ -1,0 +1,44 @@
+//! `arcsim validate PLAN [--machine FILE]`: every problem of a plan at once, or a short summary.
+
+use std::path::PathBuf;
+
+use arcsim_plan::resolve;
+
+use crate::input::{load_machine, load_plan, plan_error};
+use crate::CliError;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Plan file (arcsim-plan/1 JSON).
+    plan: PathBuf,
+    /// Machine model (arcsim-machine/1 JSON); the built-in ATOM machine when omitted.
+    #[arg(long)]
+    machine: Option<PathBuf>,
+}
+
+/// Prints all problems (exit 1) or a summary: arcs, control points, layers, beam-on time (exit 0).
+pub fn run(args: Args) -> Result<(), CliError> {
+    let plan = load_plan(&args.plan)?;
+    let machine = load_machine(args.machine.as_deref())?;
+    let arcs = resolve(&plan, &machine).map_err(plan_error)?;
+    let control_points: usize = plan.arcs.iter().map(|a| a.control_points.len()).sum();
+    let layers: Vec<_> = arcs.iter().flat_map(|a| &a.layers).collect();
+    let beam_on: f64 = layers.iter().map(|l| l.irradiation_s).sum();
+    let switching: f64 = layers.iter().map(|l| l.switch_in_s).sum();
+    let upward = layers
+        .windows(2)
+        .filter(|w| w[1].energy_mev > w[0].energy_mev)
+        .count();
+    println!("{}: valid ({})", args.plan.display(), plan.name);
+    println!(
+        "  {} arc{}, {control_points} control points, {} layers, {upward} upward energy switches",
+        arcs.len(),
+        if arcs.len() == 1 { "" } else { "s" },
+        layers.len()
+    );
+    println!(
+        "  on machine \"{}\": beam-on time {beam_on:.1} s, energy switching {switching:.1} s",
+        machine.name
+    );
+    Ok(())
+}

@@ -1,0 +1,134 @@
+//! What can go wrong while importing an RT Ion Plan, and where in the file it went wrong.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use dicom_core::Tag;
+
+/// Where in the DICOM data set a problem was found. Sequence indices count from 0, in file order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Location {
+    /// The top level of the data set.
+    Dataset,
+    /// An item of IonBeamSequence (300A,03A2).
+    Beam { beam: usize, number: Option<i64> },
+    /// An item of IonControlPointSequence (300A,03A8) inside an ion beam.
+    ControlPoint {
+        beam: usize,
+        number: Option<i64>,
+        control_point: usize,
+    },
+    /// An item of FractionGroupSequence (300A,0070).
+    FractionGroup { group: usize },
+    /// An item of ReferencedBeamSequence (300C,0004) inside a fraction group.
+    ReferencedBeam { group: usize, item: usize },
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let beam_number =
+            |n: &Option<i64>| n.map(|n| format!(" (BeamNumber {n})")).unwrap_or_default();
+        match self {
+            Location::Dataset => f.write_str("the top-level data set"),
+            Location::Beam { beam, number } => {
+                write!(f, "IonBeamSequence[{beam}]{}", beam_number(number))
+            }
+            Location::ControlPoint {
+                beam,
+                number,
+                control_point,
+            } => write!(
+                f,
+                "IonBeamSequence[{beam}]{} > IonControlPointSequence[{control_point}]",
+                beam_number(number)
+            ),
+            Location::FractionGroup { group } => write!(f, "FractionGroupSequence[{group}]"),
+            Location::ReferencedBeam { group, item } => {
+                write!(
+                    f,
+                    "FractionGroupSequence[{group}] > ReferencedBeamSequence[{item}]"
+                )
+            }
+        }
+    }
+}
+
+/// A failed import. Every variant names what was expected; tag problems name the attribute keyword,
+/// its (gggg,eeee) number and the sequence item it belongs to.
+#[derive(Debug, thiserror::Error)]
+pub enum DicomImportError {
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+
+    #[error("not a DICOM file: {reason}")]
+    NotDicom { reason: String },
+
+    #[error("truncated or corrupt DICOM file: {reason}")]
+    Unreadable { reason: String },
+
+    #[error(
+        "not an RT Ion Plan: SOP class {sop_class_uid}{}; expected RT Ion Plan Storage ({})",
+        name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default(),
+        crate::read::RT_ION_PLAN_STORAGE
+    )]
+    NotIonPlan {
+        sop_class_uid: String,
+        name: Option<String>,
+    },
+
+    #[error(
+        "this is a photon plan: SOP class {sop_class_uid} (RT Plan Storage); arcsim imports proton/ion plans, \
+         RT Ion Plan Storage ({})",
+        crate::read::RT_ION_PLAN_STORAGE
+    )]
+    PhotonPlan { sop_class_uid: String },
+
+    #[error("missing {keyword} {tag} in {at}{}", note.map(|n| format!(" ({n})")).unwrap_or_default())]
+    MissingTag {
+        keyword: &'static str,
+        tag: Tag,
+        at: Location,
+        note: Option<&'static str>,
+    },
+
+    #[error("invalid {keyword} {tag} in {at}: {problem}")]
+    InvalidValue {
+        keyword: &'static str,
+        tag: Tag,
+        at: Location,
+        problem: String,
+    },
+
+    #[error(
+        "inconsistent spots in {at}: ScanSpotMetersetWeights (300A,0396) has {weights} values but \
+         NumberOfScanSpotPositions (300A,0392) is {spots}; expected one weight per spot"
+    )]
+    SpotCountMismatch {
+        at: Location,
+        weights: usize,
+        spots: usize,
+    },
+
+    #[error("inconsistent {keyword} {tag} in {at}: {problem}")]
+    Inconsistent {
+        keyword: &'static str,
+        tag: Tag,
+        at: Location,
+        problem: String,
+    },
+
+    #[error(
+        "no BeamMeterset (300A,0086) for {at}: no FractionGroupSequence (300A,0070) > ReferencedBeamSequence \
+         (300C,0004) item has ReferencedBeamNumber (300C,0006) {number}"
+    )]
+    NoBeamMeterset { at: Location, number: i64 },
+
+    #[error("the plan has no ion beam to import: {reason}")]
+    NoIonBeams { reason: String },
+
+    #[error("the imported plan breaks the arcsim plan rules: {}", issues.join("; "))]
+    InvalidPlan { issues: Vec<String> },
+}

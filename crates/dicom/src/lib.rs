@@ -1,0 +1,106 @@
+//! DICOM RT Ion Plan import into arcsim arc plans (`arcsim-plan/1`).
+//!
+//! [`read_rt_ion_plan`] reads an RT Ion Plan file (SOP class 1.2.840.10008.5.1.4.1.1.481.8) with
+//! dicom-object and converts it into an [`ArcPlan`]; [`is_dicom_file`] recognises a DICOM file by its
+//! content (128-byte preamble + "DICM"), whatever its extension. Failures are [`DicomImportError`]s
+//! that name the attribute keyword, its (gggg,eeee) tag and the beam / control-point index.
+//!
+//! # Conversion rules
+//!
+//! - **Layers.** Each control point whose ScanSpotMetersetWeights (300A,0396) sum above 0 is one
+//!   energy layer (usually the first of a pair; its successor carries zero weights and is skipped).
+//!   NumberOfScanSpotPositions (300A,0392) must equal the number of weights. GantryAngle (300A,011E),
+//!   GantryRotationDirection (300A,011F), NominalBeamEnergy (300A,0114) and NumberOfPaintings
+//!   (300A,039A) are inherited from earlier control points of the same beam when absent.
+//! - **MU.** Spot MU = weight x BeamMeterset / FinalCumulativeMetersetWeight, BeamMeterset (300A,0086)
+//!   taken from the first FractionGroupSequence > ReferencedBeamSequence item whose
+//!   ReferencedBeamNumber is the beam's number; rounded to [`MU_RESOLUTION`] (1e-9 MU) so the JSON
+//!   written from the plan reads back to exactly the same numbers.
+//! - **Paintings.** The weights are the total over all paintings (as DICOM defines them), so with N
+//!   paintings the spot list is repeated N times and each spot delivers MU / N per painting: N x count
+//!   spots, same total MU, N x the spot switches.
+//! - **Control points.** Consecutive layers at the same gantry angle form one native control point
+//!   (several layers); a new angle starts a new one.
+//! - **Arcs.** Beams are taken in BeamNumber order; setup beams and beams without spots are left out
+//!   (and listed in the plan description). A DYNAMIC beam is one arc, whose direction follows the
+//!   declared rotation of each step (the shortest way where it says NONE); it is split into sub-arcs
+//!   where the rotation reverses. Consecutive STATIC beams are grouped into one arc while the angle
+//!   keeps progressing in one direction, each step taken the shorter way round (a step of exactly
+//!   180 degrees counts as CW); a static beam at the same angle as the previous one adds layers to its
+//!   control point, and a reversal or a DYNAMIC beam starts a new arc. Without BeamType a beam that
+//!   stays at one angle counts as STATIC.
+//! - **Angles** are unwrapped along each arc (350 -> 370 for CW across 0) and an arc that would go
+//!   below 0 is shifted up by 360. An arc that never moves is CW unless its control points say CC.
+//!
+//! The result is checked with [`arcsim_plan::validate_plan`]; see `docs/dicom-import.md`.
+
+mod convert;
+mod error;
+mod read;
+
+use std::path::Path;
+
+use arcsim_plan::ArcPlan;
+use dicom_object::{DefaultDicomObject, InMemDicomObject};
+
+pub use convert::{MU_RESOLUTION, SAME_ANGLE_TOLERANCE_DEG};
+pub use error::{DicomImportError, Location};
+pub use read::{has_dicom_magic, is_dicom_file, RT_ION_PLAN_STORAGE, RT_PLAN_STORAGE};
+
+/// Name given to a plan whose file has neither RTPlanLabel nor RTPlanName (and no file name).
+pub const DEFAULT_PLAN_NAME: &str = "dicom-rt-ion-plan";
+
+/// Reads the RT Ion Plan file at `path` and converts it into an arc plan. The plan is named after
+/// RTPlanLabel, else RTPlanName, else the file stem.
+pub fn read_rt_ion_plan(path: impl AsRef<Path>) -> Result<ArcPlan, DicomImportError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| DicomImportError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    import(&bytes, stem.as_deref().unwrap_or(DEFAULT_PLAN_NAME))
+}
+
+/// Converts a complete RT Ion Plan file held in memory (preamble, "DICM", meta group, data set).
+pub fn read_rt_ion_plan_from_bytes(bytes: &[u8]) -> Result<ArcPlan, DicomImportError> {
+    import(bytes, DEFAULT_PLAN_NAME)
+}
+
+/// Converts an RT Ion Plan already opened with dicom-object.
+pub fn rt_ion_plan_from_object(obj: &DefaultDicomObject) -> Result<ArcPlan, DicomImportError> {
+    read::check_sop_class(read::sop_class_of(obj).as_deref())?;
+    convert_dataset(obj, DEFAULT_PLAN_NAME)
+}
+
+/// Converts an RT Ion Plan data set (no file meta group); its SOPClassUID (0008,0016) must be present.
+pub fn rt_ion_plan_from_dataset(ds: &InMemDicomObject) -> Result<ArcPlan, DicomImportError> {
+    read::check_sop_class(
+        ds.get(dicom_dictionary_std::tags::SOP_CLASS_UID)
+            .and_then(|e| e.to_str().ok())
+            .as_deref(),
+    )?;
+    convert_dataset(ds, DEFAULT_PLAN_NAME)
+}
+
+fn import(bytes: &[u8], fallback_name: &str) -> Result<ArcPlan, DicomImportError> {
+    let obj = read::parse_bytes(bytes)?;
+    read::check_sop_class(read::sop_class_of(&obj).as_deref())?;
+    convert_dataset(&obj, fallback_name)
+}
+
+fn convert_dataset(
+    ds: &InMemDicomObject,
+    fallback_name: &str,
+) -> Result<ArcPlan, DicomImportError> {
+    let ion_plan = read::read_ion_plan(ds)?;
+    let plan = convert::to_arc_plan(&ion_plan, fallback_name);
+    let issues = arcsim_plan::validate_plan(&plan, &plan.name);
+    if issues.is_empty() {
+        Ok(plan)
+    } else {
+        Err(DicomImportError::InvalidPlan {
+            issues: issues.iter().map(ToString::to_string).collect(),
+        })
+    }
+}

@@ -1,0 +1,600 @@
+//! RT Ion Plan import, end to end: generated DICOM files -> ArcPlan, checked value by value.
+
+mod fixtures;
+
+use arcsim_dicom::{
+    is_dicom_file, read_rt_ion_plan, read_rt_ion_plan_from_bytes, rt_ion_plan_from_dataset,
+    DicomImportError,
+};
+use arcsim_plan::{ArcPlan, RotationDirection, PLAN_FORMAT};
+use fixtures::{BeamSpec, Layer, PlanSpec};
+
+const TOL: f64 = 1e-9;
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= TOL * b.abs().max(1.0)
+}
+
+fn import(spec: &PlanSpec, file_name: &str) -> ArcPlan {
+    let path = spec.write(file_name);
+    match read_rt_ion_plan(&path) {
+        Ok(plan) => plan,
+        Err(e) => panic!("import of {file_name} failed: {e}"),
+    }
+}
+
+fn import_err(spec: &PlanSpec) -> DicomImportError {
+    match read_rt_ion_plan_from_bytes(&spec.to_bytes()) {
+        Ok(_) => panic!("expected an import error"),
+        Err(e) => e,
+    }
+}
+
+fn layer_mu(plan: &ArcPlan, arc: usize, cp: usize, layer: usize) -> Vec<f64> {
+    let spots = plan.arcs[arc].control_points[cp].layers[layer]
+        .spots
+        .as_ref()
+        .expect("spots");
+    spots.mu.clone().expect("per-spot MU")
+}
+
+fn total_mu(plan: &ArcPlan) -> f64 {
+    plan.arcs
+        .iter()
+        .flat_map(|a| &a.control_points)
+        .flat_map(|cp| &cp.layers)
+        .filter_map(|l| l.spots.as_ref()?.mu.as_ref())
+        .flatten()
+        .sum()
+}
+
+fn angles(plan: &ArcPlan, arc: usize) -> Vec<f64> {
+    plan.arcs[arc]
+        .control_points
+        .iter()
+        .map(|cp| cp.angle_deg)
+        .collect()
+}
+
+// ---- arcs ------------------------------------------------------------------------------------------
+
+#[test]
+fn dynamic_arc_of_180_layer_pairs() {
+    let spec = fixtures::dynamic_arc_plan();
+    assert_eq!(
+        spec.beams[0].cps.len(),
+        360,
+        "fixture: 180 layers as control-point pairs"
+    );
+    let plan = import(&spec, "arc180.dcm");
+
+    assert_eq!(plan.format, PLAN_FORMAT);
+    assert_eq!(plan.name, "ARC180");
+    assert_eq!(plan.arcs.len(), 1);
+    let arc = &plan.arcs[0];
+    assert_eq!(arc.direction, RotationDirection::Cw);
+    assert_eq!(arc.control_points.len(), 180);
+
+    let final_weight = spec.beams[0].final_weight();
+    for (i, cp) in arc.control_points.iter().enumerate() {
+        // 181, 183, ..., 359, 361 (= 1 in the file), ..., 539: unwrapped across 360.
+        assert!(
+            close(cp.angle_deg, 181.0 + 2.0 * i as f64),
+            "cp {i}: angle {}",
+            cp.angle_deg
+        );
+        assert_eq!(cp.layers.len(), 1, "cp {i}");
+        let layer = &cp.layers[0];
+        assert_eq!(
+            layer.energy_mev,
+            fixtures::energy_of(i),
+            "cp {i}: energy (inherited where absent)"
+        );
+        let weights = fixtures::weights_of(i);
+        let spots = layer.spots.as_ref().expect("spots");
+        assert_eq!(spots.count as usize, weights.len(), "cp {i}: spot count");
+        assert!(spots.total_mu.is_none());
+        let mu = spots.mu.as_ref().expect("mu");
+        for (m, w) in mu.iter().zip(&weights) {
+            assert!(
+                close(*m, f64::from(*w) * 1234.5 / final_weight),
+                "cp {i}: {m} vs weight {w}"
+            );
+        }
+        assert!(layer.irradiation_time_s.is_none() && layer.switching_time_s.is_none());
+        assert!(cp.window_deg.is_none() && cp.required_speed_deg_per_s.is_none());
+    }
+    assert!(
+        close(total_mu(&plan), 1234.5),
+        "all spots add up to BeamMeterset: {}",
+        total_mu(&plan)
+    );
+    let description = plan.description.as_deref().unwrap_or_default();
+    assert!(
+        description.contains("ARC180") && description.contains("dynamic"),
+        "{description}"
+    );
+}
+
+#[test]
+fn static_beams_form_one_arc_in_beam_number_order() {
+    let spec = fixtures::static_arc_plan();
+    let plan = import(&spec, "static5.dcm");
+    assert_eq!(plan.arcs.len(), 1);
+    assert_eq!(plan.arcs[0].direction, RotationDirection::Cw);
+    // 340, 350, 0, 10, 20 in the file: CW across 0.
+    assert_eq!(angles(&plan, 0), vec![340.0, 350.0, 360.0, 370.0, 380.0]);
+    for i in 0..5 {
+        let cp = &plan.arcs[0].control_points[i];
+        assert_eq!(cp.layers.len(), 1);
+        assert_eq!(cp.layers[0].energy_mev, 150.0 - i as f64);
+        let weights = fixtures::weights_of(i);
+        let sum: f64 = weights.iter().map(|&w| f64::from(w)).sum();
+        let meterset = 100.0 + 10.0 * i as f64;
+        let mu = layer_mu(&plan, 0, i, 0);
+        assert_eq!(mu.len(), weights.len());
+        for (m, w) in mu.iter().zip(&weights) {
+            assert!(
+                close(*m, f64::from(*w) * meterset / sum),
+                "beam {}: {m}",
+                i + 1
+            );
+        }
+    }
+}
+
+fn static_beams(angles: &[f64]) -> PlanSpec {
+    let beams = angles
+        .iter()
+        .enumerate()
+        .map(|(i, &a)| {
+            let layer = Layer {
+                angle: a,
+                energy: 100.0 + i as f64,
+                weights: fixtures::weights_of(i),
+            };
+            BeamSpec::from_layers(i as i64 + 1, "STATIC", "NONE", 50.0, &[layer])
+        })
+        .collect();
+    PlanSpec::ion("STATIC", beams)
+}
+
+#[test]
+fn static_beams_split_where_the_angle_turns_back() {
+    let plan = import(
+        &static_beams(&[10.0, 20.0, 30.0, 25.0, 15.0]),
+        "reverse.dcm",
+    );
+    assert_eq!(plan.arcs.len(), 2);
+    assert_eq!(plan.arcs[0].direction, RotationDirection::Cw);
+    assert_eq!(angles(&plan, 0), vec![10.0, 20.0, 30.0]);
+    assert_eq!(plan.arcs[1].direction, RotationDirection::Cc);
+    assert_eq!(angles(&plan, 1), vec![25.0, 15.0]);
+}
+
+#[test]
+fn static_beams_at_one_angle_share_a_control_point() {
+    let plan = import(&static_beams(&[90.0, 90.0, 100.0]), "same-angle.dcm");
+    assert_eq!(plan.arcs.len(), 1);
+    assert_eq!(angles(&plan, 0), vec![90.0, 100.0]);
+    let energies: Vec<f64> = plan.arcs[0].control_points[0]
+        .layers
+        .iter()
+        .map(|l| l.energy_mev)
+        .collect();
+    assert_eq!(energies, vec![100.0, 101.0]);
+}
+
+#[test]
+fn a_single_static_beam_is_a_one_point_cw_arc() {
+    let plan = import(&static_beams(&[45.0]), "single.dcm");
+    assert_eq!(plan.arcs.len(), 1);
+    assert_eq!(plan.arcs[0].direction, RotationDirection::Cw);
+    assert_eq!(angles(&plan, 0), vec![45.0]);
+}
+
+#[test]
+fn cw_and_cc_dynamic_beams_are_separate_sub_arcs() {
+    let plan = import(&fixtures::two_arc_plan(), "two-arcs.dcm");
+    assert_eq!(plan.arcs.len(), 2);
+    assert_eq!(plan.arcs[0].direction, RotationDirection::Cw);
+    assert_eq!(plan.arcs[1].direction, RotationDirection::Cc);
+    let expected_cw: Vec<f64> = (0..11).map(|i| 180.0 + 2.0 * i as f64).collect();
+    let expected_cc: Vec<f64> = (0..11).map(|i| 200.0 - 2.0 * i as f64).collect();
+    assert_eq!(angles(&plan, 0), expected_cw);
+    assert_eq!(angles(&plan, 1), expected_cc);
+    // Each beam's MU follow its own BeamMeterset (500 and 400).
+    let arc_mu = |a: usize| -> f64 {
+        (0..11)
+            .map(|c| layer_mu(&plan, a, c, 0).iter().sum::<f64>())
+            .sum()
+    };
+    assert!(close(arc_mu(0), 500.0) && close(arc_mu(1), 400.0));
+}
+
+#[test]
+fn layers_at_one_angle_of_a_dynamic_beam_share_a_control_point() {
+    let layers: Vec<Layer> = [
+        (0.0, 150.0),
+        (0.0, 140.0),
+        (2.0, 150.0),
+        (2.0, 130.0),
+        (4.0, 120.0),
+    ]
+    .iter()
+    .enumerate()
+    .map(|(i, &(angle, energy))| Layer {
+        angle,
+        energy,
+        weights: fixtures::weights_of(i),
+    })
+    .collect();
+    let spec = PlanSpec::ion(
+        "MULTI",
+        vec![BeamSpec::from_layers(1, "DYNAMIC", "CW", 10.0, &layers)],
+    );
+    let plan = import(&spec, "multi.dcm");
+    assert_eq!(angles(&plan, 0), vec![0.0, 2.0, 4.0]);
+    let energies: Vec<Vec<f64>> = plan.arcs[0]
+        .control_points
+        .iter()
+        .map(|cp| cp.layers.iter().map(|l| l.energy_mev).collect())
+        .collect();
+    assert_eq!(
+        energies,
+        vec![vec![150.0, 140.0], vec![150.0, 130.0], vec![120.0]]
+    );
+}
+
+#[test]
+fn a_dynamic_beam_that_reverses_is_split() {
+    let layers: Vec<Layer> = [0.0, 2.0, 4.0, 2.0, 0.0]
+        .iter()
+        .enumerate()
+        .map(|(i, &angle)| Layer {
+            angle,
+            energy: 100.0,
+            weights: fixtures::weights_of(i),
+        })
+        .collect();
+    let mut beam = BeamSpec::from_layers(1, "DYNAMIC", "CW", 10.0, &layers);
+    // From the third layer on the gantry turns back: CC.
+    for cp in beam.cps.iter_mut().skip(5) {
+        if cp.rotation.is_some() {
+            cp.rotation = Some("CC");
+        }
+    }
+    beam.cps[5].rotation = Some("CC");
+    beam.cps[4].rotation = Some("CC");
+    let plan = import(&PlanSpec::ion("REV", vec![beam]), "reverse-dynamic.dcm");
+    assert_eq!(plan.arcs.len(), 2);
+    assert_eq!(
+        (plan.arcs[0].direction, angles(&plan, 0)),
+        (RotationDirection::Cw, vec![0.0, 2.0, 4.0])
+    );
+    assert_eq!(
+        (plan.arcs[1].direction, angles(&plan, 1)),
+        (RotationDirection::Cc, vec![2.0, 0.0])
+    );
+}
+
+#[test]
+fn a_cc_arc_across_zero_stays_above_zero() {
+    let layers = fixtures::dynamic_arc_layers(10.0, -5.0, 5); // 10, 5, 0, 355, 350
+    let plan = import(
+        &PlanSpec::ion(
+            "CC0",
+            vec![BeamSpec::from_layers(1, "DYNAMIC", "CC", 10.0, &layers)],
+        ),
+        "cc0.dcm",
+    );
+    assert_eq!(plan.arcs[0].direction, RotationDirection::Cc);
+    assert_eq!(angles(&plan, 0), vec![370.0, 365.0, 360.0, 355.0, 350.0]);
+}
+
+#[test]
+fn rotation_none_takes_the_shortest_way() {
+    let layers = fixtures::dynamic_arc_layers(10.0, -2.0, 3);
+    let plan = import(
+        &PlanSpec::ion(
+            "NONE",
+            vec![BeamSpec::from_layers(1, "DYNAMIC", "NONE", 10.0, &layers)],
+        ),
+        "none.dcm",
+    );
+    assert_eq!(plan.arcs[0].direction, RotationDirection::Cc);
+    assert_eq!(angles(&plan, 0), vec![10.0, 8.0, 6.0]);
+}
+
+#[test]
+fn paintings_repeat_the_spots_with_the_mu_shared() {
+    let layers = fixtures::dynamic_arc_layers(0.0, 2.0, 2);
+    let mut beam = BeamSpec::from_layers(1, "DYNAMIC", "CW", 80.0, &layers);
+    beam.cps[0].paintings = Some(3);
+    beam.cps[2].paintings = Some(1);
+    let final_weight = beam.final_weight();
+    let plan = import(&PlanSpec::ion("PAINT", vec![beam]), "paint.dcm");
+    let w0 = fixtures::weights_of(0);
+    let mu0 = layer_mu(&plan, 0, 0, 0);
+    assert_eq!(
+        mu0.len(),
+        3 * w0.len(),
+        "3 paintings: the spot list three times"
+    );
+    assert_eq!(
+        plan.arcs[0].control_points[0].layers[0]
+            .spots
+            .as_ref()
+            .map(|s| s.count),
+        Some(3 * w0.len() as u32)
+    );
+    for (k, m) in mu0.iter().enumerate() {
+        let w = f64::from(w0[k % w0.len()]);
+        assert!(close(*m, w * 80.0 / final_weight / 3.0), "spot {k}: {m}");
+    }
+    assert_eq!(
+        layer_mu(&plan, 0, 1, 0).len(),
+        fixtures::weights_of(1).len()
+    );
+    assert!(close(total_mu(&plan), 80.0), "paintings keep the total MU");
+}
+
+#[test]
+fn setup_beams_are_left_out_and_listed() {
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[1].delivery = "SETUP";
+    let plan = import(&spec, "setup.dcm");
+    assert_eq!(plan.arcs.len(), 1);
+    assert!(plan
+        .description
+        .as_deref()
+        .unwrap_or_default()
+        .contains("setup beam"));
+}
+
+// ---- entry points and round trip ---------------------------------------------------------------------
+
+#[test]
+fn all_entry_points_agree_and_json_round_trips() {
+    let spec = fixtures::two_arc_plan();
+    let path = spec.write("plan.dcm");
+    let from_path = read_rt_ion_plan(&path).expect("from path");
+    let mut from_bytes = read_rt_ion_plan_from_bytes(&spec.to_bytes()).expect("from bytes");
+    let mut from_dataset = rt_ion_plan_from_dataset(&spec.dataset()).expect("from data set");
+    // Only the bytes/data-set variants lack a file name; all have the label here.
+    assert_eq!(from_path, from_bytes);
+    from_bytes.name.clear();
+    from_dataset.name.clear();
+    assert_eq!(from_bytes, from_dataset);
+
+    let json = arcsim_plan::to_json(&from_path);
+    let back = arcsim_plan::parse_plan(&json, "plan.json").expect("parses back");
+    assert_eq!(back, from_path);
+    let pretty = serde_json::to_string_pretty(&from_path).expect("serialises");
+    let back: ArcPlan = serde_json::from_str(&pretty).expect("parses back");
+    assert_eq!(back, from_path);
+}
+
+#[test]
+fn plan_without_label_is_named_after_the_file() {
+    let mut spec = fixtures::static_arc_plan();
+    spec.label = None;
+    assert_eq!(import(&spec, "my-plan.dcm").name, "my-plan");
+}
+
+#[test]
+fn dicom_is_recognised_by_content_not_extension() {
+    let dcm = fixtures::write_bytes("plan.txt", &fixtures::static_arc_plan().to_bytes());
+    assert!(is_dicom_file(&dcm));
+    let json = fixtures::write_bytes("plan.dcm", b"{\"format\": \"arcsim-plan/1\"}");
+    assert!(!is_dicom_file(&json));
+    assert!(!is_dicom_file(fixtures::temp_dir().join("missing.dcm")));
+}
+
+// ---- errors ----------------------------------------------------------------------------------------
+
+fn message(e: &DicomImportError) -> String {
+    e.to_string()
+}
+
+#[test]
+fn missing_gantry_angle_names_tag_beam_and_control_point() {
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[1].cps[0].angle = None;
+    let e = import_err(&spec);
+    assert!(
+        matches!(
+            e,
+            DicomImportError::MissingTag {
+                keyword: "GantryAngle",
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let m = message(&e);
+    assert!(m.contains("GantryAngle (300A,011E)"), "{m}");
+    assert!(
+        m.contains("IonBeamSequence[1] (BeamNumber 2) > IonControlPointSequence[0]"),
+        "{m}"
+    );
+}
+
+#[test]
+fn missing_energy_names_the_control_point_that_needs_it() {
+    let mut spec = fixtures::dynamic_arc_plan();
+    spec.beams[0].cps[0].energy = None;
+    let m = message(&import_err(&spec));
+    assert!(
+        m.contains("NominalBeamEnergy (300A,0114)") && m.contains("IonControlPointSequence[0]"),
+        "{m}"
+    );
+}
+
+#[test]
+fn missing_final_cumulative_meterset_weight() {
+    let mut spec = fixtures::static_arc_plan();
+    spec.beams[0].write_final_weight = false; // BeamNumber 5, first item of the sequence
+    let m = message(&import_err(&spec));
+    assert!(
+        m.contains("FinalCumulativeMetersetWeight (300A,010E)"),
+        "{m}"
+    );
+    assert!(m.contains("IonBeamSequence[0] (BeamNumber 5)"), "{m}");
+}
+
+#[test]
+fn missing_beam_meterset() {
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[1].meterset = None;
+    let m = message(&import_err(&spec));
+    assert!(m.contains("BeamMeterset (300A,0086)"), "{m}");
+    assert!(
+        m.contains("FractionGroupSequence[0] > ReferencedBeamSequence[1]"),
+        "{m}"
+    );
+
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[0].referenced = false;
+    let e = import_err(&spec);
+    assert!(
+        matches!(e, DicomImportError::NoBeamMeterset { number: 1, .. }),
+        "{e:?}"
+    );
+    assert!(
+        message(&e).contains("ReferencedBeamNumber (300C,0006) 1"),
+        "{e}"
+    );
+}
+
+#[test]
+fn weight_count_must_equal_spot_count() {
+    let mut spec = fixtures::dynamic_arc_plan();
+    spec.beams[0].cps[4].n_spots = Some(99);
+    let e = import_err(&spec);
+    assert!(
+        matches!(e, DicomImportError::SpotCountMismatch { spots: 99, .. }),
+        "{e:?}"
+    );
+    let m = message(&e);
+    assert!(
+        m.contains("IonControlPointSequence[4]")
+            && m.contains("NumberOfScanSpotPositions (300A,0392) is 99"),
+        "{m}"
+    );
+}
+
+#[test]
+fn weights_without_spot_count() {
+    let mut spec = fixtures::dynamic_arc_plan();
+    spec.beams[0].cps[2].n_spots = None;
+    let m = message(&import_err(&spec));
+    assert!(
+        m.contains("missing NumberOfScanSpotPositions (300A,0392)")
+            && m.contains("IonControlPointSequence[2]"),
+        "{m}"
+    );
+
+    let mut spec = fixtures::dynamic_arc_plan();
+    spec.beams[0].cps[2].weights = None;
+    let m = message(&import_err(&spec));
+    assert!(
+        m.contains("missing ScanSpotMetersetWeights (300A,0396)")
+            && m.contains("IonControlPointSequence[2]"),
+        "{m}"
+    );
+}
+
+#[test]
+fn photon_plan_is_rejected_clearly() {
+    let e = import_err(&fixtures::photon_plan());
+    assert!(matches!(e, DicomImportError::PhotonPlan { .. }), "{e:?}");
+    let m = message(&e);
+    assert!(
+        m.contains("photon") && m.contains("1.2.840.10008.5.1.4.1.1.481.5"),
+        "{m}"
+    );
+    assert!(m.contains("1.2.840.10008.5.1.4.1.1.481.8"), "{m}");
+}
+
+#[test]
+fn other_sop_classes_are_named() {
+    let mut spec = fixtures::static_arc_plan();
+    spec.sop_class = dicom_dictionary_std::uids::CT_IMAGE_STORAGE;
+    let e = import_err(&spec);
+    let m = message(&e);
+    assert!(
+        m.contains("1.2.840.10008.5.1.4.1.1.2") && m.contains("CT Image Storage"),
+        "{m}"
+    );
+}
+
+#[test]
+fn non_dicom_file() {
+    let path = fixtures::write_bytes(
+        "notes.dcm",
+        "just some text, long enough to pass 132 bytes. "
+            .repeat(5)
+            .as_bytes(),
+    );
+    let e = read_rt_ion_plan(&path).expect_err("not DICOM");
+    assert!(matches!(e, DicomImportError::NotDicom { .. }), "{e:?}");
+    assert!(message(&e).contains("DICM"), "{e}");
+    let e = read_rt_ion_plan_from_bytes(b"tiny").expect_err("not DICOM");
+    assert!(matches!(e, DicomImportError::NotDicom { .. }), "{e:?}");
+    let e = read_rt_ion_plan(fixtures::temp_dir().join("absent.dcm")).expect_err("no file");
+    assert!(matches!(e, DicomImportError::Io { .. }), "{e:?}");
+}
+
+#[test]
+fn truncated_files_fail_without_panicking() {
+    let bytes = fixtures::two_arc_plan().to_bytes();
+    let path = fixtures::write_bytes("truncated.dcm", &bytes[..bytes.len() / 2]);
+    let e = read_rt_ion_plan(&path).expect_err("truncated");
+    assert!(matches!(e, DicomImportError::Unreadable { .. }), "{e:?}");
+    assert!(
+        message(&e).starts_with("truncated or corrupt DICOM file"),
+        "{e}"
+    );
+    // Every cut point fails, wherever it falls (preamble, meta group, inside a sequence...).
+    for cut in (0..bytes.len())
+        .step_by(7)
+        .chain(bytes.len() - 8..bytes.len())
+    {
+        assert!(
+            read_rt_ion_plan_from_bytes(&bytes[..cut]).is_err(),
+            "cut at {cut} of {} was accepted",
+            bytes.len()
+        );
+    }
+}
+
+#[test]
+fn plan_without_ion_beams() {
+    let e = import_err(&PlanSpec::ion("EMPTY", Vec::new()));
+    assert!(matches!(e, DicomImportError::NoIonBeams { .. }), "{e:?}");
+
+    let mut spec = fixtures::static_arc_plan();
+    for beam in &mut spec.beams {
+        beam.delivery = "SETUP";
+    }
+    let e = import_err(&spec);
+    assert!(matches!(e, DicomImportError::NoIonBeams { .. }), "{e:?}");
+    assert!(message(&e).contains("setup beam"), "{e}");
+}
+
+#[test]
+fn inconsistent_control_point_count() {
+    let mut spec = fixtures::static_arc_plan();
+    spec.beams[2].number_of_control_points = Some(3);
+    let m = message(&import_err(&spec));
+    assert!(
+        m.contains("NumberOfControlPoints (300A,0110)")
+            && m.contains("IonBeamSequence[2] (BeamNumber 3)"),
+        "{m}"
+    );
+    assert!(
+        m.contains("says 3 but IonControlPointSequence (300A,03A8) has 2 items"),
+        "{m}"
+    );
+}

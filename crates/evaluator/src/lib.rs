@@ -1,0 +1,1 @@
+//! Parallel evaluation of plans x machine variants x schedules: sweeps, summaries, shards.

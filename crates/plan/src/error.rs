@@ -1,0 +1,240 @@
+//! Errors and located problems. Every message names the file, then the arc, control point and layer
+//! (indices from 0, as in the JSON arrays) where relevant, then the field, then what was expected.
+
+use std::fmt;
+
+/// One problem found in a plan or machine, located precisely enough to fix it without searching.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlanIssue {
+    /// File name (or other source name) the plan or machine came from.
+    pub source: String,
+    pub arc: Option<usize>,
+    pub control_point: Option<usize>,
+    pub layer: Option<usize>,
+    /// Field path inside the located element, e.g. `energy_mev`, `spots.mu[3]`, `gantry.max_speed_deg_per_s`.
+    pub field: String,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+impl PlanIssue {
+    pub(crate) fn new(
+        source: &str,
+        at: At,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        PlanIssue {
+            source: source.to_string(),
+            arc: at.arc,
+            control_point: at.control_point,
+            layer: at.layer,
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    /// "arc 0, control point 3, layer 1, field `energy_mev`" without the source.
+    pub fn location(&self) -> String {
+        describe_location(self.arc, self.control_point, self.layer, &self.field)
+    }
+}
+
+fn describe_location(
+    arc: Option<usize>,
+    cp: Option<usize>,
+    layer: Option<usize>,
+    field: &str,
+) -> String {
+    let mut parts = Vec::new();
+    if let Some(a) = arc {
+        parts.push(format!("arc {a}"));
+    }
+    if let Some(c) = cp {
+        parts.push(format!("control point {c}"));
+    }
+    if let Some(l) = layer {
+        parts.push(format!("layer {l}"));
+    }
+    if !field.is_empty() {
+        parts.push(format!("field `{field}`"));
+    }
+    if parts.is_empty() {
+        "top level".to_string()
+    } else {
+        parts.join(", ")
+    }
+}
+
+impl fmt::Display for PlanIssue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}: {}", self.source, self.location(), self.message)
+    }
+}
+
+/// Where in a plan an issue is; a small helper so validation code reads naturally.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct At {
+    pub arc: Option<usize>,
+    pub control_point: Option<usize>,
+    pub layer: Option<usize>,
+}
+
+impl At {
+    pub fn top() -> Self {
+        At::default()
+    }
+    pub fn arc(a: usize) -> Self {
+        At {
+            arc: Some(a),
+            ..At::default()
+        }
+    }
+    pub fn cp(a: usize, c: usize) -> Self {
+        At {
+            arc: Some(a),
+            control_point: Some(c),
+            layer: None,
+        }
+    }
+    pub fn layer(a: usize, c: usize, l: usize) -> Self {
+        At {
+            arc: Some(a),
+            control_point: Some(c),
+            layer: Some(l),
+        }
+    }
+}
+
+/// Why a plan or machine could not be loaded or resolved.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The file could not be read.
+    #[error("{path}: cannot read file: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The text is not valid JSON, or does not have the fields and types of the format.
+    #[error("{source_name}:{line}:{column}: {location}: {message}")]
+    Json {
+        source_name: String,
+        /// 1-based line and column reported by serde_json (0 when unknown).
+        line: usize,
+        column: usize,
+        /// Arc / control point / layer / field where the error was found, as far as known.
+        location: String,
+        message: String,
+    },
+    /// The plan or machine parsed but breaks one or more rules; all of them are listed.
+    #[error("{source_name}: {} problem{}:\n{}", issues.len(), if issues.len() == 1 { "" } else { "s" }, join_issues(issues))]
+    Invalid {
+        source_name: String,
+        issues: Vec<PlanIssue>,
+    },
+}
+
+fn join_issues(issues: &[PlanIssue]) -> String {
+    issues
+        .iter()
+        .map(|i| format!("  {i}"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+impl PlanError {
+    /// The located problems of an [`PlanError::Invalid`]; empty for other errors.
+    pub fn issues(&self) -> &[PlanIssue] {
+        match self {
+            PlanError::Invalid { issues, .. } => issues,
+            _ => &[],
+        }
+    }
+
+    /// Turns a serde error with its path into a located [`PlanError::Json`].
+    pub(crate) fn from_serde(
+        source_name: &str,
+        path: Option<&serde_path_to_error::Path>,
+        inner: &serde_json::Error,
+    ) -> Self {
+        let (arc, cp, layer, field) = path.map(split_path).unwrap_or_default();
+        let message = strip_position(&inner.to_string());
+        let message = match inner.classify() {
+            serde_json::error::Category::Syntax if message.contains("number out of range") => {
+                format!("{message}: expected a finite number (this one overflows a double)")
+            }
+            serde_json::error::Category::Syntax => format!("malformed JSON: {message}"),
+            serde_json::error::Category::Eof => {
+                format!("malformed JSON (unexpected end of file): {message}")
+            }
+            serde_json::error::Category::Io => format!("cannot read: {message}"),
+            serde_json::error::Category::Data => message,
+        };
+        PlanError::Json {
+            source_name: source_name.to_string(),
+            line: inner.line(),
+            column: inner.column(),
+            location: describe_location(arc, cp, layer, &field),
+            message,
+        }
+    }
+}
+
+/// serde_json appends " at line L column C"; we print the position in front instead.
+fn strip_position(msg: &str) -> String {
+    match msg.rfind(" at line ") {
+        Some(pos) => msg[..pos].to_string(),
+        None => msg.to_string(),
+    }
+}
+
+/// Splits a serde path like `arcs[0].control_points[3].layers[1].spots.mu` into indices and field.
+fn split_path(
+    path: &serde_path_to_error::Path,
+) -> (Option<usize>, Option<usize>, Option<usize>, String) {
+    use serde_path_to_error::Segment;
+    let (mut arc, mut cp, mut layer) = (None, None, None);
+    let mut field = String::new();
+    let mut pending: Option<&str> = None;
+    for seg in path.iter() {
+        match seg {
+            Segment::Map { key } => {
+                if let Some(p) = pending.take() {
+                    push_field(&mut field, p);
+                }
+                match key.as_str() {
+                    "arcs" if arc.is_none() => pending = Some("arcs"),
+                    "control_points" if arc.is_some() && cp.is_none() => {
+                        pending = Some("control_points")
+                    }
+                    "layers" if cp.is_some() && layer.is_none() => pending = Some("layers"),
+                    other => push_field(&mut field, other),
+                }
+            }
+            Segment::Seq { index } => match pending.take() {
+                Some("arcs") => arc = Some(*index),
+                Some("control_points") => cp = Some(*index),
+                Some("layers") => layer = Some(*index),
+                Some(other) => {
+                    push_field(&mut field, other);
+                    field.push_str(&format!("[{index}]"));
+                }
+                None => field.push_str(&format!("[{index}]")),
+            },
+            Segment::Enum { variant } => push_field(&mut field, variant),
+            Segment::Unknown => {}
+        }
+    }
+    if let Some(p) = pending {
+        push_field(&mut field, p);
+    }
+    (arc, cp, layer, field)
+}
+
+fn push_field(field: &mut String, name: &str) {
+    if !field.is_empty() {
+        field.push('.');
+    }
+    field.push_str(name);
+}

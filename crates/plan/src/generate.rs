@@ -1,0 +1,348 @@
+//! Seeded, deterministic example plans (synthetic, not clinical) for tests, benchmarks and demos.
+//!
+//! Same kind and seed give byte-identical JSON on every platform: the PRNG is a self-written
+//! splitmix64 and only exactly-rounded float operations (+, -, *, /, round) are used.
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::model::{
+    Arc, ArcPlan, ControlPoint, EnergyLayer, RotationDirection, Spots, PLAN_FORMAT,
+};
+
+/// The kinds of example plan, each shaped like a typical treatment site.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PlanKind {
+    /// 180 control points every 2 deg, one layer each, 100-180 MeV, 10 upward switches.
+    Prostate,
+    /// 360 control points every 1 deg, 1-3 layers each, 70-160 MeV.
+    HeadNeck,
+    /// Two sub-arcs, CW then CC (a direction change), one layer each.
+    TwoArc,
+    /// A 120 deg partial arc, 1-2 layers per control point, spots given by total MU.
+    Lung,
+}
+
+impl PlanKind {
+    pub const ALL: [PlanKind; 4] = [
+        PlanKind::Prostate,
+        PlanKind::HeadNeck,
+        PlanKind::TwoArc,
+        PlanKind::Lung,
+    ];
+
+    /// The name used on the command line and as the file stem in `plans/`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PlanKind::Prostate => "prostate",
+            PlanKind::HeadNeck => "head-neck",
+            PlanKind::TwoArc => "two-arc",
+            PlanKind::Lung => "lung",
+        }
+    }
+}
+
+impl fmt::Display for PlanKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for PlanKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        PlanKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = PlanKind::ALL.iter().map(|k| k.name()).collect();
+                format!(
+                    "unknown plan kind \"{s}\"; expected one of {}",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
+/// Beam timing the spot counts and MU are sized for (the ATOM machine: 5 ms/MU, 2 ms per spot switch).
+const S_PER_MU: f64 = 0.005;
+const SPOT_SWITCH_S: f64 = 0.002;
+
+/// How spots are written: every spot's MU, or the layer's total MU.
+#[derive(Clone, Copy)]
+enum SpotStyle {
+    PerSpot,
+    Total,
+}
+
+struct ArcSpec {
+    direction: RotationDirection,
+    start_deg: f64,
+    /// Signed step between control points, degrees.
+    step_deg: f64,
+    control_points: usize,
+    /// Upward energy switches inside this arc.
+    upward_switches: usize,
+}
+
+struct Spec {
+    arcs: Vec<ArcSpec>,
+    layers_per_cp: (u32, u32),
+    energy_mev: (f64, f64),
+    /// Target irradiation time range per layer under the ATOM beam model, seconds.
+    time_s: (f64, f64),
+    style: SpotStyle,
+    what: &'static str,
+}
+
+fn spec(kind: PlanKind) -> Spec {
+    let arc = |direction, start_deg, step_deg, control_points, upward_switches| ArcSpec {
+        direction,
+        start_deg,
+        step_deg,
+        control_points,
+        upward_switches,
+    };
+    use RotationDirection::{Cc, Cw};
+    match kind {
+        PlanKind::Prostate => Spec {
+            arcs: vec![arc(Cw, 1.0, 2.0, 180, 10)],
+            layers_per_cp: (1, 1),
+            energy_mev: (100.0, 180.0),
+            time_s: (0.06, 0.29),
+            style: SpotStyle::PerSpot,
+            what: "prostate-like full arc: 180 control points 1..359 deg every 2 deg, one layer each, 100-180 MeV mostly downward with 10 upward switches",
+        },
+        PlanKind::HeadNeck => Spec {
+            arcs: vec![arc(Cw, 0.5, 1.0, 360, 20)],
+            layers_per_cp: (1, 3),
+            energy_mev: (70.0, 160.0),
+            time_s: (0.05, 0.35),
+            style: SpotStyle::PerSpot,
+            what: "head-and-neck-like full arc: 360 control points 0.5..359.5 deg every 1 deg, 1-3 layers each, 70-160 MeV with 20 upward switches",
+        },
+        PlanKind::TwoArc => Spec {
+            arcs: vec![arc(Cw, 20.0, 4.0, 81, 5), arc(Cc, 340.0, -4.0, 81, 5)],
+            layers_per_cp: (1, 1),
+            energy_mev: (90.0, 170.0),
+            time_s: (0.06, 0.29),
+            style: SpotStyle::PerSpot,
+            what: "two sub-arcs: CW 20..340 deg then CC 340..20 deg every 4 deg (a direction change), one layer each, 90-170 MeV",
+        },
+        PlanKind::Lung => Spec {
+            arcs: vec![arc(Cw, 150.0, 2.0, 61, 6)],
+            layers_per_cp: (1, 2),
+            energy_mev: (90.0, 200.0),
+            time_s: (0.05, 0.3),
+            style: SpotStyle::Total,
+            what: "lung-like partial arc: 61 control points 150..270 deg every 2 deg, 1-2 layers each, 90-200 MeV, spots given by total MU",
+        },
+    }
+}
+
+/// splitmix64 (Steele, Lea, Flood 2014): tiny, fast, and good enough for example data.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1) with 53 random bits.
+    fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+
+    /// Uniform integer in lo..=hi.
+    fn int(&mut self, lo: u32, hi: u32) -> u32 {
+        lo + (self.next_u64() % u64::from(hi - lo + 1)) as u32
+    }
+}
+
+fn round_to(x: f64, step: f64) -> f64 {
+    (x / step).round() * step
+}
+
+/// Rounds to `decimals` places so the JSON shows short numbers (1e3 is exact, unlike 0.001).
+fn round_dec(x: f64, scale: f64) -> f64 {
+    (x * scale).round() / scale
+}
+
+/// Generates the example plan of `kind` from `seed`; deterministic.
+pub fn generate(kind: PlanKind, seed: u64) -> ArcPlan {
+    let spec = spec(kind);
+    let mut rng = SplitMix64(seed ^ 0x5EED_A5C5_1A00_0000);
+    let arcs = spec
+        .arcs
+        .iter()
+        .map(|a| {
+            let counts: Vec<u32> = (0..a.control_points)
+                .map(|_| rng.int(spec.layers_per_cp.0, spec.layers_per_cp.1))
+                .collect();
+            let total: usize = counts.iter().map(|&n| n as usize).sum();
+            let mut energies =
+                energy_sequence(&mut rng, total, spec.energy_mev, a.upward_switches).into_iter();
+            let control_points = counts
+                .iter()
+                .enumerate()
+                .map(|(i, &n)| ControlPoint {
+                    angle_deg: a.start_deg + a.step_deg * i as f64,
+                    required_speed_deg_per_s: None,
+                    window_deg: None,
+                    layers: (0..n)
+                        .map(|_| EnergyLayer {
+                            energy_mev: energies.next().unwrap_or(spec.energy_mev.0),
+                            spots: Some(spots(&mut rng, spec.time_s, spec.style)),
+                            irradiation_time_s: None,
+                            switching_time_s: None,
+                        })
+                        .collect(),
+                })
+                .collect();
+            Arc {
+                direction: a.direction,
+                control_points,
+            }
+        })
+        .collect();
+    ArcPlan {
+        format: PLAN_FORMAT.to_string(),
+        name: kind.name().to_string(),
+        description: Some(format!(
+            "Synthetic {}. Generated by `arcsim generate-plan --kind {} --seed {seed}`; not clinical data.",
+            spec.what,
+            kind.name()
+        )),
+        arcs,
+    }
+}
+
+/// `n` energies in 0.1 MeV steps: `upward + 1` strictly descending runs from near the top of the range
+/// to near its bottom, so there are exactly `upward` upward switches (as in energy-sequenced arcs).
+fn energy_sequence(
+    rng: &mut SplitMix64,
+    n: usize,
+    (lo, hi): (f64, f64),
+    upward: usize,
+) -> Vec<f64> {
+    const MIN_RUN: usize = 3;
+    let runs = (upward + 1).min(n / MIN_RUN).max(1);
+    let weights: Vec<f64> = (0..runs).map(|_| rng.range(0.7, 1.3)).collect();
+    let sum: f64 = weights.iter().sum();
+    let mut lengths: Vec<usize> = weights
+        .iter()
+        .map(|w| ((n as f64 * w / sum).round() as usize).max(MIN_RUN.min(n)))
+        .collect();
+    // Fix the total, one layer at a time, keeping every run at least MIN_RUN long.
+    let mut i = 0;
+    while lengths.iter().sum::<usize>() != n {
+        let k = i % runs;
+        if lengths.iter().sum::<usize>() < n {
+            lengths[k] += 1;
+        } else if lengths[k] > MIN_RUN {
+            lengths[k] -= 1;
+        }
+        i += 1;
+    }
+    let span = hi - lo;
+    let mut out = Vec::with_capacity(n);
+    for len in lengths {
+        let top = round_to(hi - 0.15 * span * rng.unit(), 0.1);
+        let bottom = round_to(lo + 0.15 * span * rng.unit(), 0.1);
+        let step = if len > 1 {
+            (top - bottom) / (len - 1) as f64
+        } else {
+            0.0
+        };
+        let mut prev = f64::INFINITY;
+        for j in 0..len {
+            let jitter = if j == 0 || j + 1 == len {
+                0.0
+            } else {
+                rng.range(-0.3, 0.3) * step
+            };
+            let mut e = round_dec(top - step * j as f64 + jitter, 10.0);
+            if e >= prev {
+                e = round_dec(prev - 0.1, 10.0);
+            }
+            out.push(e);
+            prev = e;
+        }
+    }
+    out
+}
+
+/// Spots sized so the layer takes a time in `time_s` under the ATOM beam model.
+fn spots(rng: &mut SplitMix64, (t_lo, t_hi): (f64, f64), style: SpotStyle) -> Spots {
+    let target = rng.range(t_lo, t_hi);
+    // At most 40 % of the layer time goes to switching between spots.
+    let max_count = ((0.4 * target / SPOT_SWITCH_S) as u32 + 1).clamp(3, 80);
+    let count = rng.int((max_count / 3).max(3), max_count);
+    let total_mu = (target - f64::from(count - 1) * SPOT_SWITCH_S) / S_PER_MU;
+    match style {
+        SpotStyle::Total => Spots {
+            count,
+            mu: None,
+            total_mu: Some(round_dec(total_mu, 1000.0)),
+        },
+        SpotStyle::PerSpot => {
+            let weights: Vec<f64> = (0..count).map(|_| rng.range(0.3, 1.7)).collect();
+            let sum: f64 = weights.iter().sum();
+            let mu = weights
+                .iter()
+                .map(|w| round_dec(total_mu * w / sum, 1000.0).max(0.02))
+                .collect();
+            Spots {
+                count,
+                mu: Some(mu),
+                total_mu: None,
+            }
+        }
+    }
+}
+
+/// The plan as pretty JSON with arrays of numbers kept on one line, ending in a newline: the form
+/// of the files in `plans/`.
+pub fn to_json(plan: &ArcPlan) -> String {
+    // Serialising these types cannot fail: string keys, strings, numbers, arrays only.
+    let pretty = serde_json::to_string_pretty(plan).unwrap_or_default();
+    let lines: Vec<&str> = pretty.lines().collect();
+    let mut out = String::with_capacity(pretty.len());
+    let mut i = 0;
+    while i < lines.len() {
+        let line = lines[i];
+        if line.ends_with('[') {
+            // Find the closing bracket; inline the array when every element is a number.
+            let mut j = i + 1;
+            while j < lines.len() && is_number_line(lines[j]) {
+                j += 1;
+            }
+            if j > i + 1 && j < lines.len() && lines[j].trim_start().starts_with(']') {
+                let items: Vec<&str> = lines[i + 1..j].iter().map(|l| l.trim()).collect();
+                out.push_str(line);
+                out.push_str(&items.join(" "));
+                out.push_str(lines[j].trim_start());
+                out.push('\n');
+                i = j + 1;
+                continue;
+            }
+        }
+        out.push_str(line);
+        out.push('\n');
+        i += 1;
+    }
+    out
+}
+
+fn is_number_line(line: &str) -> bool {
+    let t = line.trim().trim_end_matches(',');
+    !t.is_empty() && t.parse::<f64>().is_ok()
+}

@@ -1,0 +1,220 @@
+//! The serde types of the two JSON formats (`arcsim-plan/1`, `arcsim-machine/1`) and of the resolved
+//! layers the sequencer consumes. Field-by-field meaning and units: `docs/plan-format.md`.
+//!
+//! Every struct denies unknown fields so that a misspelt field is an error, not a silent default.
+
+use serde::{Deserialize, Serialize};
+
+/// Value of the `format` field of every plan file; bumped on any incompatible change.
+pub const PLAN_FORMAT: &str = "arcsim-plan/1";
+/// Value of the `format` field of every machine file.
+pub const MACHINE_FORMAT: &str = "arcsim-machine/1";
+
+/// A proton-arc plan: one or more arcs (sub-arcs), delivered in order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArcPlan {
+    /// Must equal [`PLAN_FORMAT`].
+    pub format: String,
+    pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    pub arcs: Vec<Arc>,
+}
+
+/// Direction of gantry rotation within one arc.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RotationDirection {
+    /// Clockwise: the gantry angle increases from one control point to the next.
+    #[serde(rename = "CW")]
+    Cw,
+    /// Counter-clockwise: the gantry angle decreases.
+    #[serde(rename = "CC")]
+    Cc,
+}
+
+impl RotationDirection {
+    /// +1 for CW, -1 for CC: multiply an angle difference by it to get the progress along the arc.
+    pub fn sign(self) -> f64 {
+        match self {
+            RotationDirection::Cw => 1.0,
+            RotationDirection::Cc => -1.0,
+        }
+    }
+
+    /// The name used in the JSON format ("CW" / "CC").
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RotationDirection::Cw => "CW",
+            RotationDirection::Cc => "CC",
+        }
+    }
+}
+
+/// One sub-arc: the gantry turns one way through its control points, starting and ending at rest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Arc {
+    pub direction: RotationDirection,
+    pub control_points: Vec<ControlPoint>,
+}
+
+/// A gantry angle at which one or more energy layers are delivered.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlPoint {
+    /// Gantry angle in degrees. Not limited to [0, 360): an arc may pass 360 (350 -> 370).
+    pub angle_deg: f64,
+    /// Prescribed gantry speed magnitude in deg/s while this control point is delivered (>= 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub required_speed_deg_per_s: Option<f64>,
+    /// Full width in degrees of the tolerance window; the machine's default when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window_deg: Option<f64>,
+    /// At least one layer, in delivery order.
+    pub layers: Vec<EnergyLayer>,
+}
+
+/// One energy layer: an energy and either its spots or its irradiation time (exactly one).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnergyLayer {
+    /// Nominal beam energy in MeV, 1..=400.
+    pub energy_mev: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spots: Option<Spots>,
+    /// Beam-on time in seconds, given directly instead of spots.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub irradiation_time_s: Option<f64>,
+    /// Seconds for the switch INTO this layer; overrides the machine's ELST.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub switching_time_s: Option<f64>,
+}
+
+/// The spots of a layer: a count and either every spot's MU or the layer's total MU.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Spots {
+    pub count: u32,
+    /// MU of each spot; exactly `count` values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mu: Option<Vec<f64>>,
+    /// Total MU of the layer, shared equally by its spots.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub total_mu: Option<f64>,
+}
+
+/// A treatment machine: gantry limits, beam timing and energy-switching model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Machine {
+    /// Must equal [`MACHINE_FORMAT`].
+    pub format: String,
+    pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// Where the numbers come from (papers, code repositories), or why they are assumptions.
+    #[serde(default)]
+    pub sources: Vec<String>,
+    pub gantry: GantryLimitsSpec,
+    pub beam: BeamModel,
+    pub elst: ElstModel,
+    /// Window width in degrees for control points that give none.
+    pub default_window_deg: f64,
+    /// Servo period in seconds when motion is discretised; continuous time when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub servo_period_s: Option<f64>,
+}
+
+/// Kinematic limits of the gantry (magnitudes).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GantryLimitsSpec {
+    pub max_speed_deg_per_s: f64,
+    pub max_accel_deg_per_s2: f64,
+    /// Deceleration limit when it differs from `max_accel_deg_per_s2`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_decel_deg_per_s2: Option<f64>,
+    pub max_jerk_deg_per_s3: f64,
+}
+
+/// How long a layer's spots take to deliver.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BeamModel {
+    /// Seconds of beam per monitor unit.
+    pub s_per_mu: f64,
+    /// Seconds between two spots of one layer.
+    pub spot_switch_time_s: f64,
+    /// Shortest time one spot can take, in seconds.
+    #[serde(default)]
+    pub min_spot_time_s: f64,
+}
+
+/// Energy-layer switching time (ELST) as a function of the energy step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ElstModel {
+    /// Fixed times for an upward, a downward and a same-energy switch.
+    Constant { up_s: f64, down_s: f64, same_s: f64 },
+    /// Upward time grows with the step: `sum_i up_coeffs_s[i] * dE^i`, dE in MeV.
+    Polynomial {
+        down_s: f64,
+        same_s: f64,
+        up_coeffs_s: Vec<f64>,
+    },
+}
+
+/// Energies closer than this (MeV) count as the same energy: no switch needed beyond `same_s`.
+pub const SAME_ENERGY_TOLERANCE_MEV: f64 = 1e-6;
+
+impl ElstModel {
+    /// Seconds needed to switch the beam from `e_from_mev` to `e_to_mev`.
+    pub fn switch_time_s(&self, e_from_mev: f64, e_to_mev: f64) -> f64 {
+        let de = e_to_mev - e_from_mev;
+        let (down, same) = match self {
+            ElstModel::Constant { down_s, same_s, .. }
+            | ElstModel::Polynomial { down_s, same_s, .. } => (*down_s, *same_s),
+        };
+        if de.abs() <= SAME_ENERGY_TOLERANCE_MEV {
+            same
+        } else if de < 0.0 {
+            down
+        } else {
+            match self {
+                ElstModel::Constant { up_s, .. } => *up_s,
+                // Horner's scheme, highest power first.
+                ElstModel::Polynomial { up_coeffs_s, .. } => {
+                    up_coeffs_s.iter().rev().fold(0.0, |acc, c| acc * de + c)
+                }
+            }
+        }
+    }
+}
+
+/// One energy layer as the sequencer sees it: located, timed, with its window and incoming switch.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResolvedLayer {
+    /// Index of the control point within its arc (from 0).
+    pub control_point: usize,
+    /// Index of the layer within its control point (from 0).
+    pub layer: usize,
+    /// Centre of this layer's window (gantry angle, degrees).
+    pub angle_deg: f64,
+    /// Full window width available to this layer, degrees.
+    pub window_deg: f64,
+    pub energy_mev: f64,
+    /// Beam-on time, seconds.
+    pub irradiation_s: f64,
+    pub required_speed_deg_per_s: Option<f64>,
+    /// Switching time from the previous layer of the plan, seconds (0 for the very first).
+    pub switch_in_s: f64,
+}
+
+/// One arc's layers in delivery order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResolvedArc {
+    pub arc_index: usize,
+    pub direction: RotationDirection,
+    pub layers: Vec<ResolvedLayer>,
+}

@@ -1,0 +1,297 @@
+//! Plan validation: every rule of the format checked on a parsed plan, with ALL problems collected so
+//! a user fixes a file in one pass instead of one error per run.
+
+use crate::error::{At, PlanIssue};
+use crate::model::{ArcPlan, ControlPoint, EnergyLayer, Spots, PLAN_FORMAT};
+
+/// Lowest and highest nominal beam energy accepted, MeV.
+pub const ENERGY_RANGE_MEV: (f64, f64) = (1.0, 400.0);
+
+/// Slack when comparing a window with the control-point spacing, so 1.0 vs 0.9999999999 is not an error.
+const SPACING_TOLERANCE_DEG: f64 = 1e-9;
+
+/// Checks every rule of the plan format and returns all problems found (empty when the plan is valid).
+/// `source` names the file in the messages.
+pub fn validate_plan(plan: &ArcPlan, source: &str) -> Vec<PlanIssue> {
+    let mut v = Validator {
+        source,
+        issues: Vec::new(),
+    };
+    if plan.format != PLAN_FORMAT {
+        v.push(
+            At::top(),
+            "format",
+            format!("expected \"{PLAN_FORMAT}\", got \"{}\"", plan.format),
+        );
+    }
+    if plan.arcs.is_empty() {
+        v.push(
+            At::top(),
+            "arcs",
+            "the plan has no arcs; expected at least one",
+        );
+    }
+    let mut first_layer_seen = false;
+    for (a, arc) in plan.arcs.iter().enumerate() {
+        if arc.control_points.is_empty() {
+            v.push(
+                At::arc(a),
+                "control_points",
+                "the arc has no control points; expected at least one",
+            );
+        }
+        let sign = arc.direction.sign();
+        let dir = arc.direction.as_str();
+        // Spacing to the previous control point, when both angles are usable and progress correctly.
+        let spacing: Vec<Option<f64>> = (0..arc.control_points.len())
+            .map(|c| {
+                let prev = arc.control_points.get(c.checked_sub(1)?)?.angle_deg;
+                let this = arc.control_points[c].angle_deg;
+                let d = sign * (this - prev);
+                (d.is_finite() && d > 0.0).then_some(d)
+            })
+            .collect();
+        for (c, cp) in arc.control_points.iter().enumerate() {
+            let at = At::cp(a, c);
+            if !cp.angle_deg.is_finite() {
+                v.push(
+                    at,
+                    "angle_deg",
+                    format!("expected a finite angle in degrees, got {}", cp.angle_deg),
+                );
+            } else if c > 0 {
+                let prev = arc.control_points[c - 1].angle_deg;
+                if prev.is_finite() {
+                    let d = sign * (cp.angle_deg - prev);
+                    if d == 0.0 {
+                        v.push(
+                            at,
+                            "angle_deg",
+                            format!(
+                                "duplicate angle {} deg: control point {} has the same angle; expected each angle once per arc",
+                                cp.angle_deg,
+                                c - 1
+                            ),
+                        );
+                    } else if d < 0.0 {
+                        let want = if sign > 0.0 { "greater" } else { "less" };
+                        v.push(
+                            at,
+                            "angle_deg",
+                            format!(
+                                "angle {} deg goes against the arc's {dir} direction after control point {} at {} deg; expected {want} than {}",
+                                cp.angle_deg,
+                                c - 1,
+                                prev,
+                                prev
+                            ),
+                        );
+                    }
+                }
+            }
+            v.control_point(a, c, cp, spacing[c], spacing.get(c + 1).copied().flatten());
+            for (l, layer) in cp.layers.iter().enumerate() {
+                v.layer(At::layer(a, c, l), layer, !first_layer_seen);
+                first_layer_seen = true;
+            }
+        }
+    }
+    v.issues
+}
+
+struct Validator<'a> {
+    source: &'a str,
+    issues: Vec<PlanIssue>,
+}
+
+/// Why a number breaks a rule, or None when it is fine.
+fn bad_number(x: f64, min: f64, min_inclusive: bool) -> Option<&'static str> {
+    if x.is_nan() {
+        Some("not a number")
+    } else if x.is_infinite() {
+        Some("infinite (too large for a double?)")
+    } else if x < min || (!min_inclusive && x == min) {
+        Some(if x < 0.0 { "negative" } else { "too small" })
+    } else {
+        None
+    }
+}
+
+impl Validator<'_> {
+    fn push(&mut self, at: At, field: &str, message: impl Into<String>) {
+        self.issues
+            .push(PlanIssue::new(self.source, at, field, message));
+    }
+
+    /// Checks `x >= 0` (or `> 0` when `positive`) and finite; `what` says what was expected.
+    fn number(&mut self, at: At, field: &str, x: f64, positive: bool, what: &str) {
+        if let Some(why) = bad_number(x, 0.0, !positive) {
+            let bound = if positive { "> 0" } else { ">= 0" };
+            self.push(
+                at,
+                field,
+                format!("expected {what} {bound}, got {x} ({why})"),
+            );
+        }
+    }
+
+    fn control_point(
+        &mut self,
+        a: usize,
+        c: usize,
+        cp: &ControlPoint,
+        before: Option<f64>,
+        after: Option<f64>,
+    ) {
+        let at = At::cp(a, c);
+        if let Some(s) = cp.required_speed_deg_per_s {
+            self.number(
+                at,
+                "required_speed_deg_per_s",
+                s,
+                false,
+                "a speed magnitude in deg/s",
+            );
+        }
+        if let Some(w) = cp.window_deg {
+            if bad_number(w, 0.0, false).is_some() {
+                self.number(at, "window_deg", w, true, "a window width in degrees");
+            } else {
+                let neighbours = [(before, c.wrapping_sub(1)), (after, c + 1)];
+                let tightest = neighbours
+                    .iter()
+                    .filter_map(|(s, n)| s.map(|s| (s, *n)))
+                    .min_by(|x, y| x.0.total_cmp(&y.0));
+                if let Some((s, n)) = tightest {
+                    if w > s + SPACING_TOLERANCE_DEG {
+                        self.push(
+                            at,
+                            "window_deg",
+                            format!(
+                                "window {w} deg is wider than the {s} deg spacing to control point {n}; expected at most {s} deg"
+                            ),
+                        );
+                    }
+                }
+            }
+        }
+        if cp.layers.is_empty() {
+            self.push(
+                at,
+                "layers",
+                "the control point has no layers; expected at least one",
+            );
+        }
+    }
+
+    fn layer(&mut self, at: At, layer: &EnergyLayer, first_of_plan: bool) {
+        let (lo, hi) = ENERGY_RANGE_MEV;
+        let e = layer.energy_mev;
+        if !e.is_finite() || !(lo..=hi).contains(&e) {
+            self.push(
+                at,
+                "energy_mev",
+                format!("expected an energy in {lo}..={hi} MeV, got {e}"),
+            );
+        }
+        match (&layer.spots, layer.irradiation_time_s) {
+            (Some(_), Some(_)) => self.push(
+                at,
+                "spots",
+                "both `spots` and `irradiation_time_s` are given; expected exactly one of them",
+            ),
+            (None, None) => self.push(
+                at,
+                "spots",
+                "neither `spots` nor `irradiation_time_s` is given; expected exactly one of them",
+            ),
+            _ => {}
+        }
+        if let Some(t) = layer.irradiation_time_s {
+            self.number(
+                at,
+                "irradiation_time_s",
+                t,
+                true,
+                "an irradiation time in seconds",
+            );
+        }
+        if let Some(spots) = &layer.spots {
+            self.spots(at, spots);
+        }
+        if let Some(t) = layer.switching_time_s {
+            self.number(
+                at,
+                "switching_time_s",
+                t,
+                false,
+                "a switching time in seconds",
+            );
+            if first_of_plan {
+                self.push(
+                    at,
+                    "switching_time_s",
+                    "the first layer of the plan has no switch into it; expected no switching_time_s here",
+                );
+            }
+        }
+    }
+
+    fn spots(&mut self, at: At, spots: &Spots) {
+        if spots.count == 0 {
+            self.push(at, "spots.count", "expected at least 1 spot, got 0");
+        }
+        match (&spots.mu, spots.total_mu) {
+            (Some(_), Some(_)) => self.push(
+                at,
+                "spots",
+                "both `mu` and `total_mu` are given; expected exactly one of them",
+            ),
+            (None, None) => self.push(
+                at,
+                "spots",
+                "neither `mu` nor `total_mu` is given; expected exactly one of them",
+            ),
+            _ => {}
+        }
+        if let Some(mu) = &spots.mu {
+            if mu.len() != spots.count as usize {
+                self.push(
+                    at,
+                    "spots.mu",
+                    format!("{} MU values for a count of {} spots; expected exactly one MU value per spot", mu.len(), spots.count),
+                );
+            }
+            let mut all_good = true;
+            for (i, &m) in mu.iter().enumerate() {
+                if bad_number(m, 0.0, true).is_some() {
+                    all_good = false;
+                    self.number(
+                        at,
+                        &format!("spots.mu[{i}]"),
+                        m,
+                        false,
+                        "a spot weight in MU",
+                    );
+                }
+            }
+            let sum: f64 = mu.iter().sum();
+            if all_good && !mu.is_empty() && sum <= 0.0 {
+                self.push(
+                    at,
+                    "spots.mu",
+                    "every spot has 0 MU; expected a layer that delivers some dose",
+                );
+            } else if all_good && !sum.is_finite() {
+                self.push(
+                    at,
+                    "spots.mu",
+                    format!("the MU values sum to {sum}; expected a finite total"),
+                );
+            }
+        }
+        if let Some(t) = spots.total_mu {
+            self.number(at, "spots.total_mu", t, true, "a total weight in MU");
+        }
+    }
+}

@@ -1,0 +1,73 @@
+//! Planner errors: bad input, and moves that have no profile under the chosen policy.
+
+use std::fmt;
+
+/// Why the planner returned no profile. Infeasible moves are not bugs: they carry what *is*
+/// reachable so that a scheduler can adjust its speeds.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PlannerError {
+    /// A limit is not a finite number > 0.
+    InvalidLimit { name: &'static str, value: f64 },
+    /// An input is not finite (or otherwise malformed).
+    InvalidInput { name: &'static str, value: f64, expected: &'static str },
+    /// A boundary speed exceeds the speed limit V.
+    SpeedAboveLimit { name: &'static str, value: f64, limit: f64 },
+    /// Reversal is forbidden and a boundary speed points against the direction of travel.
+    SpeedAgainstTravel { name: &'static str, value: f64 },
+    /// Reversal is forbidden and `v_end` cannot be reached within the distance (paper case 3).
+    /// `max_end_speed` is the highest end speed reachable from `v_start`; `max_start_speed` the
+    /// highest start speed from which `v_end` is still reachable.
+    Unreachable { v_start: f64, v_end: f64, distance: f64, max_end_speed: f64, max_start_speed: f64 },
+    /// No profile lasts the requested duration; `feasible` lists the durations that exist.
+    DurationInfeasible { requested: f64, feasible: Vec<(f64, f64)> },
+    /// The servo period is too coarse to keep the limits for this move.
+    PeriodTooCoarse { period: f64, detail: String },
+    /// A profile failed its own integration check: a planner bug, never silently returned.
+    Verification(String),
+}
+
+impl fmt::Display for PlannerError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PlannerError::InvalidLimit { name, value } => {
+                write!(f, "limit {name} = {value}: expected a finite number > 0")
+            }
+            PlannerError::InvalidInput { name, value, expected } => {
+                write!(f, "{name} = {value}: expected {expected}")
+            }
+            PlannerError::SpeedAboveLimit { name, value, limit } => {
+                write!(f, "{name} = {value} exceeds the speed limit {limit}")
+            }
+            PlannerError::SpeedAgainstTravel { name, value } => write!(
+                f,
+                "{name} = {value} points against the direction of travel and reversal is forbidden"
+            ),
+            PlannerError::Unreachable { v_start, v_end, distance, max_end_speed, max_start_speed } => {
+                write!(
+                    f,
+                    "end speed {v_end} is not reachable from {v_start} within distance {distance} \
+                     without reversing: the highest reachable end speed is {max_end_speed:.6}, \
+                     the highest start speed that still reaches {v_end} is {max_start_speed:.6}"
+                )
+            }
+            PlannerError::DurationInfeasible { requested, feasible } => {
+                write!(f, "no profile lasts {requested} s; feasible durations:")?;
+                for (i, (lo, hi)) in feasible.iter().enumerate() {
+                    let sep = if i == 0 { " " } else { ", " };
+                    if hi.is_infinite() {
+                        write!(f, "{sep}>= {lo:.6} s")?;
+                    } else {
+                        write!(f, "{sep}[{lo:.6}, {hi:.6}] s")?;
+                    }
+                }
+                Ok(())
+            }
+            PlannerError::PeriodTooCoarse { period, detail } => {
+                write!(f, "servo period {period} s is too coarse for this move: {detail}")
+            }
+            PlannerError::Verification(msg) => write!(f, "planner self-check failed (a bug): {msg}"),
+        }
+    }
+}
+
+impl std::error::Error for PlannerError {}

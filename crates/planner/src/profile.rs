@@ -1,0 +1,339 @@
+//! A planned move as constant-jerk segments: sampled at any time, its extrema, and its own
+//! integration check.
+
+use crate::{Limits, PlannerError};
+
+/// Most segments any planner profile has (cruise, brake, dwell, accelerate, cruise).
+pub const MAX_SEGMENTS: usize = 10;
+
+/// One piece of constant jerk.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Segment {
+    /// Duration (s), > 0 in a built profile.
+    pub duration: f64,
+    /// Jerk (units/s³), constant over the segment.
+    pub jerk: f64,
+}
+
+/// Kinematic state at one instant.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct State {
+    pub position: f64,
+    pub velocity: f64,
+    pub acceleration: f64,
+    pub jerk: f64,
+}
+
+/// Extreme values over a whole profile (exact: from the segments' polynomials, not sampling).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Extrema {
+    pub min_position: f64,
+    pub max_position: f64,
+    pub min_velocity: f64,
+    pub max_velocity: f64,
+    pub min_acceleration: f64,
+    pub max_acceleration: f64,
+    pub max_abs_jerk: f64,
+}
+
+/// The seven-phase structure of a distance-constrained move: speed change `v_start → v_peak`
+/// (periods t1, t2, t1), cruise t3 at `v_peak`, speed change `v_peak → v_end` (t4, t5, t4).
+/// Stored in the direction of travel (`direction` = ±1) so the servo discretisation can re-solve it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct TwoStep {
+    pub direction: f64,
+    pub v_start: f64,
+    pub v_peak: f64,
+    pub v_end: f64,
+    pub t1: f64,
+    pub t2: f64,
+    pub t3: f64,
+    pub t4: f64,
+    pub t5: f64,
+}
+
+/// A move: start state and constant-jerk segments, with the state at every segment boundary
+/// precomputed (so `state_at` is a short scan and a cubic).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Profile {
+    len: usize,
+    segments: [Segment; MAX_SEGMENTS],
+    /// Time, position, velocity, acceleration at the start of each segment; index `len` is the end.
+    t: [f64; MAX_SEGMENTS + 1],
+    p: [f64; MAX_SEGMENTS + 1],
+    v: [f64; MAX_SEGMENTS + 1],
+    a: [f64; MAX_SEGMENTS + 1],
+    two_step: Option<TwoStep>,
+}
+
+#[inline]
+fn advance(p: f64, v: f64, a: f64, j: f64, t: f64) -> (f64, f64, f64) {
+    (
+        p + t * (v + t * (a / 2.0 + t * j / 6.0)),
+        v + t * (a + t * j / 2.0),
+        a + t * j,
+    )
+}
+
+impl Profile {
+    /// Builds a profile from a start state and segments; zero-length segments are dropped.
+    /// Panics only if more than [`MAX_SEGMENTS`] non-empty segments are given (a planner bug).
+    pub fn new(position: f64, velocity: f64, acceleration: f64, segments: &[Segment]) -> Self {
+        let mut prof = Profile {
+            len: 0,
+            segments: [Segment::default(); MAX_SEGMENTS],
+            t: [0.0; MAX_SEGMENTS + 1],
+            p: [0.0; MAX_SEGMENTS + 1],
+            v: [0.0; MAX_SEGMENTS + 1],
+            a: [0.0; MAX_SEGMENTS + 1],
+            two_step: None,
+        };
+        prof.p[0] = position;
+        prof.v[0] = velocity;
+        prof.a[0] = acceleration;
+        for s in segments.iter().filter(|s| s.duration > 0.0) {
+            let k = prof.len;
+            assert!(k < MAX_SEGMENTS, "planner built more than {MAX_SEGMENTS} segments");
+            prof.segments[k] = *s;
+            let (p, v, a) = advance(prof.p[k], prof.v[k], prof.a[k], s.jerk, s.duration);
+            prof.t[k + 1] = prof.t[k] + s.duration;
+            prof.p[k + 1] = p;
+            prof.v[k + 1] = v;
+            prof.a[k + 1] = a;
+            prof.len += 1;
+        }
+        prof
+    }
+
+    pub(crate) fn with_two_step(mut self, shape: TwoStep) -> Self {
+        self.two_step = Some(shape);
+        self
+    }
+
+    /// The seven-phase structure, when the profile has one (min-time and peak/valley moves).
+    pub fn two_step(&self) -> Option<&TwoStep> {
+        self.two_step.as_ref()
+    }
+
+    /// The non-empty constant-jerk segments in order.
+    pub fn segments(&self) -> &[Segment] {
+        &self.segments[..self.len]
+    }
+
+    /// Total duration (s).
+    pub fn duration(&self) -> f64 {
+        self.t[self.len]
+    }
+
+    /// State at the start.
+    pub fn start_state(&self) -> State {
+        State { position: self.p[0], velocity: self.v[0], acceleration: self.a[0], jerk: 0.0 }
+    }
+
+    /// State at the end (from the precomputed boundaries).
+    pub fn end_state(&self) -> State {
+        let k = self.len;
+        State { position: self.p[k], velocity: self.v[k], acceleration: self.a[k], jerk: 0.0 }
+    }
+
+    /// State at time `t` (s from the start). Before the start and after the end the axis is
+    /// taken to move on at its boundary speed with zero acceleration.
+    #[inline]
+    pub fn state_at(&self, t: f64) -> State {
+        if t < 0.0 {
+            return State {
+                position: self.p[0] + self.v[0] * t,
+                velocity: self.v[0],
+                acceleration: 0.0,
+                jerk: 0.0,
+            };
+        }
+        let n = self.len;
+        if t >= self.t[n] {
+            let dt = t - self.t[n];
+            return State {
+                position: self.p[n] + self.v[n] * dt,
+                velocity: self.v[n],
+                acceleration: 0.0,
+                jerk: 0.0,
+            };
+        }
+        let mut k = 0;
+        while k + 1 < n && t >= self.t[k + 1] {
+            k += 1;
+        }
+        let j = self.segments[k].jerk;
+        let (p, v, a) = advance(self.p[k], self.v[k], self.a[k], j, t - self.t[k]);
+        State { position: p, velocity: v, acceleration: a, jerk: j }
+    }
+
+    /// Samples every `dt` seconds from 0, always including the end instant.
+    pub fn samples(&self, dt: f64) -> Vec<(f64, State)> {
+        let total = self.duration();
+        let mut out = Vec::new();
+        if !(dt.is_finite() && dt > 0.0) {
+            return out;
+        }
+        let n = (total / dt).floor() as usize;
+        for i in 0..=n {
+            let t = i as f64 * dt;
+            out.push((t, self.state_at(t)));
+        }
+        if out.last().map_or(true, |(t, _)| *t < total) {
+            out.push((total, self.state_at(total)));
+        }
+        out
+    }
+
+    /// Exact extrema of position, speed and acceleration, and the largest |jerk|.
+    pub fn extrema(&self) -> Extrema {
+        let mut e = Extrema {
+            min_position: self.p[0],
+            max_position: self.p[0],
+            min_velocity: self.v[0],
+            max_velocity: self.v[0],
+            min_acceleration: self.a[0],
+            max_acceleration: self.a[0],
+            max_abs_jerk: 0.0,
+        };
+        let mut take = |p: f64, v: f64, a: f64| {
+            e.min_position = e.min_position.min(p);
+            e.max_position = e.max_position.max(p);
+            e.min_velocity = e.min_velocity.min(v);
+            e.max_velocity = e.max_velocity.max(v);
+            e.min_acceleration = e.min_acceleration.min(a);
+            e.max_acceleration = e.max_acceleration.max(a);
+        };
+        let mut max_jerk: f64 = 0.0;
+        for k in 0..self.len {
+            let s = self.segments[k];
+            max_jerk = max_jerk.max(s.jerk.abs());
+            let (p0, v0, a0) = (self.p[k], self.v[k], self.a[k]);
+            take(self.p[k + 1], self.v[k + 1], self.a[k + 1]);
+            // Speed extremum where a(t) = a0 + j t = 0.
+            if s.jerk != 0.0 {
+                let tv = -a0 / s.jerk;
+                if tv > 0.0 && tv < s.duration {
+                    let (p, v, a) = advance(p0, v0, a0, s.jerk, tv);
+                    take(p, v, a);
+                }
+            }
+            // Position extrema where v(t) = v0 + a0 t + j t²/2 = 0.
+            for tp in quadratic_roots(s.jerk / 2.0, a0, v0) {
+                if tp > 0.0 && tp < s.duration {
+                    let (p, v, a) = advance(p0, v0, a0, s.jerk, tp);
+                    take(p, v, a);
+                }
+            }
+        }
+        e.max_abs_jerk = max_jerk;
+        e
+    }
+
+    /// Re-derives the end state by integrating the segments one after another from the start
+    /// state, independently of the stored boundary states, and checks both agree, that the end
+    /// state is the target and that no limit is exceeded. `tol` is relative to the move's scale.
+    pub fn verify(
+        &self,
+        target_position: f64,
+        target_velocity: f64,
+        limits: &Limits,
+        forbid_reversal: bool,
+        tol: f64,
+    ) -> Result<(), PlannerError> {
+        let (mut p, mut v, mut a) = (self.p[0], self.v[0], self.a[0]);
+        for s in self.segments() {
+            if !(s.duration.is_finite() && s.duration > 0.0 && s.jerk.is_finite()) {
+                return Err(PlannerError::Verification(format!("bad segment {s:?}")));
+            }
+            (p, v, a) = advance(p, v, a, s.jerk, s.duration);
+        }
+        let scale_t = self.duration().max(1e-300);
+        let pos_scale = (target_position - self.p[0])
+            .abs()
+            .max(limits.max_vel * scale_t)
+            .max(f64::MIN_POSITIVE);
+        let vel_scale = limits.max_vel;
+        let acc_scale = limits.max_accel.max(limits.max_decel);
+        let bad = |what: &str, got: f64, want: f64, scale: f64| -> Result<(), PlannerError> {
+            if (got - want).abs() <= tol * scale && got.is_finite() {
+                Ok(())
+            } else {
+                Err(PlannerError::Verification(format!("{what}: got {got}, expected {want}")))
+            }
+        };
+        bad("end position", p, target_position, pos_scale)?;
+        bad("end velocity", v, target_velocity, vel_scale)?;
+        bad("end acceleration", a, 0.0, acc_scale)?;
+        bad("stored end position", self.p[self.len], p, pos_scale)?;
+        let e = self.extrema();
+        let lim_tol = 1e-9;
+        // The planner knows the direction of a seven-phase move; otherwise derive it (the two
+        // agree except for zero-length moves, where re-timing may leave a sub-ulp residue).
+        let dir = match self.two_step {
+            Some(s) => s.direction,
+            None => travel_direction(target_position - self.p[0], self.v[0], target_velocity),
+        };
+        let (a_fwd, a_back) = if dir > 0.0 {
+            (e.max_acceleration, -e.min_acceleration)
+        } else {
+            (-e.min_acceleration, e.max_acceleration)
+        };
+        let checks = [
+            ("|jerk|", e.max_abs_jerk, limits.max_jerk),
+            ("acceleration along travel", a_fwd, limits.max_accel),
+            ("deceleration", a_back, limits.max_decel),
+            ("speed", e.max_velocity.max(-e.min_velocity), limits.max_vel),
+        ];
+        for (what, got, limit) in checks {
+            if got > limit * (1.0 + lim_tol) {
+                return Err(PlannerError::Verification(format!("{what} {got} exceeds limit {limit}")));
+            }
+        }
+        if forbid_reversal {
+            let min_along = if dir > 0.0 { e.min_velocity } else { -e.max_velocity };
+            if min_along < -lim_tol * vel_scale {
+                return Err(PlannerError::Verification(format!(
+                    "speed {min_along} against the direction of travel"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Direction of travel of a move (±1): the sign of the distance, or for a zero distance the
+/// direction the boundary speeds point to. `max_accel` acts along it.
+pub fn travel_direction(distance: f64, v_start: f64, v_end: f64) -> f64 {
+    if distance < 0.0 || (distance == 0.0 && v_start + v_end < 0.0) {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+/// Real roots of a x² + b x + c = 0 (a may be 0).
+fn quadratic_roots(a: f64, b: f64, c: f64) -> impl Iterator<Item = f64> {
+    let mut out = [f64::NAN; 2];
+    if a == 0.0 {
+        if b != 0.0 {
+            out[0] = -c / b;
+        }
+    } else {
+        let disc = b * b - 4.0 * a * c;
+        if disc >= 0.0 {
+            let q = -0.5 * (b + b.signum() * disc.sqrt());
+            if q != 0.0 {
+                out[0] = q / a;
+                out[1] = c / q;
+            } else {
+                out[0] = 0.0;
+            }
+        }
+    }
+    out.into_iter().filter(|x| x.is_finite())
+}

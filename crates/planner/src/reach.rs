@@ -1,0 +1,152 @@
+//! Exact reachable-speed bounds for look-ahead schedulers (the paper's case 3, eq. 8).
+//!
+//! Inside an arc the gantry never reverses, and the gap between two layers shrinks with the layer
+//! speeds: each layer sweeps `v·t` degrees centred on its angle, so the beam-off gap is
+//! `d - (v_s·t_s + v_e·t_e)/2` (eq. 5). The bounds below solve that coupled condition exactly.
+//!
+//! Note that the set of reachable speeds is not always an interval: with a jerk limit, braking
+//! from `v_s` to a *partial* stop can need more distance than braking to rest. The bounds here
+//! are the monotone branches a scheduler uses: speeding up (`v_e >= v_s`) for [`max_end_speed`],
+//! braking (`v_s >= v_e`) for [`max_start_speed`]. A move fits without reversing iff the gap is
+//! at least the shorter of the direct speed change and stopping and starting again.
+
+use crate::roots::newton_bracketed;
+use crate::speed_change::{duration, duration_deriv};
+use crate::{Limits, PlannerError};
+
+/// The beam-off gap as a linear function of the boundary speeds (eq. 5):
+/// `distance - (v_start·t_start + v_end·t_end) / 2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct LinearGap {
+    /// Distance between the two layer centres (>= 0).
+    pub distance: f64,
+    /// Irradiation time of the layer before the gap (s).
+    pub t_start: f64,
+    /// Irradiation time of the layer after the gap (s).
+    pub t_end: f64,
+}
+
+impl LinearGap {
+    /// A fixed gap that does not depend on the speeds.
+    pub fn plain(distance: f64) -> Self {
+        LinearGap { distance, t_start: 0.0, t_end: 0.0 }
+    }
+
+    /// The gap left at boundary speeds `vs`, `ve`.
+    pub fn at(&self, vs: f64, ve: f64) -> f64 {
+        self.distance - 0.5 * (vs * self.t_start + ve * self.t_end)
+    }
+
+    fn reversed(&self) -> Self {
+        LinearGap { distance: self.distance, t_start: self.t_end, t_end: self.t_start }
+    }
+
+    fn validate(&self) -> Result<(), PlannerError> {
+        for (name, value) in
+            [("gap distance", self.distance), ("t_start", self.t_start), ("t_end", self.t_end)]
+        {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(PlannerError::InvalidInput { name, value, expected: "a finite number >= 0" });
+            }
+        }
+        Ok(())
+    }
+}
+
+fn check_speed(name: &'static str, value: f64, lim: &Limits) -> Result<f64, PlannerError> {
+    if !value.is_finite() {
+        return Err(PlannerError::InvalidInput { name, value, expected: "a finite number" });
+    }
+    if value < -lim.max_vel * 1e-12 {
+        return Err(PlannerError::SpeedAgainstTravel { name, value });
+    }
+    if value > lim.max_vel * (1.0 + 1e-12) {
+        return Err(PlannerError::SpeedAboveLimit { name, value, limit: lim.max_vel });
+    }
+    Ok(value.clamp(0.0, lim.max_vel))
+}
+
+/// Highest end speed `v_e in [v_s, V]` reachable from `v_start` without reversing, when the
+/// speed change must fit in `gap.at(v_start, v_e)`. `None` when not even `v_e = v_start` fits.
+/// Speeds are magnitudes along the direction of travel.
+pub fn max_end_speed(v_start: f64, gap: &LinearGap, lim: &Limits) -> Result<Option<f64>, PlannerError> {
+    lim.validate()?;
+    gap.validate()?;
+    let vs = check_speed("v_start", v_start, lim)?;
+    Ok(max_end_speed_travel(vs, gap, lim))
+}
+
+/// Highest start speed `v_s in [v_e, V]` from which `v_end` is reached without reversing within
+/// `gap.at(v_s, v_end)`. `None` when not even `v_s = v_end` fits.
+pub fn max_start_speed(v_end: f64, gap: &LinearGap, lim: &Limits) -> Result<Option<f64>, PlannerError> {
+    lim.validate()?;
+    gap.validate()?;
+    let ve = check_speed("v_end", v_end, lim)?;
+    Ok(max_start_speed_travel(ve, gap, lim))
+}
+
+pub(crate) fn max_end_speed_travel(vs: f64, gap: &LinearGap, lim: &Limits) -> Option<f64> {
+    // Either branch may reach higher: the direct speed-up, or braking to rest and starting again
+    // (shorter when v_s is small against A²/J). Both distances increase with v_e.
+    let direct = highest_fit(vs, gap, lim, false);
+    let via_rest = highest_fit(vs, gap, lim, true);
+    match (direct, via_rest) {
+        (Some(a), Some(b)) => Some(a.max(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// Highest `v_e in [v_s, V]` whose speed-up (directly, or via rest) fits in the gap.
+fn highest_fit(vs: f64, gap: &LinearGap, lim: &Limits, via_rest: bool) -> Option<f64> {
+    let (j, a) = (lim.max_jerk, lim.max_accel);
+    let (from, fixed) = if via_rest {
+        (0.0, 0.5 * vs * duration(vs, j, lim.max_decel))
+    } else {
+        (vs, 0.0)
+    };
+    // f(ve) = distance(from -> ve) + fixed - gap(vs, ve), increasing on [vs, V].
+    let f = |ve: f64| {
+        let u = ve - from;
+        let t = duration(u, j, a);
+        let val = fixed + 0.5 * (from + ve) * t - gap.at(vs, ve);
+        let slope = if u > 0.0 { 0.5 * (from + ve) * duration_deriv(u, j, a) } else { 0.0 };
+        (val, 0.5 * t + 0.5 * gap.t_end + slope)
+    };
+    if f(vs).0 > 0.0 {
+        return None;
+    }
+    if f(lim.max_vel).0 <= 0.0 {
+        return Some(lim.max_vel);
+    }
+    // The root to machine precision, then nudged down to the feasible side by whole ulps.
+    let mut v = newton_bracketed(f, vs, lim.max_vel, vs);
+    for _ in 0..64 {
+        if f(v).0 <= 0.0 || v <= vs {
+            break;
+        }
+        v = v.next_down();
+    }
+    // Degenerate roots (e.g. at v_s itself, where f has an infinite slope) fall back to v_s,
+    // which is feasible.
+    Some(if f(v).0 <= 0.0 { v.max(vs) } else { vs })
+}
+
+pub(crate) fn max_start_speed_travel(ve: f64, gap: &LinearGap, lim: &Limits) -> Option<f64> {
+    // Braking v_s -> v_e under D is speeding up v_e -> v_s under D with time reversed.
+    max_end_speed_travel(ve, &gap.reversed(), &lim.time_reversed())
+}
+
+/// Whether a move from `v_start` to `v_end` (magnitudes along travel) fits in `gap` without
+/// reversing; equivalent to `min_time(..., Reversal::Forbid)` succeeding.
+pub fn fits(v_start: f64, v_end: f64, gap: &LinearGap, lim: &Limits) -> bool {
+    let d = gap.at(v_start, v_end);
+    if d < 0.0 {
+        return false;
+    }
+    let mv = crate::Move { distance: d, v_start, v_end };
+    match crate::min_time::travel_frame(&mv, lim, true) {
+        Ok(tr) => crate::min_time::min_forward_distance(tr.vs, tr.ve, lim) <= tr.d,
+        Err(_) => false,
+    }
+}

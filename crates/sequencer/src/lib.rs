@@ -1,0 +1,1 @@
+//! Chains layer windows and transitions into one verified gantry timeline; speed schedules.

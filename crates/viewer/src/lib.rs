@@ -1,0 +1,1 @@
+//! Writes arcsim timelines and sweeps for the Rerun viewer.
