@@ -19,7 +19,8 @@ pub struct Args {
 /// Converts the plan, writes the JSON and prints a summary (to standard error when the JSON goes to
 /// standard output).
 pub fn run(args: Args) -> Result<(), CliError> {
-    let plan = arcsim_dicom::read_rt_ion_plan(&args.input).map_err(|e| dicom_error(&args.input, e))?;
+    let plan =
+        arcsim_dicom::read_rt_ion_plan(&args.input).map_err(|e| dicom_error(&args.input, e))?;
     let json = arcsim_plan::to_json(&plan);
     let summary = summary(&plan);
     match &args.output {
@@ -46,11 +47,19 @@ pub fn dicom_error(path: &Path, err: DicomImportError) -> CliError {
 /// spots, MU.
 fn summary(plan: &ArcPlan) -> String {
     let n = plan.arcs.len();
-    let mut out = format!("plan \"{}\": {n} arc{}", plan.name, if n == 1 { "" } else { "s" });
+    let mut out = format!(
+        "plan \"{}\": {n} arc{}",
+        plan.name,
+        if n == 1 { "" } else { "s" }
+    );
     for (i, arc) in plan.arcs.iter().enumerate() {
         let cps = &arc.control_points;
         let layers: Vec<_> = cps.iter().flat_map(|cp| &cp.layers).collect();
-        let spots: u64 = layers.iter().filter_map(|l| l.spots.as_ref()).map(|s| u64::from(s.count)).sum();
+        let spots: u64 = layers
+            .iter()
+            .filter_map(|l| l.spots.as_ref())
+            .map(|s| u64::from(s.count))
+            .sum();
         let mu: f64 = layers
             .iter()
             .filter_map(|l| l.spots.as_ref())

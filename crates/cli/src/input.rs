@@ -22,7 +22,8 @@ pub fn load_plan(path: &Path) -> Result<ArcPlan, CliError> {
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"));
     if dicom_extension || arcsim_dicom::is_dicom_file(path) {
-        return arcsim_dicom::read_rt_ion_plan(path).map_err(|e| crate::import::dicom_error(path, e));
+        return arcsim_dicom::read_rt_ion_plan(path)
+            .map_err(|e| crate::import::dicom_error(path, e));
     }
     arcsim_plan::load_plan(path).map_err(plan_error)
 }
