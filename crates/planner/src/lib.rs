@@ -31,8 +31,11 @@ pub mod speed_change;
 pub use discretize::{discretize, Discretized};
 pub use error::PlannerError;
 pub use limits::Limits;
-pub use min_duration::{exact_duration, feasible_durations, max_duration, DurationSet};
-pub use min_time::{min_time, Move, Reversal};
+pub use min_duration::{
+    at_least_duration, duration_feasible, exact_duration, feasible_durations, max_duration, shortest_duration_at_least,
+    DurationSet,
+};
+pub use min_time::{min_time, min_time_shape, Move, Reversal};
 pub use profile::{Extrema, Profile, Segment, State, TwoStep};
-pub use reach::{max_end_speed, max_start_speed, LinearGap};
+pub use reach::{fits, max_end_speed, max_start_speed, LinearGap};
 pub use speed_change::SpeedChange;

@@ -68,11 +68,6 @@ impl Shape {
         let a2 = if self.ve >= self.c { lim.max_accel } else { lim.max_decel };
         duration(self.u1, lim.max_jerk, a1) + self.cruise + duration(self.u2, lim.max_jerk, a2)
     }
-
-    /// A shape from its extreme speed `c` (for callers that solve for `c` directly).
-    pub(crate) fn from_peak(vs: f64, c: f64, cruise: f64, ve: f64) -> Shape {
-        Shape { vs, c, cruise, ve, u1: (c - vs).abs(), u2: (c - ve).abs() }
-    }
 }
 
 /// Distance of `v_s → c → v_e` at offset `x` from `base`, its derivative in `x`, and the speed
@@ -240,7 +235,7 @@ pub fn min_time(mv: Move, lim: &Limits, reversal: Reversal) -> Result<Profile, P
     let forbid = reversal == Reversal::Forbid;
     let tr = travel_frame(&mv, lim, forbid)?;
     let shape = solve_shape(tr.vs, tr.ve, tr.d, lim);
-    if forbid && shape.c < 0.0 {
+    if forbid && shape.c < -1e-12 * lim.max_vel {
         return Err(unreachable(&mv, &tr, lim));
     }
     let prof = build_two_step(shape, tr.dir, lim);
@@ -265,5 +260,28 @@ pub(crate) fn unreachable(mv: &Move, tr: &Travel, lim: &Limits) -> PlannerError 
         distance: mv.distance,
         max_end_speed: reach::max_end_speed_travel(tr.vs, &gap, lim).unwrap_or(tr.vs),
         max_start_speed: reach::max_start_speed_travel(tr.ve, &gap, lim).unwrap_or(tr.ve),
+    }
+}
+
+/// The minimum-time seven-phase shape of `mv` without building or verifying a profile: for
+/// schedulers that evaluate many candidate moves and verify only the timeline they keep.
+pub fn min_time_shape(mv: Move, lim: &Limits, reversal: Reversal) -> Result<TwoStep, PlannerError> {
+    let forbid = reversal == Reversal::Forbid;
+    let tr = travel_frame(&mv, lim, forbid)?;
+    let shape = solve_shape(tr.vs, tr.ve, tr.d, lim);
+    if forbid && shape.c < -1e-12 * lim.max_vel {
+        return Err(unreachable(&mv, &tr, lim));
+    }
+    let a1 = if shape.c >= shape.vs { lim.max_accel } else { lim.max_decel };
+    let a2 = if shape.ve >= shape.c { lim.max_accel } else { lim.max_decel };
+    let (t1, t2) = crate::speed_change::periods(shape.u1, lim.max_jerk, a1);
+    let (t4, t5) = crate::speed_change::periods(shape.u2, lim.max_jerk, a2);
+    Ok(TwoStep { direction: tr.dir, v_start: tr.vs, v_peak: shape.c, v_end: tr.ve, t1, t2, t3: shape.cruise, t4, t5 })
+}
+
+impl TwoStep {
+    /// Total duration 2·t1 + t2 + t3 + 2·t4 + t5.
+    pub fn duration(&self) -> f64 {
+        2.0 * self.t1 + self.t2 + self.t3 + 2.0 * self.t4 + self.t5
     }
 }

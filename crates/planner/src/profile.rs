@@ -252,12 +252,10 @@ impl Profile {
             }
             (p, v, a) = advance(p, v, a, s.jerk, s.duration);
         }
-        let scale_t = self.duration().max(1e-300);
-        let pos_scale = (target_position - self.p[0])
-            .abs()
-            .max(limits.max_vel * scale_t)
-            .max(f64::MIN_POSITIVE);
-        let vel_scale = limits.max_vel;
+        // Scales of the move itself (not of the limits), so tiny moves are held to tiny errors.
+        let e = self.extrema();
+        let vel_scale = e.max_velocity.max(-e.min_velocity).max(target_velocity.abs()).max(f64::MIN_POSITIVE);
+        let pos_scale = (target_position - self.p[0]).abs().max(vel_scale * self.duration()).max(f64::MIN_POSITIVE);
         let acc_scale = limits.max_accel.max(limits.max_decel);
         let bad = |what: &str, got: f64, want: f64, scale: f64| -> Result<(), PlannerError> {
             if (got - want).abs() <= tol * scale && got.is_finite() {
@@ -270,7 +268,6 @@ impl Profile {
         bad("end velocity", v, target_velocity, vel_scale)?;
         bad("end acceleration", a, 0.0, acc_scale)?;
         bad("stored end position", self.p[self.len], p, pos_scale)?;
-        let e = self.extrema();
         let lim_tol = 1e-9;
         // The planner knows the direction of a seven-phase move; otherwise derive it (the two
         // agree except for zero-length moves, where re-timing may leave a sub-ulp residue).

@@ -101,3 +101,19 @@ fn gap_too_short_reports_exact_bounds() {
     let too_fast = Move { v_start: max_start_speed * (1.0 + 1e-9), ..mv };
     assert!(min_time(too_fast, &lim, Reversal::Forbid).is_err());
 }
+
+/// An analytic optimum: from speed v back to the same point at rest (d = 0, v_e = 0) with only a
+/// jerk limit, the valley speed is -v/φ (φ the golden ratio) and T = 2·sqrt(v/J)·(sqrt(φ) + sqrt(1/φ)).
+/// Checked at a scale where rsruckig's position precision (~1e-8) no longer resolves the move.
+#[test]
+fn golden_ratio_return_to_start() {
+    let phi = 0.5 * (1.0 + 5f64.sqrt());
+    for (v, j) in [(1.0, 1.0), (8.037834236398688e-8, 3022.9005540918), (0.3, 0.5)] {
+        let lim = Limits::new(j, 1e6, 10.0).expect("limits");
+        let p = min_time(Move { distance: 0.0, v_start: v, v_end: 0.0 }, &lim, Reversal::Allow).expect("profile");
+        let t = 2.0 * (v / j).sqrt() * (phi.sqrt() + (1.0 / phi).sqrt());
+        assert!((p.duration() - t).abs() <= 1e-12 * t, "v={v}: {} vs {t}", p.duration());
+        let vm = p.two_step().expect("seven-phase").v_peak;
+        assert!((vm + v / phi).abs() <= 1e-9 * v, "v={v}: valley {vm}");
+    }
+}

@@ -47,7 +47,7 @@ fn exact_durations_on_random_moves() {
             }
             Err(PlannerError::DurationInfeasible { feasible, .. }) => {
                 infeasible += 1;
-                assert!(!set.contains(t_req), "case {case}: {t_req} in {set:?} but refused");
+                assert!(!set.contains(t_req), "case {case}: {t_req} in {set:?} but refused {mv:?} {lim:?}");
                 assert_eq!(feasible, set.intervals);
             }
             Err(e) => panic!("case {case}: {e}"),

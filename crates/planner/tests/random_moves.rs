@@ -28,10 +28,11 @@ fn check_case(rng: &mut Rng, otg: &mut rsruckig::prelude::Ruckig<1, rsruckig::pr
     let t = prof.duration();
     assert!(t.is_finite() && t >= 0.0, "{}: duration {t}", ctx());
     let end = prof.end_state();
-    let scale = move_scale(&mv, &lim, t);
-    assert!((end.position - mv.distance).abs() <= 1e-9 * scale, "{}: end position {}", ctx(), end.position);
-    assert!((end.velocity - mv.v_end).abs() <= 1e-9 * lim.max_vel, "{}: end velocity {}", ctx(), end.velocity);
     let e = prof.extrema();
+    let v_scale = e.max_velocity.max(-e.min_velocity).max(1e-300);
+    let scale = mv.distance.abs().max(v_scale * t).max(1e-300);
+    assert!((end.position - mv.distance).abs() <= 1e-9 * scale, "{}: end position {}", ctx(), end.position);
+    assert!((end.velocity - mv.v_end).abs() <= 1e-9 * v_scale, "{}: end velocity {}", ctx(), end.velocity);
     let rel = 1e-12;
     assert!(e.max_abs_jerk <= lim.max_jerk * (1.0 + rel), "{}: jerk {}", ctx(), e.max_abs_jerk);
     let amax = lim.max_accel.max(lim.max_decel);
@@ -53,8 +54,10 @@ fn check_case(rng: &mut Rng, otg: &mut rsruckig::prelude::Ruckig<1, rsruckig::pr
         tally.ruckig_compared += 1;
     } else {
     match ruckig_duration(&mv, &lim, otg) {
-        // rsruckig treats a position difference below its precision (~1e-8) as reached.
-        Some(tr) if tr == 0.0 && mv.distance.abs() < 1e-8 && mv.v_start == mv.v_end => tally.ruckig_missing += 1,
+        // rsruckig works to a position precision of about 1e-8: a move whose whole extent is
+        // smaller is below what it resolves (it may call it reached, or miss the optimum; see the
+        // analytic golden-ratio case in known_answers.rs, where this planner is exact).
+        Some(_) if scale < 1e-8 => tally.ruckig_missing += 1,
         Some(tr) => {
             tally.ruckig_compared += 1;
             assert!(

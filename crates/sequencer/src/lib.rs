@@ -1,1 +1,24 @@
-//! Chains layer windows and transitions into one verified gantry timeline; speed schedules.
+//! # arcsim-sequencer
+//!
+//! Turns a resolved arc plan into one gantry timeline: each energy layer is irradiated at a
+//! constant speed inside its window, centred on its angle; between layers the planner's
+//! jerk-limited move covers the remaining gap and lasts at least the energy-layer switching time
+//! (ELST). Arcs start and end at rest; a change of arc (rotation direction) is a stop.
+//!
+//! Choosing the layer speeds is the velocity-scheduling problem ([`Schedule`]): prescribed by the
+//! plan, a bidirectional scan, a global optimum by dynamic programming, or step-and-shoot.
+//! Every timeline is verified by integrating its segments before it is returned.
+
+mod build;
+mod error;
+mod optimal;
+mod scan;
+mod timeline;
+mod types;
+mod verify;
+
+pub use error::SequenceError;
+pub use timeline::{GantryState, Piece, PieceKind, Timeline};
+pub use types::*;
+
+pub use build::{machine_limits, simulate, simulate_resolved, simulate_with_speeds};

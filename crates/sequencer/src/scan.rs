@@ -1,0 +1,173 @@
+//! One arc as a scheduling problem, its transition cost, and the bidirectional scan.
+//!
+//! Layer `k` sits at `s_k` degrees along the direction of travel and is irradiated for `t_k` at
+//! speed `v_k`, sweeping `v_k·t_k` of its window. Transition `k` (layer k → k+1) covers the gap
+//! `s_{k+1} - s_k - (v_k·t_k + v_{k+1}·t_{k+1})/2` from `v_k` to `v_{k+1}` without reversing and
+//! lasts at least the ELST of layer k+1.
+
+use arcsim_plan::ResolvedArc;
+use arcsim_planner::{
+    max_end_speed, max_start_speed, min_time_shape, shortest_duration_at_least, LinearGap, Limits, Move, Reversal,
+};
+
+use crate::SpeedBound;
+
+/// One arc, ready for scheduling (all speeds are magnitudes along the arc's direction).
+#[derive(Clone, Debug)]
+pub(crate) struct ArcProblem {
+    /// +1 for CW (angle increases), -1 for CC.
+    pub dir: f64,
+    pub angle: Vec<f64>,
+    /// Position along travel, from the first layer (deg, non-decreasing).
+    pub s: Vec<f64>,
+    pub t: Vec<f64>,
+    pub window: Vec<f64>,
+    /// ELST of the switch into each layer (s); entry 0 is the switch into the arc.
+    pub elst: Vec<f64>,
+    /// Highest speed each layer may have on its own: 0 at the ends, else min(V, window / time).
+    pub cap: Vec<f64>,
+    pub cap_bound: Vec<SpeedBound>,
+}
+
+impl ArcProblem {
+    pub fn new(arc: &ResolvedArc, lim: &Limits) -> Self {
+        let dir = arc.direction.sign();
+        let n = arc.layers.len();
+        let first = arc.layers.first().map_or(0.0, |l| l.angle_deg);
+        let mut p = ArcProblem {
+            dir,
+            angle: Vec::with_capacity(n),
+            s: Vec::with_capacity(n),
+            t: Vec::with_capacity(n),
+            window: Vec::with_capacity(n),
+            elst: Vec::with_capacity(n),
+            cap: Vec::with_capacity(n),
+            cap_bound: Vec::with_capacity(n),
+        };
+        for (k, l) in arc.layers.iter().enumerate() {
+            p.angle.push(l.angle_deg);
+            p.s.push((dir * (l.angle_deg - first)).max(0.0));
+            p.t.push(l.irradiation_s);
+            p.window.push(l.window_deg);
+            p.elst.push(l.switch_in_s);
+            let (cap, bound) = if k == 0 || k + 1 == n {
+                (0.0, SpeedBound::Rest)
+            } else if l.irradiation_s > 0.0 && l.window_deg / l.irradiation_s < lim.max_vel {
+                (l.window_deg / l.irradiation_s, SpeedBound::Window)
+            } else {
+                (lim.max_vel, SpeedBound::MaxSpeed)
+            };
+            p.cap.push(cap);
+            p.cap_bound.push(bound);
+        }
+        p
+    }
+
+    pub fn len(&self) -> usize {
+        self.s.len()
+    }
+
+    /// The gap of transition `k` as a linear function of its boundary speeds (planner eq. 5).
+    pub fn gap(&self, k: usize) -> LinearGap {
+        LinearGap { distance: (self.s[k + 1] - self.s[k]).max(0.0), t_start: self.t[k], t_end: self.t[k + 1] }
+    }
+
+    /// The planner move of transition `k` at speeds `vs`, `ve`.
+    pub fn transition_move(&self, k: usize, vs: f64, ve: f64) -> Move {
+        Move { distance: self.gap(k).at(vs, ve).max(0.0), v_start: vs, v_end: ve }
+    }
+
+    /// Duration of transition `k` at speeds `vs`, `ve`: the shortest feasible duration of at least
+    /// max(minimum time, ELST), or `None` when no forward move fits the gap or none lasts the ELST.
+    pub fn cost(&self, k: usize, vs: f64, ve: f64, lim: &Limits) -> Option<f64> {
+        if self.gap(k).at(vs, ve) < -1e-12 * (1.0 + self.s[k + 1]) {
+            return None;
+        }
+        let mv = self.transition_move(k, vs, ve);
+        let t_opt = min_time_shape(mv, lim, Reversal::Forbid).ok()?.duration();
+        let e = self.elst[k + 1];
+        if e <= t_opt {
+            Some(t_opt)
+        } else {
+            shortest_duration_at_least(mv, lim, e).ok()?
+        }
+    }
+}
+
+/// Bidirectional scan: start from `caps`, then lower speeds that cannot be reached (forward
+/// pass) or left (backward pass) within their gaps, with the planner's exact bounds; with
+/// `with_elst`, also lower both speeds of a transition that cannot last its ELST (by a common
+/// factor, bisected). Repeats until nothing changes; the result is feasible.
+pub(crate) fn scan(p: &ArcProblem, lim: &Limits, caps: &[f64], bounds: &[SpeedBound], with_elst: bool) -> (Vec<f64>, Vec<SpeedBound>) {
+    let n = p.len();
+    let mut v = caps.to_vec();
+    let mut bound = bounds.to_vec();
+    if n < 2 {
+        return (v, bound);
+    }
+    for _round in 0..200 {
+        let mut changed = false;
+        for k in (0..n - 1).rev() {
+            // Braking branch (v_k >= v_k+1): the highest start speed that still reaches v_k+1.
+            if v[k] > v[k + 1] {
+                let b = max_start_speed(v[k + 1], &p.gap(k), lim).ok().flatten().unwrap_or(v[k + 1]);
+                if v[k] > b {
+                    v[k] = b;
+                    bound[k] = SpeedBound::Gap;
+                    changed = true;
+                }
+            }
+        }
+        for k in 1..n {
+            // Speed-up branch (v_k > v_k-1): the highest end speed reachable from v_k-1.
+            if v[k] > v[k - 1] {
+                let b = max_end_speed(v[k - 1], &p.gap(k - 1), lim).ok().flatten().unwrap_or(v[k - 1]);
+                if v[k] > b {
+                    v[k] = b;
+                    bound[k] = SpeedBound::Gap;
+                    changed = true;
+                }
+            }
+        }
+        for k in 0..n - 1 {
+            // A move that does not fit its gap is the passes' job (next round); here only the
+            // transitions whose move fits but cannot last the ELST, or that the passes could not
+            // settle after many rounds.
+            let fits = min_time_shape(p.transition_move(k, v[k], v[k + 1]), lim, Reversal::Forbid).is_ok();
+            if !fits && _round < 100 {
+                changed = true;
+                continue;
+            }
+            let needs_fix = !fits || (with_elst && p.cost(k, v[k], v[k + 1], lim).is_none());
+            if needs_fix {
+                // Largest common factor that makes the transition feasible (rest always is).
+                let (mut lo, mut hi) = (0.0f64, 1.0f64);
+                for _ in 0..30 {
+                    let mid = 0.5 * (lo + hi);
+                    let ok = if with_elst {
+                        p.cost(k, mid * v[k], mid * v[k + 1], lim).is_some()
+                    } else {
+                        min_time_shape(p.transition_move(k, mid * v[k], mid * v[k + 1]), lim, Reversal::Forbid).is_ok()
+                    };
+                    if ok {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let why = if with_elst { SpeedBound::Elst } else { SpeedBound::Gap };
+                for i in [k, k + 1] {
+                    if v[i] > 0.0 {
+                        v[i] *= lo;
+                        bound[i] = why;
+                    }
+                }
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    (v, bound)
+}

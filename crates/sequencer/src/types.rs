@@ -1,0 +1,246 @@
+//! The sequencer's inputs (options) and results (delivery, rows, margins).
+
+use arcsim_planner::Limits;
+use serde::{Deserialize, Serialize};
+
+use crate::Timeline;
+
+/// How layer speeds are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Schedule {
+    /// The plan's required speeds, checked; infeasible ones are reported and corrected minimally.
+    Prescribed,
+    /// Bidirectional scan: window/V caps, then backward and forward passes until feasible.
+    Scan,
+    /// Minimum total delivery time over all feasible layer speeds (to `optimal_tolerance_s`).
+    Optimal,
+    /// The gantry stops at every layer (the classic baseline).
+    StepAndShoot,
+}
+
+impl Schedule {
+    pub const ALL: [Schedule; 4] = [Schedule::Prescribed, Schedule::Scan, Schedule::Optimal, Schedule::StepAndShoot];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Schedule::Prescribed => "prescribed",
+            Schedule::Scan => "scan",
+            Schedule::Optimal => "optimal",
+            Schedule::StepAndShoot => "step-and-shoot",
+        }
+    }
+}
+
+impl std::str::FromStr for Schedule {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Schedule::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown schedule '{s}' (expected prescribed, scan, optimal or step-and-shoot)"))
+    }
+}
+
+/// Options of one simulation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Options {
+    pub schedule: Schedule,
+    /// Build the sampled-ready timeline and its margins (off for fast sweeps: totals only).
+    pub build_timeline: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options { schedule: Schedule::Scan, build_timeline: true }
+    }
+}
+
+impl Options {
+    pub fn new(schedule: Schedule) -> Self {
+        Options { schedule, ..Options::default() }
+    }
+}
+
+/// What bounded a layer's speed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SpeedBound {
+    /// First or last layer of an arc: delivered at rest.
+    Rest,
+    /// The window: speed × irradiation time = window width.
+    Window,
+    /// The gantry's speed limit V.
+    MaxSpeed,
+    /// Lowered so a neighbouring transition fits its gap (acceleration/jerk limits).
+    Gap,
+    /// Lowered so a neighbouring transition can last its ELST.
+    Elst,
+    /// The plan's required speed.
+    Prescribed,
+    /// Step-and-shoot: at rest by definition.
+    StepAndShoot,
+    /// Chosen by the optimiser below every cap (trading speed for transition time).
+    Optimised,
+}
+
+/// What set a transition's duration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Limiter {
+    /// The energy-layer switching time (the gantry could have been faster).
+    Elst,
+    /// The gantry: it cruised at V.
+    Speed,
+    /// The gantry: acceleration reached A (or the deceleration limit).
+    Accel,
+    /// The gantry: only the jerk limit was reached.
+    Jerk,
+    /// No motion (zero-length, zero-time transition).
+    None,
+}
+
+/// Counts of transitions by what limited them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LimiterCounts {
+    pub elst: usize,
+    pub speed: usize,
+    pub accel: usize,
+    pub jerk: usize,
+    pub none: usize,
+}
+
+/// One delivered layer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LayerRow {
+    /// Index of the layer in delivery order over the whole plan.
+    pub index: usize,
+    pub arc: usize,
+    pub control_point: usize,
+    pub layer: usize,
+    pub angle_deg: f64,
+    pub energy_mev: f64,
+    pub irradiation_s: f64,
+    /// Gantry speed while irradiating (magnitude, deg/s).
+    pub speed_deg_per_s: f64,
+    pub speed_bound: SpeedBound,
+    pub window_deg: f64,
+    /// Degrees swept while irradiating (speed × irradiation time).
+    pub window_used_deg: f64,
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+    /// Duration of the transition into this layer (0 for the first layer of the plan).
+    pub transition_in_s: f64,
+    /// What set the duration of the transition into this layer.
+    pub transition_limited_by: Limiter,
+}
+
+/// One beam-off move between two layers (or between two arcs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TransitionRow {
+    pub index: usize,
+    /// Layer indices (delivery order) before and after.
+    pub from_layer: usize,
+    pub to_layer: usize,
+    /// True for the stop-and-turn between two arcs.
+    pub arc_change: bool,
+    pub t_start_s: f64,
+    pub duration_s: f64,
+    /// Minimum-time duration without the ELST (s).
+    pub min_time_s: f64,
+    /// The energy-layer switching time this move must last (s).
+    pub elst_s: f64,
+    /// Beam-off gap covered (deg, magnitude).
+    pub gap_deg: f64,
+    pub v_start_deg_per_s: f64,
+    pub v_end_deg_per_s: f64,
+    pub limited_by: Limiter,
+    /// Time beyond the ELST that the gantry needed (s).
+    pub lost_s: f64,
+}
+
+/// Where the total time goes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Breakdown {
+    /// Σ irradiation times.
+    pub beam_on_s: f64,
+    /// Σ energy-layer switching times.
+    pub energy_switching_s: f64,
+    /// What the gantry adds beyond the two: Σ max(0, transition − ELST).
+    pub lost_s: f64,
+}
+
+/// The tightest value of a quantity over the timeline and where it occurs.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Margin {
+    pub value: f64,
+    pub t_s: f64,
+    /// Layer (delivery order) nearest to where it occurs.
+    pub layer: usize,
+}
+
+/// Kinematic margins over the whole timeline.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Margins {
+    /// Peak |speed| / V.
+    pub speed_use: Margin,
+    /// Peak |acceleration| / A (or D when braking).
+    pub accel_use: Margin,
+    /// Peak |jerk| / J.
+    pub jerk_use: Margin,
+    /// Smallest unused window (deg).
+    pub window_slack_deg: Margin,
+    /// Smallest time a transition lasts beyond its ELST (s).
+    pub elst_slack_s: Margin,
+}
+
+/// A plan point where the prescribed speed cannot be delivered.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Violation {
+    pub layer: usize,
+    pub arc: usize,
+    pub control_point: usize,
+    pub prescribed_deg_per_s: f64,
+    /// The corrected speed used in the delivered timeline.
+    pub corrected_deg_per_s: f64,
+    pub reason: String,
+}
+
+/// The result of one simulation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Delivery {
+    pub schedule: Schedule,
+    /// Total delivery time (s).
+    pub total_s: f64,
+    pub breakdown: Breakdown,
+    pub limits: LimitsOut,
+    pub layers: Vec<LayerRow>,
+    pub transitions: Vec<TransitionRow>,
+    pub limiter_counts: LimiterCounts,
+    /// Present when the options asked for a timeline.
+    pub margins: Option<Margins>,
+    /// Prescribed schedule only: every infeasible prescribed speed, with the reason.
+    pub violations: Vec<Violation>,
+    #[serde(skip)]
+    pub timeline: Option<Timeline>,
+}
+
+/// The gantry limits used, in the units of the output.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LimitsOut {
+    pub max_speed_deg_per_s: f64,
+    pub max_accel_deg_per_s2: f64,
+    pub max_decel_deg_per_s2: f64,
+    pub max_jerk_deg_per_s3: f64,
+}
+
+impl From<Limits> for LimitsOut {
+    fn from(l: Limits) -> Self {
+        LimitsOut {
+            max_speed_deg_per_s: l.max_vel,
+            max_accel_deg_per_s2: l.max_accel,
+            max_decel_deg_per_s2: l.max_decel,
+            max_jerk_deg_per_s3: l.max_jerk,
+        }
+    }
+}
