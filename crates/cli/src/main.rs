@@ -9,7 +9,9 @@ mod generate;
 mod import;
 mod input;
 mod profile;
+mod simulate;
 mod validate;
+mod viewer;
 
 pub use error::CliError;
 
@@ -24,6 +26,8 @@ struct Cli {
 enum Command {
     /// Plan one minimum-time jerk-limited move (or a batch of moves from a CSV file).
     Profile(profile::Args),
+    /// Simulate a plan's delivery: total time, where it goes, margins; JSON/CSV/Rerun outputs.
+    Simulate(simulate::Args),
     /// Check a plan: print every problem at once (exit 1), or a short summary (exit 0).
     Validate(validate::Args),
     /// Write a deterministic synthetic example plan (prostate, head-neck, two-arc, lung).
@@ -36,6 +40,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Profile(args) => profile::run(args),
+        Command::Simulate(args) => simulate::run(args),
         Command::Validate(args) => validate::run(args),
         Command::GeneratePlan(args) => generate::run(args),
         Command::Import(args) => import::run(args),

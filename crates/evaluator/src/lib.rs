@@ -1,1 +1,46 @@
-//! Parallel evaluation of plans x machine variants x schedules: sweeps, summaries, shards.
+//! # arcsim-evaluator
+//!
+//! Evaluates many (plan × machine variant × schedule) combinations in parallel and summarises
+//! them: how long each plan takes at each setting of the gantry limits (J, A, V), energy switching
+//! (ELST) and window, what limited it, and which change of the base machine buys how much.
+//!
+//! A sweep file (`arcsim-sweep/1`, see [`sweep_file`] and `scenarios/README.md`) names the plans,
+//! the base machine, the axes and the schedules. [`Sweep::load`] reads it, [`Evaluator::new`]
+//! resolves each (plan × ELST/window variant) once, [`Evaluator::run`] evaluates combinations on
+//! the current rayon pool and delivers [`Row`]s in index order (identical for any thread count),
+//! [`Evaluator::summarize`] builds the [`Summary`]. [`Shard`] splits a sweep for a job array and
+//! [`merge_csv`] joins the shards' CSV tables into the single-run table, byte for byte.
+
+mod csv;
+mod error;
+mod run;
+mod shard;
+mod summary;
+mod sweep;
+pub mod sweep_file;
+
+pub use csv::{merge_csv, write_csv_header, write_csv_row, CSV_HEADER};
+pub use error::EvalError;
+pub use run::{Evaluator, Outcome, Row, Status};
+pub use shard::Shard;
+pub use summary::{describe_setting, describe_steps, short, table, Change, Entry, Point, Profile, ProfilePoint, Sensitivity, Step, Summary};
+pub use sweep::{Axis, Grid, Run, Setting, Sweep, SweepPlan};
+pub use sweep_file::{parse_sweep_file, Target, SWEEP_FORMAT};
+
+/// Format of the JSON results document ([`Results`]).
+pub const RESULTS_FORMAT: &str = "arcsim-sweep-results/1";
+
+/// The JSON results of a run: its rows and summary.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Results {
+    pub format: &'static str,
+    pub sweep: String,
+    /// Combinations in the whole sweep.
+    pub combinations: usize,
+    /// `"K/N"` for a shard.
+    pub shard: Option<String>,
+    /// False when the run was interrupted: `rows` holds those finished.
+    pub complete: bool,
+    pub rows: Vec<Row>,
+    pub summary: Summary,
+}

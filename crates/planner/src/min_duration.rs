@@ -199,7 +199,7 @@ impl Stretch {
             ];
             return Some(Profile::new(0.0, dir * vs, 0.0, &segs));
         }
-        let k = self.solve(t)?;
+        let k = self.solve(t).or_else(|| self.interval_end(t))?;
         let shape = Shape { vs, c: k.c, cruise: (t - k.t).max(0.0), ve, u1: k.u1, u2: k.u2 };
         Some(build_two_step(shape, dir, lim))
     }
@@ -214,26 +214,42 @@ impl Stretch {
     /// `x` below `min(v_s, v_e)`, a duration `T(x)` is feasible iff `D(x) <= d`; `D` rises from `d0`
     /// to a hump and falls to the stop-and-go distance at rest, so the set is one or two intervals.
     fn durations(&self) -> DurationSet {
+        let all = DurationSet { intervals: vec![(self.t_opt, f64::INFINITY)] };
+        match self.valley_ends() {
+            None => all,
+            Some((x_b, x_a)) => {
+                let first = (self.t_opt, self.eval(Side::Valley, x_b).t.max(self.t_opt));
+                match x_a {
+                    Some(x_a) => DurationSet { intervals: vec![first, (self.eval(Side::Valley, x_a).t, f64::INFINITY)] },
+                    None => DurationSet { intervals: vec![first] },
+                }
+            }
+        }
+    }
+
+    /// Depths of the valleys with no cruise and distance exactly d on both sides of the hump
+    /// (shallow `x_b`, and deep `x_a` when stopping fits); `None` when every duration is feasible.
+    fn valley_ends(&self) -> Option<(f64, Option<f64>)> {
         let (vs, ve, d) = (self.tr.vs, self.tr.ve, self.tr.d);
         let lo = vs.min(ve);
-        let all = DurationSet { intervals: vec![(self.t_opt, f64::INFINITY)] };
         if lo == 0.0 || d < self.eval(Side::Valley, 0.0).d {
             // One end at rest (dwell there), or the optimum is already a valley above rest.
-            return all;
+            return None;
         }
         let dist = |x: f64| self.eval(Side::Valley, x).d;
         let (x_top, d_top) = crate::roots::golden_max(dist, 0.0, lo);
         if d_top <= d {
-            return all;
+            return None;
         }
         let x_b = brent(|x| dist(x) - d, 0.0, x_top);
-        let first = (self.t_opt, self.eval(Side::Valley, x_b).t.max(self.t_opt));
-        if dist(lo) <= d {
-            let x_a = brent(|x| dist(x) - d, x_top, lo);
-            DurationSet { intervals: vec![first, (self.eval(Side::Valley, x_a).t, f64::INFINITY)] }
-        } else {
-            DurationSet { intervals: vec![first] }
-        }
+        let x_a = (dist(lo) <= d).then(|| brent(|x| dist(x) - d, x_top, lo));
+        Some((x_b, x_a))
+    }
+
+    /// The cruise-free valley at an end of a feasible interval, when `t` is (within 1e-9) there.
+    fn interval_end(&self, t: f64) -> Option<Candidate> {
+        let (x_b, x_a) = self.valley_ends()?;
+        [Some(x_b), x_a].into_iter().flatten().map(|x| self.eval(Side::Valley, x)).find(|k| (k.t - t).abs() <= 1e-9 * t)
     }
 }
 

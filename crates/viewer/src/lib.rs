@@ -1,1 +1,73 @@
-//! Writes arcsim timelines and sweeps for the Rerun viewer.
+//! # arcsim-viewer
+//!
+//! Writes arcsim results for the [Rerun](https://rerun.io) viewer (SDK 0.36.3): a simulated
+//! [`Delivery`] as time series, a layer log, beam/switching phases and a 2D view of the gantry,
+//! with a default layout (blueprint). Output goes to an `.rrd` file ([`save_delivery`]), to a
+//! newly spawned viewer ([`spawn_delivery`], needs the `rerun` binary on `PATH`) or to a running
+//! viewer over gRPC ([`connect_delivery`]); [`log_delivery`] logs into any recording stream.
+//!
+//! Every entity is logged on two timelines: `time` (a duration timeline, seconds from the start
+//! of delivery) and `angle_cdeg` (a sequence timeline holding the signed gantry angle in
+//! hundredths of a degree; Rerun indexes only by integers, durations or timestamps, and a
+//! duration would print angles as `1m 30s`). See [`paths`] for the entity paths.
+
+mod delivery;
+mod error;
+mod layout;
+mod output;
+
+pub use delivery::log_delivery;
+pub use error::ViewerError;
+pub use layout::delivery_blueprint;
+pub use output::{connect_delivery, save_delivery, spawn_delivery, DELIVERY_APP_ID};
+
+/// The Rerun SDK this crate logs with (re-exported so callers need no direct dependency).
+pub use rerun;
+
+/// Timeline names.
+pub mod timelines {
+    /// Seconds from the start of delivery (duration timeline).
+    pub const TIME: &str = "time";
+    /// Signed gantry angle in hundredths of a degree (sequence timeline).
+    pub const ANGLE_CDEG: &str = "angle_cdeg";
+}
+
+/// Entity paths of a logged delivery.
+pub mod paths {
+    /// `Scalars` [gantry angle] (deg, signed, CW positive).
+    pub const ANGLE: &str = "angle";
+    /// `Scalars` [speed, +V, −V] (deg/s).
+    pub const SPEED: &str = "speed";
+    /// `Scalars` [acceleration, +A, −A] and, when the deceleration limit differs, [+D, −D] (deg/s²).
+    pub const ACCEL: &str = "accel";
+    /// `Scalars` [jerk, +J, −J] (deg/s³).
+    pub const JERK: &str = "jerk";
+    /// `Scalars` [nominal energy] (MeV), one row per layer start (drawn as steps).
+    pub const ENERGY: &str = "energy";
+    /// `StateChange`: "beam on", "energy switch" (within the ELST), "gantry" (beyond the ELST).
+    pub const PHASE: &str = "phase";
+    /// `TextLog`: one entry per layer, plus warnings for prescribed-speed violations.
+    pub const LAYERS: &str = "layers";
+    /// 2D: `Arrows2D` from the gantry head to the isocentre, red while the beam is on.
+    pub const GANTRY_BEAM: &str = "gantry/beam";
+    /// 2D (static): `Points2D`, one per layer at its angle, coloured by energy (viridis).
+    pub const GANTRY_CONTROL_POINTS: &str = "gantry/control_points";
+    /// 2D (static): `LineStrips2D`, the circle the gantry head runs on.
+    pub const GANTRY_RING: &str = "gantry/ring";
+    /// 2D (static): `Points2D` at the isocentre.
+    pub const GANTRY_ISOCENTRE: &str = "gantry/isocentre";
+}
+
+/// How a delivery is logged.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewerOptions {
+    /// Interval between gantry-state samples (s). Piece boundaries of the timeline are logged
+    /// too, so jerk steps stay sharp whatever the interval.
+    pub sample_dt_s: f64,
+}
+
+impl Default for ViewerOptions {
+    fn default() -> Self {
+        ViewerOptions { sample_dt_s: 0.02 }
+    }
+}

@@ -1,0 +1,196 @@
+//! `arcsim simulate`: one plan on one machine with one speed schedule — total time, where it
+//! goes, the tightest margins and the costliest transitions; JSON, CSV and Rerun outputs.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use arcsim_sequencer::{simulate, Delivery, Limiter, Options, Schedule};
+use serde::Serialize;
+
+use crate::input::{load_machine, load_plan};
+use crate::CliError;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ScheduleArg {
+    /// Bidirectional scan (fast, near-optimal).
+    Scan,
+    /// Minimum total time (dynamic programming over refined speed grids).
+    Optimal,
+    /// The plan's required speeds, checked; violations reported and minimally corrected.
+    Prescribed,
+    /// Gantry at rest for every layer (baseline).
+    StepAndShoot,
+}
+
+impl From<ScheduleArg> for Schedule {
+    fn from(s: ScheduleArg) -> Self {
+        match s {
+            ScheduleArg::Scan => Schedule::Scan,
+            ScheduleArg::Optimal => Schedule::Optimal,
+            ScheduleArg::Prescribed => Schedule::Prescribed,
+            ScheduleArg::StepAndShoot => Schedule::StepAndShoot,
+        }
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Plan file: arcsim JSON or DICOM RT Ion Plan.
+    plan: PathBuf,
+    /// Machine model (JSON); default: the built-in ATOM article gantry (scenarios/machine-atom.json).
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    /// How layer speeds are chosen.
+    #[arg(long, value_enum, default_value_t = ScheduleArg::Scan)]
+    schedule: ScheduleArg,
+    /// Write the full result (summary, per-layer and per-transition rows, margins) as JSON.
+    #[arg(long, value_name = "OUT")]
+    json: Option<PathBuf>,
+    /// Write the sampled timeline as CSV.
+    #[arg(long, value_name = "TIMELINE")]
+    csv: Option<PathBuf>,
+    /// Sampling step for --csv and --rrd (s).
+    #[arg(long, default_value_t = 0.01)]
+    dt: f64,
+    /// Write the timeline for the Rerun viewer (.rrd).
+    #[arg(long, value_name = "OUT.rrd")]
+    rrd: Option<PathBuf>,
+    /// Open a Rerun viewer (the `rerun` binary must be installed) and stream the timeline to it.
+    #[arg(long)]
+    spawn: bool,
+    /// Stream the timeline to a running Rerun viewer, e.g. rerun+http://127.0.0.1:9876/proxy.
+    #[arg(long, value_name = "URL")]
+    connect: Option<String>,
+}
+
+#[derive(Serialize)]
+struct JsonOut<'a> {
+    format: &'static str,
+    plan: String,
+    plan_file: String,
+    machine: String,
+    #[serde(flatten)]
+    delivery: &'a Delivery,
+}
+
+fn min_sec(t: f64) -> String {
+    let m = (t / 60.0).floor();
+    format!("{}:{:04.1}", m as u64, t - 60.0 * m)
+}
+
+fn limiter_name(l: Limiter) -> &'static str {
+    match l {
+        Limiter::Elst => "ELST",
+        Limiter::Speed => "V",
+        Limiter::Accel => "A",
+        Limiter::Jerk => "J",
+        Limiter::None => "-",
+    }
+}
+
+/// The readable summary printed on standard output.
+pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
+    let mut s = String::new();
+    let b = d.breakdown;
+    let pct = |x: f64| if d.total_s > 0.0 { 100.0 * x / d.total_s } else { 0.0 };
+    let _ = writeln!(s, "plan {plan} on {machine}, schedule {}", d.schedule.name());
+    let _ = writeln!(s, "{} layers, {} transitions", d.layers.len(), d.transitions.len());
+    let _ = writeln!(s, "total delivery time  {:9.2} s  ({})", d.total_s, min_sec(d.total_s));
+    let _ = writeln!(s, "  beam on            {:9.2} s  {:5.1} %", b.beam_on_s, pct(b.beam_on_s));
+    let _ = writeln!(s, "  energy switching   {:9.2} s  {:5.1} %", b.energy_switching_s, pct(b.energy_switching_s));
+    let _ = writeln!(s, "  lost (gantry)      {:9.2} s  {:5.1} %", b.lost_s, pct(b.lost_s));
+    let c = d.limiter_counts;
+    let _ = writeln!(s, "transitions limited by: ELST {}, V {}, A {}, J {}, none {}", c.elst, c.speed, c.accel, c.jerk, c.none);
+    if let Some(m) = d.margins {
+        let _ = writeln!(s, "tightest margins:");
+        let _ = writeln!(s, "  speed        {:6.1} % of V     at t = {:8.2} s (layer {})", 100.0 * m.speed_use.value, m.speed_use.t_s, m.speed_use.layer);
+        let _ = writeln!(s, "  acceleration {:6.1} % of A/D   at t = {:8.2} s (layer {})", 100.0 * m.accel_use.value, m.accel_use.t_s, m.accel_use.layer);
+        let _ = writeln!(s, "  jerk         {:6.1} % of J     at t = {:8.2} s (layer {})", 100.0 * m.jerk_use.value, m.jerk_use.t_s, m.jerk_use.layer);
+        let _ = writeln!(s, "  window slack {:8.4} deg      at t = {:8.2} s (layer {})", m.window_slack_deg.value, m.window_slack_deg.t_s, m.window_slack_deg.layer);
+        if m.elst_slack_s.value.is_finite() {
+            let _ = writeln!(s, "  ELST slack   {:8.4} s        at t = {:8.2} s (layer {})", m.elst_slack_s.value, m.elst_slack_s.t_s, m.elst_slack_s.layer);
+        }
+    }
+    let mut costly: Vec<_> = d.transitions.iter().collect();
+    costly.sort_by(|a, b| b.lost_s.total_cmp(&a.lost_s).then(b.duration_s.total_cmp(&a.duration_s)));
+    let _ = writeln!(s, "5 most costly transitions (time beyond the ELST):");
+    let _ = writeln!(s, "  layers      start (s)  duration (s)  ELST (s)  lost (s)  gap (deg)  speeds (deg/s)   limit");
+    for tr in costly.iter().take(5) {
+        let _ = writeln!(
+            s,
+            "  {:>4} → {:<4} {:9.2}  {:12.3}  {:8.2}  {:8.3}  {:9.3}  {:5.2} → {:<5.2}  {}{}",
+            tr.from_layer,
+            tr.to_layer,
+            tr.t_start_s,
+            tr.duration_s,
+            tr.elst_s,
+            tr.lost_s,
+            tr.gap_deg,
+            tr.v_start_deg_per_s,
+            tr.v_end_deg_per_s,
+            limiter_name(tr.limited_by),
+            if tr.arc_change { " (arc change)" } else { "" }
+        );
+    }
+    if !d.violations.is_empty() {
+        let _ = writeln!(s, "{} prescribed speeds cannot be delivered (corrected speeds used above):", d.violations.len());
+        for v in &d.violations {
+            let _ = writeln!(
+                s,
+                "  arc {}, control point {} (layer {}): {:.4} deg/s → {:.4} deg/s: {}",
+                v.arc, v.control_point, v.layer, v.prescribed_deg_per_s, v.corrected_deg_per_s, v.reason
+            );
+        }
+    }
+    s
+}
+
+fn write_csv(path: &Path, d: &Delivery, dt: f64) -> Result<(), CliError> {
+    let tl = d.timeline.as_ref().ok_or_else(|| CliError::failed("no timeline was built"))?;
+    let mut s = String::from("t_s,angle_deg,speed_deg_per_s,accel_deg_per_s2,jerk_deg_per_s3,beam_layer,energy_mev\n");
+    for (t, st) in tl.samples(dt) {
+        let layer = tl.beam_layer_at(t);
+        let energy = layer.map(|l| d.layers[l].energy_mev.to_string()).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{t:.6},{},{},{},{},{},{energy}",
+            st.angle_deg,
+            st.speed_deg_per_s,
+            st.accel_deg_per_s2,
+            st.jerk_deg_per_s3,
+            layer.map(|l| l.to_string()).unwrap_or_default()
+        );
+    }
+    std::fs::write(path, s).map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))
+}
+
+pub fn run(args: Args) -> Result<(), CliError> {
+    if !(args.dt.is_finite() && args.dt > 0.0) {
+        return Err(CliError::usage(format!("--dt {}: expected a finite number > 0", args.dt)));
+    }
+    let plan = load_plan(&args.plan)?;
+    let machine = load_machine(args.machine.as_deref())?;
+    let opts = Options::new(args.schedule.into());
+    let delivery = simulate(&plan, &machine, &opts).map_err(|e| CliError::failed(format!("{}: {e}", args.plan.display())))?;
+    if let Some(tl) = &delivery.timeline {
+        if tl.duration_s() / args.dt > 5e7 {
+            return Err(CliError::usage(format!("--dt {} would write more than 5e7 samples", args.dt)));
+        }
+    }
+    print!("{}", summary(&delivery, &plan.name, &machine.name));
+    if let Some(path) = &args.json {
+        let out = JsonOut {
+            format: "arcsim-result/1",
+            plan: plan.name.clone(),
+            plan_file: args.plan.display().to_string(),
+            machine: machine.name.clone(),
+            delivery: &delivery,
+        };
+        let text = serde_json::to_string_pretty(&out).map_err(|e| CliError::failed(e.to_string()))?;
+        std::fs::write(path, text).map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))?;
+    }
+    if let Some(path) = &args.csv {
+        write_csv(path, &delivery, args.dt)?;
+    }
+    crate::viewer::output(&delivery, &plan.name, args.dt, args.rrd.as_deref(), args.spawn, args.connect.as_deref())
+}

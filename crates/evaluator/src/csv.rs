@@ -1,0 +1,156 @@
+//! The results table as CSV (one header line, then one line per combination in index order) and
+//! the merge of shard outputs. Numbers are written in Rust's shortest round-trip form, so equal
+//! results give equal bytes; there are no timing fields.
+
+use std::io::Write;
+
+use crate::run::Row;
+use crate::EvalError;
+
+/// The CSV header line (without the newline).
+pub const CSV_HEADER: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
+status,total_s,beam_on_s,energy_switching_s,lost_s,speedup,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,\
+violations,speed_use,accel_use,jerk_use,window_slack_deg,elst_slack_s,message";
+
+/// Writes the header line.
+pub fn write_csv_header(out: &mut impl Write) -> std::io::Result<()> {
+    writeln!(out, "{CSV_HEADER}")
+}
+
+/// Writes one row as one line. Empty fields: a value that keeps the base machine's (ELST, window)
+/// or a result the row does not have.
+pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
+    let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
+    let s = &r.setting;
+    let mut f: Vec<String> = vec![
+        r.index.to_string(),
+        text(&r.plan),
+        r.schedule.name().to_string(),
+        s.jerk_deg_per_s3.to_string(),
+        s.accel_deg_per_s2.to_string(),
+        s.speed_deg_per_s.to_string(),
+        opt(s.elst_up_s),
+        opt(s.elst_down_s),
+        opt(s.window_deg),
+        r.status.name().to_string(),
+    ];
+    match &r.outcome {
+        Some(o) => {
+            let c = &o.limiter_counts;
+            f.extend([
+                o.total_s.to_string(),
+                o.breakdown.beam_on_s.to_string(),
+                o.breakdown.energy_switching_s.to_string(),
+                o.breakdown.lost_s.to_string(),
+                opt(o.speedup),
+            ]);
+            f.extend([c.elst, c.speed, c.accel, c.jerk, c.none, o.violations].map(|n| n.to_string()));
+            match &o.margins {
+                Some(m) => f.extend(
+                    [m.speed_use, m.accel_use, m.jerk_use, m.window_slack_deg, m.elst_slack_s].map(|x| x.value.to_string()),
+                ),
+                None => f.extend(std::iter::repeat_n(String::new(), 5)),
+            }
+        }
+        None => f.extend(std::iter::repeat_n(String::new(), 16)),
+    }
+    f.push(text(&r.message));
+    writeln!(out, "{}", f.join(","))
+}
+
+/// A text field on one line, quoted when it holds a comma or a quote.
+fn text(s: &str) -> String {
+    let one_line: String = s.chars().map(|c| if c == '\n' || c == '\r' { ' ' } else { c }).collect();
+    if one_line.contains([',', '"']) {
+        format!("\"{}\"", one_line.replace('"', "\"\""))
+    } else {
+        one_line
+    }
+}
+
+/// Joins shard outputs (`(name, text)` pairs, in any order) into the table a single run writes.
+/// Every input must have the sweep header; indices must not repeat and must cover `0..n` without
+/// gaps, and be exactly `0..expected` when `expected` is given (the sweep's combination count).
+pub fn merge_csv(inputs: &[(String, String)], expected: Option<usize>) -> Result<String, EvalError> {
+    let mut rows: Vec<(usize, &str, &str)> = Vec::new();
+    for (name, text) in inputs {
+        let merr = |message: String| EvalError::Merge { file: name.clone(), message };
+        let mut lines = text.lines();
+        match lines.next() {
+            Some(h) if h == CSV_HEADER => {}
+            Some(_) => return Err(merr("line 1: expected the arcsim sweep CSV header".into())),
+            None => return Err(merr("empty file; expected the arcsim sweep CSV header".into())),
+        }
+        if !text.ends_with('\n') {
+            return Err(merr("the last line is incomplete (no newline): was the run killed while writing?".into()));
+        }
+        for (n, line) in lines.enumerate() {
+            let index = line.split(',').next().and_then(|i| i.parse::<usize>().ok());
+            let index = index.ok_or_else(|| merr(format!("line {}: expected a row starting with its index", n + 2)))?;
+            rows.push((index, line, name));
+        }
+    }
+    rows.sort_by_key(|r| r.0);
+    for pair in rows.windows(2) {
+        if pair[0].0 == pair[1].0 {
+            return Err(EvalError::Merge {
+                file: pair[1].2.to_string(),
+                message: format!("row {} also appears in {}; expected each combination once", pair[1].0, pair[0].2),
+            });
+        }
+    }
+    let present = rows.len();
+    if let Some((i, _)) = rows.iter().enumerate().find(|(i, r)| r.0 != *i) {
+        return Err(EvalError::Merge {
+            file: "merged shards".into(),
+            message: format!("row {i} is missing; expected every combination from 0 (is a shard missing or interrupted?)"),
+        });
+    }
+    if let Some(n) = expected {
+        if present != n {
+            return Err(EvalError::Merge {
+                file: "merged shards".into(),
+                message: format!("{present} rows; the sweep has {n} combinations (is a shard missing or interrupted?)"),
+            });
+        }
+    }
+    let mut out = String::with_capacity(inputs.iter().map(|(_, t)| t.len()).sum());
+    out.push_str(CSV_HEADER);
+    out.push('\n');
+    for (_, line, _) in rows {
+        out.push_str(line);
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(rows: &[usize]) -> String {
+        let mut s = format!("{CSV_HEADER}\n");
+        for r in rows {
+            s.push_str(&format!("{r},p,scan\n"));
+        }
+        s
+    }
+
+    #[test]
+    fn merge_sorts_and_checks() {
+        let a = ("a".to_string(), file(&[0, 2, 4]));
+        let b = ("b".to_string(), file(&[1, 3]));
+        let merged = merge_csv(&[b.clone(), a.clone()], Some(5)).expect("merge");
+        assert_eq!(merged, file(&[0, 1, 2, 3, 4]));
+        assert!(merge_csv(&[a.clone(), b.clone()], Some(6)).is_err());
+        assert!(merge_csv(&[a.clone()], None).expect_err("gap").to_string().contains("row 1 is missing"));
+        assert!(merge_csv(&[a.clone(), a.clone()], None).expect_err("dup").to_string().contains("also appears"));
+        assert!(merge_csv(&[("c".into(), "x\n".into())], None).expect_err("header").to_string().contains("header"));
+    }
+
+    #[test]
+    fn text_fields_stay_on_one_line() {
+        assert_eq!(text("a,b \"c\"\nd"), "\"a,b \"\"c\"\" d\"");
+        assert_eq!(text("plain"), "plain");
+    }
+}

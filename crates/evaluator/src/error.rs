@@ -1,0 +1,36 @@
+//! Evaluator errors: every message says where (file, field) and what was expected.
+
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum EvalError {
+    /// A sweep file (or a file it names) is unreadable or wrong; `field` is the JSON path
+    /// (e.g. `axes.jerk_deg_per_s3.steps`), empty for the whole file.
+    #[error("{file}: {}{message}", located(field))]
+    Sweep { file: String, field: String, message: String },
+    /// A plan, machine or reference file named by the sweep failed to load.
+    #[error("{file}: {field}: {message}")]
+    Input { file: String, field: String, message: String },
+    /// A `--shard K/N` argument that is not two integers with 1 <= K <= N.
+    #[error("shard \"{0}\": expected K/N with 1 <= K <= N (e.g. 2/3)")]
+    Shard(String),
+    /// Shard outputs that cannot be merged into one table.
+    #[error("{file}: {message}")]
+    Merge { file: String, message: String },
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+}
+
+fn located(field: &str) -> String {
+    if field.is_empty() {
+        String::new()
+    } else {
+        format!("{field}: ")
+    }
+}
+
+impl EvalError {
+    pub(crate) fn sweep(file: &str, field: impl Into<String>, message: impl Into<String>) -> Self {
+        EvalError::Sweep { file: file.to_string(), field: field.into(), message: message.into() }
+    }
+}

@@ -1,0 +1,319 @@
+//! Evaluation: every (plan × ELST/window variant) is resolved once, then each combination is one
+//! `simulate_resolved` call with its own limits. Runs are parallel (rayon, the current pool) and
+//! deliver rows in combination order, chunk by chunk, whatever the thread count.
+
+use std::collections::HashMap;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use arcsim_plan::{ArcPlan, ElstModel, Machine, ResolvedArc};
+use arcsim_planner::Limits;
+use arcsim_sequencer::{machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options, Schedule, SequenceError};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::sweep::{Setting, Sweep};
+use crate::EvalError;
+
+/// What became of one combination.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Simulated; the row has its times.
+    Ok,
+    /// The sequencer found no feasible timeline (e.g. a move that cannot last its ELST).
+    Infeasible,
+    /// The plan does not resolve with this ELST / window (e.g. a window wider than the spacing).
+    Invalid,
+    /// Anything else (invalid limits, a failed timeline verification, a panic): a bug or bad input.
+    Error,
+}
+
+impl Status {
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::Infeasible => "infeasible",
+            Status::Invalid => "invalid",
+            Status::Error => "error",
+        }
+    }
+}
+
+/// The times of a feasible combination.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Outcome {
+    pub total_s: f64,
+    pub breakdown: Breakdown,
+    /// Base machine's total / this total (same plan and schedule); `None` when the base is infeasible.
+    pub speedup: Option<f64>,
+    pub limiter_counts: LimiterCounts,
+    /// Prescribed schedule: number of prescribed speeds that could not be delivered.
+    pub violations: usize,
+    /// Kinematic margins, when the sweep asks for them (`"margins": true`).
+    pub margins: Option<Margins>,
+}
+
+/// One combination's result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Row {
+    /// Combination index (the row's position in a full, unsharded run).
+    pub index: usize,
+    /// Plan label (path relative to the sweep file, or `atom:CASE`).
+    pub plan: String,
+    pub schedule: Schedule,
+    pub setting: Setting,
+    pub status: Status,
+    pub outcome: Option<Outcome>,
+    /// Why the combination is not `ok` (empty when it is).
+    pub message: String,
+}
+
+/// The combinations of one plan under one schedule entry: a contiguous index range.
+#[derive(Debug, Clone)]
+struct Block {
+    plan: usize,
+    run: usize,
+    offset: usize,
+    len: usize,
+    /// Variant id for each (window, ELST up, ELST down) grid point, in grid order.
+    variant_of: Vec<usize>,
+    base_total_s: Option<f64>,
+}
+
+type Resolved = Result<Vec<ResolvedArc>, String>;
+type VariantKey = (usize, Option<u64>, Option<u64>, Option<u64>);
+
+/// A sweep prepared for evaluation.
+pub struct Evaluator {
+    sweep: Sweep,
+    base_limits: Limits,
+    blocks: Vec<Block>,
+    variants: Vec<Resolved>,
+    variant_ids: HashMap<VariantKey, usize>,
+}
+
+fn key(plan: usize, s: &Setting) -> VariantKey {
+    (plan, s.window_deg.map(f64::to_bits), s.elst_up_s.map(f64::to_bits), s.elst_down_s.map(f64::to_bits))
+}
+
+/// The plan and machine of one (window, ELST) variant, resolved.
+fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
+    let mut m = machine.clone();
+    match &mut m.elst {
+        ElstModel::Constant { up_s, down_s, .. } => {
+            *up_s = s.elst_up_s.unwrap_or(*up_s);
+            *down_s = s.elst_down_s.unwrap_or(*down_s);
+        }
+        ElstModel::Polynomial { down_s, .. } => *down_s = s.elst_down_s.unwrap_or(*down_s),
+    }
+    let resolved = match s.window_deg {
+        None => arcsim_plan::resolve(plan, &m),
+        Some(w) => {
+            let mut p = plan.clone();
+            p.arcs.iter_mut().flat_map(|a| a.control_points.iter_mut()).for_each(|cp| cp.window_deg = Some(w));
+            arcsim_plan::resolve(&p, &m)
+        }
+    };
+    resolved.map_err(|e| e.to_string())
+}
+
+impl Evaluator {
+    /// Resolves every (plan × window × ELST) variant the grids use (in parallel, on the current
+    /// rayon pool) and evaluates each plan on the base machine, for the speed-ups.
+    pub fn new(sweep: Sweep) -> Result<Evaluator, EvalError> {
+        let base_limits = machine_limits(&sweep.machine).map_err(|e| EvalError::Input {
+            file: sweep.source.clone(),
+            field: "machine".into(),
+            message: e.to_string(),
+        })?;
+        let base = sweep.base_setting();
+        let mut variant_ids: HashMap<VariantKey, usize> = HashMap::new();
+        let mut wanted: Vec<(usize, Setting)> = Vec::new();
+        let mut id_of = |plan: usize, s: &Setting| {
+            *variant_ids.entry(key(plan, s)).or_insert_with(|| {
+                wanted.push((plan, *s));
+                wanted.len() - 1
+            })
+        };
+        let mut blocks = Vec::new();
+        let mut offset = 0;
+        for plan in 0..sweep.plans.len() {
+            id_of(plan, &base);
+            for (run, r) in sweep.runs.iter().enumerate() {
+                let g = &r.grid;
+                let mut variant_of = Vec::new();
+                for &w in &g.window {
+                    for &u in &g.elst_up {
+                        for &d in &g.elst_down {
+                            let s = Setting { window_deg: w, elst_up_s: u, elst_down_s: d, ..base };
+                            variant_of.push(id_of(plan, &s));
+                        }
+                    }
+                }
+                let len = g.len();
+                blocks.push(Block { plan, run, offset, len, variant_of, base_total_s: None });
+                offset += len;
+            }
+        }
+        let variants: Vec<Resolved> = wanted
+            .par_iter()
+            .map(|(plan, s)| resolve_variant(&sweep.plans[*plan].plan, &sweep.machine, s))
+            .collect();
+        let mut ev = Evaluator { sweep, base_limits, blocks, variants, variant_ids };
+        let base_totals: Vec<Option<f64>> = ev
+            .blocks
+            .par_iter()
+            .map(|b| {
+                let schedule = ev.sweep.runs[b.run].schedule;
+                let (_, outcome, _) = ev.simulate(b.plan, schedule, &base, None);
+                outcome.map(|o| o.total_s)
+            })
+            .collect();
+        for (b, t) in ev.blocks.iter_mut().zip(base_totals) {
+            b.base_total_s = t;
+        }
+        Ok(ev)
+    }
+
+    pub fn sweep(&self) -> &Sweep {
+        &self.sweep
+    }
+
+    /// Total number of combinations.
+    pub fn len(&self) -> usize {
+        self.blocks.last().map_or(0, |b| b.offset + b.len)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn block(&self, index: usize) -> &Block {
+        let i = self.blocks.partition_point(|b| b.offset + b.len <= index);
+        &self.blocks[i.min(self.blocks.len() - 1)]
+    }
+
+    /// Plan index, schedule entry index and setting of combination `index` (< [`Evaluator::len`]).
+    pub fn combination(&self, index: usize) -> (usize, usize, Setting) {
+        let b = self.block(index);
+        (b.plan, b.run, self.sweep.runs[b.run].grid.setting(index - b.offset))
+    }
+
+    /// The base machine's total for a plan under a schedule entry (`None`: infeasible there).
+    pub fn base_total_s(&self, plan: usize, run: usize) -> Option<f64> {
+        self.blocks.iter().find(|b| b.plan == plan && b.run == run).and_then(|b| b.base_total_s)
+    }
+
+    /// The planner limits of a setting: J, A, V as given; an explicit deceleration limit scaled
+    /// like the acceleration.
+    pub fn limits(&self, s: &Setting) -> Limits {
+        let b = &self.base_limits;
+        Limits {
+            max_jerk: s.jerk_deg_per_s3,
+            max_accel: s.accel_deg_per_s2,
+            max_decel: b.max_decel * (s.accel_deg_per_s2 / b.max_accel),
+            max_vel: s.speed_deg_per_s,
+        }
+    }
+
+    /// Evaluates combination `index` (< [`Evaluator::len`]).
+    pub fn evaluate(&self, index: usize) -> Row {
+        let b = self.block(index);
+        let run = &self.sweep.runs[b.run];
+        let g = &run.grid;
+        let i = index - b.offset;
+        let setting = g.setting(i);
+        let variant = b.variant_of[i / (g.jerk.len() * g.accel.len() * g.speed.len())];
+        let (status, outcome, message) = self.simulate_variant(&self.variants[variant], run.schedule, &setting, b.base_total_s);
+        Row { index, plan: self.sweep.plans[b.plan].label.clone(), schedule: run.schedule, setting, status, outcome, message }
+    }
+
+    /// Simulates any setting of a plan (resolving its variant if the grids do not use it).
+    pub fn simulate(&self, plan: usize, schedule: Schedule, s: &Setting, base_total_s: Option<f64>) -> (Status, Option<Outcome>, String) {
+        match self.variant_ids.get(&key(plan, s)) {
+            Some(&v) => self.simulate_variant(&self.variants[v], schedule, s, base_total_s),
+            None => {
+                let resolved = resolve_variant(&self.sweep.plans[plan].plan, &self.sweep.machine, s);
+                self.simulate_variant(&resolved, schedule, s, base_total_s)
+            }
+        }
+    }
+
+    fn simulate_variant(&self, arcs: &Resolved, schedule: Schedule, s: &Setting, base_total_s: Option<f64>) -> (Status, Option<Outcome>, String) {
+        let arcs = match arcs {
+            Ok(a) => a,
+            Err(e) => return (Status::Invalid, None, e.clone()),
+        };
+        let opts = Options { schedule, build_timeline: self.sweep.margins };
+        let limits = self.limits(s);
+        let result = catch_unwind(AssertUnwindSafe(|| simulate_resolved(arcs, &limits, &opts)));
+        match result {
+            Ok(Ok(d)) => {
+                let outcome = Outcome {
+                    total_s: d.total_s,
+                    breakdown: d.breakdown,
+                    speedup: base_total_s.map(|b| b / d.total_s),
+                    limiter_counts: d.limiter_counts,
+                    violations: d.violations.len(),
+                    margins: d.margins,
+                };
+                (Status::Ok, Some(outcome), String::new())
+            }
+            Ok(Err(e @ SequenceError::Infeasible { .. })) => (Status::Infeasible, None, e.to_string()),
+            Ok(Err(e @ SequenceError::Plan(_))) => (Status::Invalid, None, e.to_string()),
+            Ok(Err(e)) => (Status::Error, None, e.to_string()),
+            Err(panic) => {
+                let what = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "unknown panic".into());
+                (Status::Error, None, format!("the simulation panicked (a bug): {what}"))
+            }
+        }
+    }
+
+    /// Evaluates `indices` (each < [`Evaluator::len`]) on the current rayon pool and hands the rows
+    /// to `sink` in the order of `indices`, a chunk at a time (chunks last about 0.1 s). Stops early,
+    /// after the rows finished so far, when `cancel` becomes true; returns the number of rows sunk.
+    pub fn run(
+        &self,
+        indices: &[usize],
+        cancel: &AtomicBool,
+        mut sink: impl FnMut(&[Row]) -> Result<(), EvalError>,
+    ) -> Result<usize, EvalError> {
+        let threads = rayon::current_num_threads().max(1);
+        let mut chunk = 4 * threads;
+        let mut done = 0;
+        while done < indices.len() && !cancel.load(Ordering::Relaxed) {
+            let part = &indices[done..(done + chunk).min(indices.len())];
+            let started = Instant::now();
+            let rows: Vec<Option<Row>> =
+                part.par_iter().map(|&i| (!cancel.load(Ordering::Relaxed)).then(|| self.evaluate(i))).collect();
+            let finished: Vec<Row> = rows.into_iter().map_while(|r| r).collect();
+            sink(&finished)?;
+            done += finished.len();
+            if finished.len() < part.len() {
+                break;
+            }
+            let per_item = started.elapsed().as_secs_f64() / part.len() as f64;
+            let target = Duration::from_millis(100).as_secs_f64();
+            chunk = ((target / per_item.max(1e-9)) as usize).clamp(threads, 1 << 16);
+        }
+        Ok(done)
+    }
+
+    /// Evaluates `indices` and returns their rows in order (no cancellation).
+    pub fn run_collect(&self, indices: &[usize]) -> Vec<Row> {
+        let mut rows = Vec::with_capacity(indices.len());
+        let never = AtomicBool::new(false);
+        // The sink cannot fail, so neither can the run.
+        let _ = self.run(indices, &never, |r| {
+            rows.extend_from_slice(r);
+            Ok(())
+        });
+        rows
+    }
+}

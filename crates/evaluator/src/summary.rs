@@ -1,0 +1,438 @@
+//! Summaries of a sweep, per plan and schedule entry:
+//!
+//! - **time at each setting of one limit**: the total with one axis at each of its swept values
+//!   and every other limit at the base machine's value, with the speed-up (base total / total);
+//! - **fastest row** of the grid, with its speed-up against the base machine;
+//! - **sensitivity** of the total to each limit L at the base machine, by central finite
+//!   differences: `s_per_10_percent = (T(1.1 L) - T(L / 1.1)) / 2`, the change in total time for a
+//!   +10 % change of L (≈ ln(1.1) · dT/d ln L; negative: raising L saves time), and
+//!   `s_per_ln = dT/d ln L` itself;
+//! - **cheapest change reaching the target**: among the grid rows and the one-limit settings
+//!   whose total reaches the target time, the one whose limits differ least from the base
+//!   machine, where the cost of a setting is `Σ |ln(value / base value)|` over the limits it
+//!   changes (doubling or halving one limit costs ln 2 ≈ 0.69; doubling two costs 1.39). Ties go
+//!   to the shorter total. Changes from or to a zero value (e.g. an ELST of 0 s) are not ranked.
+
+use arcsim_sequencer::Schedule;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::run::{Evaluator, Row, Status};
+use crate::sweep::{Axis, Setting};
+use crate::sweep_file::Target;
+
+/// A sweep's summary.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    pub sweep: String,
+    /// Combinations in the whole sweep.
+    pub combinations: usize,
+    /// Rows summarised (fewer for a shard or an interrupted run).
+    pub rows: usize,
+    pub target: Target,
+    pub entries: Vec<Entry>,
+}
+
+/// The summary of one plan under one schedule entry.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Entry {
+    pub plan: String,
+    pub schedule: Schedule,
+    pub rows: usize,
+    pub feasible: usize,
+    /// Total on the base machine.
+    pub base_total_s: Option<f64>,
+    /// The fastest row.
+    pub fastest: Option<Point>,
+    /// Time at each value of one axis, the others at the base machine.
+    pub profiles: Vec<Profile>,
+    pub sensitivity: Vec<Sensitivity>,
+    /// The target total (from the sweep's `target` and the base total).
+    pub target_total_s: Option<f64>,
+    /// The cheapest change reaching the target; `None` when no evaluated setting reaches it.
+    pub cheapest: Option<Change>,
+}
+
+/// A setting and its total.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Point {
+    /// Row index when the point is a grid row.
+    pub index: Option<usize>,
+    pub setting: Setting,
+    pub total_s: f64,
+    pub speedup: Option<f64>,
+}
+
+/// Totals along one axis.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Profile {
+    pub axis: Axis,
+    pub points: Vec<ProfilePoint>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ProfilePoint {
+    pub value: f64,
+    /// `None` when the setting is not feasible.
+    pub total_s: Option<f64>,
+    pub speedup: Option<f64>,
+}
+
+/// Sensitivity of the total to one limit at the base machine.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Sensitivity {
+    pub axis: Axis,
+    pub base_value: f64,
+    /// dT / d ln L (s).
+    pub s_per_ln: Option<f64>,
+    /// Change of the total for +10 % of the limit (s).
+    pub s_per_10_percent: Option<f64>,
+}
+
+/// One limit changed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Step {
+    pub axis: Axis,
+    pub from: f64,
+    pub to: f64,
+}
+
+/// A change of the base machine and what it saves.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Change {
+    /// The changed limits (empty: the base machine already reaches the target).
+    pub steps: Vec<Step>,
+    /// Σ |ln(to / from)|.
+    pub cost: f64,
+    pub total_s: f64,
+    pub saving_s: f64,
+    /// Row index when the setting is a grid row.
+    pub index: Option<usize>,
+}
+
+/// Factor of the finite differences (±10 %).
+const FD_FACTOR: f64 = 1.1;
+
+enum Task {
+    Profile { axis: Axis, value: f64 },
+    Sens { axis: Axis, up: bool },
+}
+
+impl Evaluator {
+    /// Summarises `rows` (any subset of the sweep's, e.g. a shard's), evaluating on the current
+    /// rayon pool the extra settings the summary needs (one-limit profiles, finite differences).
+    pub fn summarize(&self, rows: &[Row]) -> Summary {
+        let sweep = self.sweep();
+        let base = sweep.base_setting();
+        let mut entries = Vec::new();
+        for plan in 0..sweep.plans.len() {
+            for (run, r) in sweep.runs.iter().enumerate() {
+                let base_total = self.base_total_s(plan, run);
+                let swept: Vec<Axis> =
+                    Axis::ALL.into_iter().filter(|&a| r.grid.values(a) != vec![base.get(a)]).collect();
+                let mut tasks = Vec::new();
+                for &axis in &swept {
+                    for v in r.grid.values(axis).into_iter().flatten() {
+                        tasks.push(Task::Profile { axis, value: v });
+                    }
+                }
+                let sens_axes: Vec<Axis> = Axis::ALL
+                    .into_iter()
+                    .filter(|&a| matches!(a, Axis::Jerk | Axis::Accel | Axis::Speed) || swept.contains(&a))
+                    .filter(|&a| sweep.base_value(a).is_some_and(|b| b > 0.0))
+                    .collect();
+                for &axis in &sens_axes {
+                    tasks.extend([Task::Sens { axis, up: true }, Task::Sens { axis, up: false }]);
+                }
+                let setting_of = |t: &Task| match *t {
+                    Task::Profile { axis, value } => base.with(axis, value),
+                    Task::Sens { axis, up } => {
+                        let b = sweep.base_value(axis).unwrap_or(1.0);
+                        base.with(axis, if up { b * FD_FACTOR } else { b / FD_FACTOR })
+                    }
+                };
+                let totals: Vec<Option<f64>> = tasks
+                    .par_iter()
+                    .map(|t| self.simulate(plan, r.schedule, &setting_of(t), base_total).1.map(|o| o.total_s))
+                    .collect();
+                let speedup = |t: Option<f64>| base_total.zip(t).map(|(b, t)| b / t);
+                let profiles: Vec<Profile> = swept
+                    .iter()
+                    .map(|&axis| Profile {
+                        axis,
+                        points: tasks
+                            .iter()
+                            .zip(&totals)
+                            .filter_map(|(t, &total)| match *t {
+                                Task::Profile { axis: a, value } if a == axis => {
+                                    Some(ProfilePoint { value, total_s: total, speedup: speedup(total) })
+                                }
+                                _ => None,
+                            })
+                            .collect(),
+                    })
+                    .collect();
+                let fd = |axis: Axis, up: bool| {
+                    tasks.iter().zip(&totals).find_map(|(t, &total)| match *t {
+                        Task::Sens { axis: a, up: u } if a == axis && u == up => total,
+                        _ => None,
+                    })
+                };
+                let sensitivity = sens_axes
+                    .iter()
+                    .map(|&axis| {
+                        let diff = fd(axis, true).zip(fd(axis, false)).map(|(p, m)| p - m);
+                        Sensitivity {
+                            axis,
+                            base_value: sweep.base_value(axis).unwrap_or(f64::NAN),
+                            s_per_ln: diff.map(|d| d / (2.0 * FD_FACTOR.ln())),
+                            s_per_10_percent: diff.map(|d| d / 2.0),
+                        }
+                    })
+                    .collect();
+
+                // Grid rows of this entry, then the profile points, as candidates.
+                let mine: Vec<&Row> = rows
+                    .iter()
+                    .filter(|row| {
+                        let (p, rr, _) = self.combination(row.index);
+                        p == plan && rr == run
+                    })
+                    .collect();
+                let feasible: Vec<Point> = mine
+                    .iter()
+                    .filter(|row| row.status == Status::Ok)
+                    .filter_map(|row| {
+                        row.outcome.map(|o| Point { index: Some(row.index), setting: row.setting, total_s: o.total_s, speedup: o.speedup })
+                    })
+                    .collect();
+                let fastest = feasible.iter().copied().min_by(|a, b| a.total_s.total_cmp(&b.total_s));
+                let mut candidates = feasible.clone();
+                for (t, &total) in tasks.iter().zip(&totals) {
+                    if let (Task::Profile { .. }, Some(total_s)) = (t, total) {
+                        candidates.push(Point { index: None, setting: setting_of(t), total_s, speedup: speedup(Some(total_s)) });
+                    }
+                }
+                let target_total_s = base_total.map(|b| sweep.target.total_s(b));
+                let cheapest = target_total_s.zip(base_total).and_then(|(target, b)| self.cheapest(&candidates, target, b));
+                entries.push(Entry {
+                    plan: sweep.plans[plan].label.clone(),
+                    schedule: r.schedule,
+                    rows: mine.len(),
+                    feasible: feasible.len(),
+                    base_total_s: base_total,
+                    fastest,
+                    profiles,
+                    sensitivity,
+                    target_total_s,
+                    cheapest,
+                });
+            }
+        }
+        Summary { sweep: sweep.name.clone(), combinations: self.len(), rows: rows.len(), target: sweep.target, entries }
+    }
+
+    /// The changed limits of a setting and its cost, `None` when a change involves a zero value.
+    pub fn change_of(&self, s: &Setting) -> Option<(Vec<Step>, f64)> {
+        let mut steps = Vec::new();
+        let mut cost = 0.0;
+        for axis in Axis::ALL {
+            let Some(to) = s.get(axis) else { continue };
+            let from = self.sweep().base_value(axis)?;
+            if to == from {
+                continue;
+            }
+            if !(to > 0.0 && from > 0.0) {
+                return None;
+            }
+            cost += (to / from).ln().abs();
+            steps.push(Step { axis, from, to });
+        }
+        Some((steps, cost))
+    }
+
+    fn cheapest(&self, candidates: &[Point], target: f64, base_total: f64) -> Option<Change> {
+        if base_total <= target {
+            return Some(Change { steps: Vec::new(), cost: 0.0, total_s: base_total, saving_s: 0.0, index: None });
+        }
+        candidates
+            .iter()
+            .filter(|p| p.total_s <= target)
+            .filter_map(|p| self.change_of(&p.setting).map(|(steps, cost)| (p, steps, cost)))
+            .min_by(|a, b| a.2.total_cmp(&b.2).then(a.0.total_s.total_cmp(&b.0.total_s)))
+            .map(|(p, steps, cost)| Change { steps, cost, total_s: p.total_s, saving_s: base_total - p.total_s, index: p.index })
+    }
+}
+
+// ---- the printed table ----
+
+/// A number with at most 4 decimals, trailing zeros dropped ("0.25", "1", "0.1468").
+pub fn short(x: f64) -> String {
+    let s = format!("{x:.4}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+fn opt(x: Option<f64>, decimals: usize) -> String {
+    x.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
+}
+
+/// "J 0.5 -> 1 deg/s^3, A 0.5 -> 0.75 deg/s^2".
+pub fn describe_steps(steps: &[Step]) -> String {
+    if steps.is_empty() {
+        return "none (the base machine reaches it)".into();
+    }
+    let parts: Vec<String> = steps
+        .iter()
+        .map(|s| {
+            let (sym, unit) = s.axis.symbol();
+            format!("{sym} {} -> {} {unit}", short(s.from), short(s.to))
+        })
+        .collect();
+    parts.join(", ")
+}
+
+/// "J 2, A 1, V 6" plus any ELST / window the setting sets.
+pub fn describe_setting(s: &Setting) -> String {
+    let parts: Vec<String> =
+        Axis::ALL.into_iter().filter_map(|a| s.get(a).map(|v| format!("{} {}", a.symbol().0, short(v)))).collect();
+    parts.join(", ")
+}
+
+/// An aligned text table: text columns left-aligned, the others right-aligned.
+pub fn table(header: &[&str], left: &[bool], rows: &[Vec<String>]) -> String {
+    let mut width: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
+    for r in rows {
+        for (w, c) in width.iter_mut().zip(r) {
+            *w = (*w).max(c.chars().count());
+        }
+    }
+    let line = |cells: Vec<&str>| {
+        let parts: Vec<String> = cells
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let w = width[i];
+                if left.get(i).copied().unwrap_or(false) {
+                    format!("{c:<w$}")
+                } else {
+                    format!("{c:>w$}")
+                }
+            })
+            .collect();
+        parts.join("  ").trim_end().to_string() + "\n"
+    };
+    let mut out = line(header.to_vec());
+    for r in rows {
+        out += &line(r.iter().map(String::as_str).collect());
+    }
+    out
+}
+
+impl Summary {
+    /// The summary as aligned text tables.
+    pub fn to_table(&self) -> String {
+        let mut out = String::new();
+        let partial = if self.rows < self.combinations { format!(" ({} of {} combinations)", self.rows, self.combinations) } else { String::new() };
+        out += &format!("Sweep \"{}\"{partial}: delivery time per plan and schedule\n", self.sweep);
+        let rows: Vec<Vec<String>> = self
+            .entries
+            .iter()
+            .map(|e| {
+                vec![
+                    e.plan.clone(),
+                    e.schedule.name().into(),
+                    e.rows.to_string(),
+                    e.feasible.to_string(),
+                    opt(e.base_total_s, 1),
+                    opt(e.fastest.map(|p| p.total_s), 1),
+                    opt(e.fastest.and_then(|p| p.speedup), 3),
+                    e.fastest.map_or("-".into(), |p| describe_setting(&p.setting)),
+                ]
+            })
+            .collect();
+        out += &table(
+            &["plan", "schedule", "rows", "feasible", "base [s]", "fastest [s]", "speed-up", "fastest setting"],
+            &[true, true, false, false, false, false, false, true],
+            &rows,
+        );
+
+        let axes: Vec<Axis> = Axis::ALL.into_iter().filter(|a| self.entries.iter().any(|e| e.sensitivity.iter().any(|s| s.axis == *a))).collect();
+        out += "\nSensitivity at the base machine: change of the total for +10 % of one limit, in s\n\
+                (central difference (T(1.1 L) - T(L/1.1)) / 2; negative = raising the limit saves time)\n";
+        let mut header = vec!["plan".to_string(), "schedule".to_string()];
+        header.extend(axes.iter().map(|a| {
+            let base = self.entries.iter().flat_map(|e| &e.sensitivity).find(|s| s.axis == *a).map(|s| s.base_value);
+            format!("{} (base {})", a.symbol().0, base.map_or("-".into(), short))
+        }));
+        let rows: Vec<Vec<String>> = self
+            .entries
+            .iter()
+            .map(|e| {
+                let mut r = vec![e.plan.clone(), e.schedule.name().to_string()];
+                r.extend(axes.iter().map(|a| {
+                    e.sensitivity.iter().find(|s| s.axis == *a).map_or("-".into(), |s| opt(s.s_per_10_percent, 2))
+                }));
+                r
+            })
+            .collect();
+        let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
+        out += &table(&header_refs, &[true, true], &rows);
+
+        out += &format!(
+            "\nCheapest change reaching the target ({}): smallest Σ |ln(new/base)| over the changed limits\n",
+            match self.target {
+                Target::TotalS(t) => format!("total <= {} s", short(t)),
+                Target::SavingPercent(p) => format!("{} % saving", short(p)),
+            }
+        );
+        let rows: Vec<Vec<String>> = self
+            .entries
+            .iter()
+            .map(|e| match &e.cheapest {
+                Some(c) => vec![
+                    e.plan.clone(),
+                    e.schedule.name().into(),
+                    opt(e.target_total_s, 1),
+                    describe_steps(&c.steps),
+                    format!("{:.1}", c.total_s),
+                    format!("{:.1}", c.saving_s),
+                ],
+                None => vec![
+                    e.plan.clone(),
+                    e.schedule.name().into(),
+                    opt(e.target_total_s, 1),
+                    "not reached by any evaluated setting".into(),
+                    "-".into(),
+                    "-".into(),
+                ],
+            })
+            .collect();
+        out += &table(&["plan", "schedule", "target [s]", "change", "total [s]", "saves [s]"], &[true, true, false, true], &rows);
+
+        if self.entries.iter().any(|e| !e.profiles.is_empty()) {
+            out += "\nTime at each value of one limit, the others at the base machine\n";
+            let mut rows = Vec::new();
+            for e in &self.entries {
+                for p in &e.profiles {
+                    let (sym, unit) = p.axis.symbol();
+                    for pt in &p.points {
+                        rows.push(vec![
+                            e.plan.clone(),
+                            e.schedule.name().into(),
+                            format!("{sym} [{unit}]"),
+                            short(pt.value),
+                            opt(pt.total_s, 1),
+                            opt(pt.speedup, 3),
+                        ]);
+                    }
+                }
+            }
+            out += &table(&["plan", "schedule", "limit", "value", "total [s]", "speed-up"], &[true, true, true], &rows);
+        }
+        out
+    }
+}

@@ -1,0 +1,351 @@
+//! The sweep file format `arcsim-sweep/1` (JSON): its serde types and parsing with located errors.
+//! Field-by-field documentation: `scenarios/README.md`, section "Sweeps".
+
+use std::fmt;
+
+use arcsim_sequencer::Schedule;
+use serde::de::value::{MapAccessDeserializer, SeqAccessDeserializer};
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::{Deserialize, Serialize};
+
+use crate::EvalError;
+
+/// Value of the `format` field of every sweep file.
+pub const SWEEP_FORMAT: &str = "arcsim-sweep/1";
+
+/// A sweep file as written.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepFile {
+    /// Must equal [`SWEEP_FORMAT`].
+    pub format: String,
+    pub name: String,
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Plan files (paths or globs relative to the sweep file) and ATOM article cases.
+    pub plans: Vec<PlanSource>,
+    /// The base machine (path relative to the sweep file); every axis varies one of its values.
+    pub machine: String,
+    /// The axes swept for every schedule (an absent axis stays at the base machine's value).
+    #[serde(default)]
+    pub axes: Axes,
+    /// The schedules to run: a name, or `{"schedule": NAME, "axes": {..}}` whose axes replace the
+    /// top-level ones (e.g. `optimal` on a coarser grid).
+    pub schedules: Vec<ScheduleEntry>,
+    /// Build each timeline to report kinematic margins (slower); default false.
+    #[serde(default)]
+    pub margins: bool,
+    /// The time the summary's "cheapest change" must reach; default `{"saving_percent": 10}`.
+    #[serde(default)]
+    pub target: Option<Target>,
+}
+
+/// Where a plan comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PlanSource {
+    /// A plan file, or a glob matching several (relative to the sweep file).
+    Path(String),
+    /// A case of the ATOM article reference file: `{"atom_case": "prostate", "reference": PATH}`.
+    AtomCase { atom_case: String, reference: String },
+}
+
+/// The swept axes; each is absent (the base machine's value), one number, a list of numbers,
+/// `{"values": [..]}` or `{"from": .., "to": .., "steps": .., "scale": "linear" | "log"}`.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axes {
+    /// Gantry jerk limit J (deg/s³).
+    #[serde(default)]
+    pub jerk_deg_per_s3: Option<AxisSpec>,
+    /// Gantry acceleration limit A (deg/s²); an explicit deceleration limit scales with it.
+    #[serde(default)]
+    pub accel_deg_per_s2: Option<AxisSpec>,
+    /// Gantry speed limit V (deg/s).
+    #[serde(default)]
+    pub speed_deg_per_s: Option<AxisSpec>,
+    /// Upward energy-layer switching time (s); needs a `constant` ELST model.
+    #[serde(default)]
+    pub elst_up_s: Option<AxisSpec>,
+    /// Downward energy-layer switching time (s).
+    #[serde(default)]
+    pub elst_down_s: Option<AxisSpec>,
+    /// Tolerance window of every control point (deg), replacing the plan's and the machine's.
+    #[serde(default)]
+    pub window_deg: Option<AxisSpec>,
+}
+
+/// How a range's values are spaced.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Scale {
+    #[default]
+    Linear,
+    /// Geometric spacing (equal ratios), for limits spanning orders of magnitude.
+    Log,
+}
+
+/// One axis as written.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AxisSpec {
+    Values(Vec<f64>),
+    Range { from: f64, to: f64, steps: usize, scale: Scale },
+}
+
+/// One entry of `schedules`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScheduleEntry {
+    pub schedule: Schedule,
+    /// Axes replacing the top-level ones for this schedule (per axis).
+    pub axes: Option<Axes>,
+}
+
+/// The target of the summary's cheapest change.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Target {
+    /// An absolute total delivery time (s).
+    TotalS(f64),
+    /// A saving of this many percent of the base machine's total.
+    SavingPercent(f64),
+}
+
+impl Default for Target {
+    fn default() -> Self {
+        Target::SavingPercent(10.0)
+    }
+}
+
+impl Target {
+    /// The total time to reach given the base machine's total.
+    pub fn total_s(self, base_total_s: f64) -> f64 {
+        match self {
+            Target::TotalS(t) => t,
+            Target::SavingPercent(p) => base_total_s * (1.0 - p / 100.0),
+        }
+    }
+}
+
+impl AxisSpec {
+    /// The values of the axis, in the order written (ranges from `from` to `to`).
+    pub fn values(&self) -> Vec<f64> {
+        match *self {
+            AxisSpec::Values(ref v) => v.clone(),
+            AxisSpec::Range { from, steps: 1, .. } => vec![from],
+            AxisSpec::Range { from, to, steps, scale } => (0..steps)
+                .map(|i| {
+                    let f = i as f64 / (steps - 1) as f64;
+                    if i + 1 == steps {
+                        to
+                    } else {
+                        match scale {
+                            Scale::Linear => from + f * (to - from),
+                            Scale::Log => from * (to / from).powf(f),
+                        }
+                    }
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Parses a sweep file's text; `file` names it in every error.
+pub fn parse_sweep_file(text: &str, file: &str) -> Result<SweepFile, EvalError> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let parsed: Result<SweepFile, _> = serde_path_to_error::deserialize(&mut de);
+    let sweep = match parsed {
+        Ok(s) => {
+            de.end().map_err(|e| json_error(file, "", &e))?;
+            s
+        }
+        Err(e) => {
+            if let Some(err) = wrong_format(text, file) {
+                return Err(err);
+            }
+            return Err(json_error(file, &e.path().to_string(), e.inner()));
+        }
+    };
+    if sweep.format != SWEEP_FORMAT {
+        return Err(EvalError::sweep(file, "format", format!("expected \"{SWEEP_FORMAT}\", got \"{}\"", sweep.format)));
+    }
+    Ok(sweep)
+}
+
+fn json_error(file: &str, path: &str, e: &serde_json::Error) -> EvalError {
+    let msg = e.to_string();
+    let msg = msg.rfind(" at line ").map_or(msg.as_str(), |i| &msg[..i]);
+    let field = if path == "." { "" } else { path };
+    let kind = match e.classify() {
+        serde_json::error::Category::Syntax | serde_json::error::Category::Eof => "malformed JSON: ",
+        _ => "",
+    };
+    EvalError::sweep(file, field, format!("{kind}{msg} (line {}, column {})", e.line(), e.column()))
+}
+
+fn wrong_format(text: &str, file: &str) -> Option<EvalError> {
+    let value: serde_json::Value = serde_json::from_str(text).ok()?;
+    let found = match value.as_object()?.get("format") {
+        None => "no `format` field".to_string(),
+        Some(serde_json::Value::String(s)) if s == SWEEP_FORMAT => return None,
+        Some(other) => other.to_string(),
+    };
+    Some(EvalError::sweep(file, "format", format!("expected \"{SWEEP_FORMAT}\", got {found}; this is not a sweep file")))
+}
+
+// ---- serde for the entries that take several shapes ----
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AtomRef {
+    atom_case: String,
+    reference: String,
+}
+
+impl<'de> Deserialize<'de> for PlanSource {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = PlanSource;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a plan path or glob, or {\"atom_case\": NAME, \"reference\": PATH}")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<PlanSource, E> {
+                Ok(PlanSource::Path(s.to_string()))
+            }
+            fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<PlanSource, M::Error> {
+                let r = AtomRef::deserialize(MapAccessDeserializer::new(map))?;
+                Ok(PlanSource::AtomCase { atom_case: r.atom_case, reference: r.reference })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisObject {
+    #[serde(default)]
+    values: Option<Vec<f64>>,
+    #[serde(default)]
+    from: Option<f64>,
+    #[serde(default)]
+    to: Option<f64>,
+    #[serde(default)]
+    steps: Option<usize>,
+    #[serde(default)]
+    scale: Option<Scale>,
+}
+
+impl<'de> Deserialize<'de> for AxisSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = AxisSpec;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number, a list of numbers, {\"values\": [..]} or {\"from\": .., \"to\": .., \"steps\": ..}")
+            }
+            fn visit_f64<E: de::Error>(self, x: f64) -> Result<AxisSpec, E> {
+                Ok(AxisSpec::Values(vec![x]))
+            }
+            fn visit_u64<E: de::Error>(self, x: u64) -> Result<AxisSpec, E> {
+                Ok(AxisSpec::Values(vec![x as f64]))
+            }
+            fn visit_i64<E: de::Error>(self, x: i64) -> Result<AxisSpec, E> {
+                Ok(AxisSpec::Values(vec![x as f64]))
+            }
+            fn visit_seq<S: SeqAccess<'de>>(self, seq: S) -> Result<AxisSpec, S::Error> {
+                Vec::<f64>::deserialize(SeqAccessDeserializer::new(seq)).map(AxisSpec::Values)
+            }
+            fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<AxisSpec, M::Error> {
+                let o = AxisObject::deserialize(MapAccessDeserializer::new(map))?;
+                match o {
+                    AxisObject { values: Some(v), from: None, to: None, steps: None, scale: None } => Ok(AxisSpec::Values(v)),
+                    AxisObject { values: None, from: Some(from), to: Some(to), steps: Some(steps), scale } => {
+                        Ok(AxisSpec::Range { from, to, steps, scale: scale.unwrap_or_default() })
+                    }
+                    AxisObject { values: Some(_), .. } => {
+                        Err(de::Error::custom("expected either \"values\" or \"from\"/\"to\"/\"steps\", not both"))
+                    }
+                    _ => Err(de::Error::custom(
+                        "expected {\"values\": [..]} or all three of \"from\", \"to\" and \"steps\" (\"scale\" optional)",
+                    )),
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ScheduleObject {
+    schedule: Schedule,
+    #[serde(default)]
+    axes: Option<Axes>,
+}
+
+impl<'de> Deserialize<'de> for ScheduleEntry {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ScheduleEntry;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a schedule name (prescribed, scan, optimal, step-and-shoot) or {\"schedule\": NAME, \"axes\": {..}}")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<ScheduleEntry, E> {
+                let schedule = s.parse::<Schedule>().map_err(E::custom)?;
+                Ok(ScheduleEntry { schedule, axes: None })
+            }
+            fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<ScheduleEntry, M::Error> {
+                let o = ScheduleObject::deserialize(MapAccessDeserializer::new(map))?;
+                Ok(ScheduleEntry { schedule: o.schedule, axes: o.axes })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err(text: &str) -> String {
+        parse_sweep_file(text, "s.json").expect_err("should fail").to_string()
+    }
+
+    const OK: &str = r#"{"format": "arcsim-sweep/1", "name": "t", "plans": ["a.json", {"atom_case": "liver", "reference": "r.json"}],
+        "machine": "m.json", "axes": {"jerk_deg_per_s3": [0.5, 1], "accel_deg_per_s2": {"from": 0.25, "to": 1, "steps": 3},
+        "speed_deg_per_s": 5, "window_deg": {"values": [1]}},
+        "schedules": ["scan", {"schedule": "optimal", "axes": {"jerk_deg_per_s3": {"from": 0.1, "to": 10, "steps": 3, "scale": "log"}}}]}"#;
+
+    #[test]
+    fn parses_every_shape() {
+        let s = parse_sweep_file(OK, "s.json").expect("valid");
+        assert_eq!(s.plans[1], PlanSource::AtomCase { atom_case: "liver".into(), reference: "r.json".into() });
+        assert_eq!(s.axes.accel_deg_per_s2.as_ref().map(AxisSpec::values), Some(vec![0.25, 0.625, 1.0]));
+        assert_eq!(s.axes.speed_deg_per_s.as_ref().map(AxisSpec::values), Some(vec![5.0]));
+        let j = s.schedules[1].axes.as_ref().and_then(|a| a.jerk_deg_per_s3.as_ref()).map(AxisSpec::values).expect("axis");
+        assert!((j[1] - 1.0).abs() < 1e-12 && j[2] == 10.0);
+        assert_eq!(s.schedules[1].schedule, Schedule::Optimal);
+        assert_eq!(s.target, None);
+    }
+
+    #[test]
+    fn errors_are_located() {
+        let e = err(&OK.replace("\"steps\": 3}", "\"steps\": \"3\"}"));
+        assert!(e.starts_with("s.json: axes.accel_deg_per_s2.steps: invalid type"), "{e}");
+        let e = err(&OK.replace("\"speed_deg_per_s\"", "\"speed\""));
+        assert!(e.starts_with("s.json: axes.speed: unknown field `speed`"), "{e}");
+        let e = err(&OK.replace("\"optimal\"", "\"fastest\""));
+        assert!(e.contains("schedules[1].schedule: unknown variant `fastest`"), "{e}");
+        let e = err(&OK.replace("\"scan\",", "\"scann\","));
+        assert!(e.contains("schedules[0]: unknown schedule 'scann'"), "{e}");
+        let e = err(&OK.replace("\"atom_case\"", "\"atomcase\""));
+        assert!(e.contains("plans[1].atomcase: unknown field"), "{e}");
+        let e = err(&OK.replace("arcsim-sweep/1", "arcsim-plan/1"));
+        assert!(e.starts_with("s.json: format: expected \"arcsim-sweep/1\""), "{e}");
+        let e = err(&OK.replace("{\"values\": [1]}", "{\"values\": [1], \"from\": 1}"));
+        assert!(e.contains("axes.window_deg: expected either"), "{e}");
+        let e = err("{\"format\": \"arcsim-sweep/1\",");
+        assert!(e.contains("malformed JSON"), "{e}");
+    }
+}

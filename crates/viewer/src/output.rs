@@ -1,0 +1,87 @@
+//! Where a delivery goes: an `.rrd` file, a spawned viewer, or a running viewer over gRPC.
+
+use std::path::Path;
+use std::time::Duration;
+
+use arcsim_sequencer::Delivery;
+use rerun::{RecordingStream, RecordingStreamBuilder, RecordingStreamError};
+
+use crate::{delivery_blueprint, log_delivery, ViewerError, ViewerOptions};
+
+/// Application id of delivery recordings (the viewer keeps one layout per application).
+pub const DELIVERY_APP_ID: &str = "arcsim-delivery";
+
+/// How long to wait for a viewer to take the data before giving up.
+const SEND_TIMEOUT: Duration = Duration::from_secs(20);
+
+fn builder(title: &str) -> RecordingStreamBuilder {
+    // `enabled(true)`: an explicit request for output ignores the `RERUN` environment variable.
+    RecordingStreamBuilder::new(DELIVERY_APP_ID)
+        .enabled(true)
+        .recording_name(title)
+        .with_blueprint(delivery_blueprint())
+}
+
+/// Logs, waits until everything reached the sink, then closes the stream (which finishes a file).
+fn finish(
+    rec: RecordingStream,
+    delivery: &Delivery,
+    opts: &ViewerOptions,
+    target: &str,
+) -> Result<(), ViewerError> {
+    log_delivery(&rec, delivery, opts)?;
+    rec.flush_with_timeout(SEND_TIMEOUT)
+        .map_err(|source| ViewerError::Flush {
+            target: target.to_owned(),
+            source,
+        })?;
+    drop(rec);
+    Ok(())
+}
+
+/// Writes `delivery` to the `.rrd` file `path` (replaced if it exists), with the default layout.
+pub fn save_delivery(
+    path: &Path,
+    title: &str,
+    delivery: &Delivery,
+    opts: &ViewerOptions,
+) -> Result<(), ViewerError> {
+    let rec = builder(title)
+        .save(path)
+        .map_err(|source| ViewerError::Save {
+            path: path.to_owned(),
+            source,
+        })?;
+    finish(rec, delivery, opts, &path.display().to_string())
+}
+
+/// Starts a Rerun viewer (the `rerun` executable on `PATH`; an already running one on the
+/// default port 9876 is reused) and streams `delivery` to it.
+pub fn spawn_delivery(
+    title: &str,
+    delivery: &Delivery,
+    opts: &ViewerOptions,
+) -> Result<(), ViewerError> {
+    let rec = builder(title).spawn().map_err(|e| match e {
+        RecordingStreamError::SpawnViewer(e) => ViewerError::Spawn(e),
+        e => ViewerError::Log(e),
+    })?;
+    finish(rec, delivery, opts, "the spawned Rerun viewer")
+}
+
+/// Streams `delivery` to a running viewer at a gRPC proxy URL such as
+/// `rerun+http://127.0.0.1:9876/proxy` (what `rerun` prints when it starts).
+pub fn connect_delivery(
+    url: &str,
+    title: &str,
+    delivery: &Delivery,
+    opts: &ViewerOptions,
+) -> Result<(), ViewerError> {
+    let rec = builder(title)
+        .connect_grpc_opts(url)
+        .map_err(|source| ViewerError::Url {
+            url: url.to_owned(),
+            source,
+        })?;
+    finish(rec, delivery, opts, url)
+}
