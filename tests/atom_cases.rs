@@ -4,10 +4,16 @@
 use arcsim_plan::{atom_case_plan, parse_machine};
 use arcsim_sequencer::{simulate, simulate_with_speeds, Options, Schedule};
 
-const ATOM_TOTALS_S: [(&str, f64); 3] = [("prostate", 287.7), ("head-and-neck", 309.1), ("liver", 283.6)];
+const ATOM_TOTALS_S: [(&str, f64); 3] = [
+    ("prostate", 287.7),
+    ("head-and-neck", 309.1),
+    ("liver", 283.6),
+];
 
 fn machine() -> arcsim_plan::Machine {
-    let text = std::fs::read_to_string(arcsim_suite::repo_root().join("scenarios/machine-atom.json")).expect("machine file");
+    let text =
+        std::fs::read_to_string(arcsim_suite::repo_root().join("scenarios/machine-atom.json"))
+            .expect("machine file");
     parse_machine(&text, "scenarios/machine-atom.json").expect("valid machine")
 }
 
@@ -30,11 +36,26 @@ fn atom_speeds_reproduce_atom_totals() {
     for (name, atom_total) in ATOM_TOTALS_S {
         let plan = atom_case_plan(&text, name).expect("case");
         let arcs = arcsim_plan::resolve(&plan, &m).expect("resolve");
-        let case = json["cases"].as_array().expect("cases").iter().find(|c| c["name"] == name).expect("case present");
-        let speeds: Vec<f64> = case["atom_layer_speeds_deg_per_s"].as_array().expect("speeds").iter().map(|v| v.as_f64().expect("number")).collect();
-        let d = simulate_with_speeds(&arcs, &limits, &speeds, &Options::new(Schedule::Prescribed)).expect("ATOM speeds feasible");
+        let case = json["cases"]
+            .as_array()
+            .expect("cases")
+            .iter()
+            .find(|c| c["name"] == name)
+            .expect("case present");
+        let speeds: Vec<f64> = case["atom_layer_speeds_deg_per_s"]
+            .as_array()
+            .expect("speeds")
+            .iter()
+            .map(|v| v.as_f64().expect("number"))
+            .collect();
+        let d = simulate_with_speeds(&arcs, &limits, &speeds, &Options::new(Schedule::Prescribed))
+            .expect("ATOM speeds feasible");
         let rel = (d.total_s - atom_total).abs() / atom_total;
-        println!("{name}: ATOM speeds give {:.2} s (ATOM reports {atom_total} s, {:.3} %)", d.total_s, 100.0 * rel);
+        println!(
+            "{name}: ATOM speeds give {:.2} s (ATOM reports {atom_total} s, {:.3} %)",
+            d.total_s,
+            100.0 * rel
+        );
         assert!(rel <= 1e-3, "{name}: {} vs {atom_total}", d.total_s);
     }
 }
@@ -48,13 +69,27 @@ fn optimal_beats_atom_and_the_baselines() {
     for (name, atom_total) in ATOM_TOTALS_S {
         let plan = atom_case_plan(&text, name).expect("case");
         let run = |s| simulate(&plan, &m, &Options::new(s)).expect("simulate");
-        let (opt, scan, sas) = (run(Schedule::Optimal), run(Schedule::Scan), run(Schedule::StepAndShoot));
-        println!("{name}: optimal {:.2} s, scan {:.2} s, step-and-shoot {:.2} s, ATOM {atom_total} s", opt.total_s, scan.total_s, sas.total_s);
-        assert!(opt.total_s <= atom_total, "{name}: optimal {} > ATOM {atom_total}", opt.total_s);
+        let (opt, scan, sas) = (
+            run(Schedule::Optimal),
+            run(Schedule::Scan),
+            run(Schedule::StepAndShoot),
+        );
+        println!(
+            "{name}: optimal {:.2} s, scan {:.2} s, step-and-shoot {:.2} s, ATOM {atom_total} s",
+            opt.total_s, scan.total_s, sas.total_s
+        );
+        assert!(
+            opt.total_s <= atom_total,
+            "{name}: optimal {} > ATOM {atom_total}",
+            opt.total_s
+        );
         assert!(opt.total_s <= scan.total_s + 1e-9 && opt.total_s <= sas.total_s + 1e-9);
         for d in [&opt, &scan, &sas] {
             let b = d.breakdown;
-            assert!((b.beam_on_s + b.energy_switching_s + b.lost_s - d.total_s).abs() < 1e-9 * d.total_s);
+            assert!(
+                (b.beam_on_s + b.energy_switching_s + b.lost_s - d.total_s).abs()
+                    < 1e-9 * d.total_s
+            );
         }
     }
 }

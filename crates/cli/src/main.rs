@@ -16,7 +16,11 @@ mod viewer;
 pub use error::CliError;
 
 #[derive(Parser)]
-#[command(name = "arcsim", version, about = "Simulate proton-arc delivery on a jerk-limited gantry")]
+#[command(
+    name = "arcsim",
+    version,
+    about = "Simulate proton-arc delivery on a jerk-limited gantry"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

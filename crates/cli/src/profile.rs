@@ -3,7 +3,9 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use arcsim_planner::{discretize, exact_duration, min_time, Limits, Move, PlannerError, Profile, Reversal};
+use arcsim_planner::{
+    discretize, exact_duration, min_time, Limits, Move, PlannerError, Profile, Reversal,
+};
 use serde::Serialize;
 
 use crate::CliError;
@@ -105,22 +107,29 @@ enum Outcome {
 
 fn classify(err: PlannerError) -> Outcome {
     match err {
-        PlannerError::Unreachable { .. } | PlannerError::DurationInfeasible { .. } | PlannerError::PeriodTooCoarse { .. } => {
-            Outcome::Infeasible(err.to_string())
-        }
+        PlannerError::Unreachable { .. }
+        | PlannerError::DurationInfeasible { .. }
+        | PlannerError::PeriodTooCoarse { .. } => Outcome::Infeasible(err.to_string()),
         _ => Outcome::Error(err.to_string()),
     }
 }
 
 fn solve(spec: &MoveSpec) -> Outcome {
-    let limits = match Limits::with_decel(spec.jerk, spec.accel, spec.decel.unwrap_or(spec.accel), spec.vel) {
+    let limits = match Limits::with_decel(
+        spec.jerk,
+        spec.accel,
+        spec.decel.unwrap_or(spec.accel),
+        spec.vel,
+    ) {
         Ok(l) => l,
         Err(e) => return classify(e),
     };
     let profile = match spec.min_duration {
         Some(t) => {
             if spec.reverse == Reversal::Allow {
-                return Outcome::Error("min_duration keeps the speed in [0, V]: use reverse = forbid".into());
+                return Outcome::Error(
+                    "min_duration keeps the speed in [0, V]: use reverse = forbid".into(),
+                );
             }
             exact_duration(spec.mv, &limits, t)
         }
@@ -131,9 +140,17 @@ fn solve(spec: &MoveSpec) -> Outcome {
         Err(e) => return classify(e),
     };
     match spec.period {
-        None => Outcome::Ok(Box::new(Solved { profile, limits, added_time_s: None })),
+        None => Outcome::Ok(Box::new(Solved {
+            profile,
+            limits,
+            added_time_s: None,
+        })),
         Some(ts) => match discretize(&profile, ts, &limits) {
-            Ok(d) => Outcome::Ok(Box::new(Solved { profile: d.profile, limits, added_time_s: Some(d.added_time) })),
+            Ok(d) => Outcome::Ok(Box::new(Solved {
+                profile: d.profile,
+                limits,
+                added_time_s: Some(d.added_time),
+            })),
             Err(e) => classify(e),
         },
     }
@@ -187,7 +204,8 @@ fn describe(s: &Solved) -> ProfileOut {
         extreme_speed_deg_per_s: s.profile.two_step().map(|ts| ts.direction * ts.v_peak),
         servo_added_time_s: s.added_time_s,
         speed_use: peak / s.limits.max_vel,
-        accel_use: e.max_acceleration.max(-e.min_acceleration) / s.limits.max_accel.max(s.limits.max_decel),
+        accel_use: e.max_acceleration.max(-e.min_acceleration)
+            / s.limits.max_accel.max(s.limits.max_decel),
         jerk_use: e.max_abs_jerk / s.limits.max_jerk,
         phases,
     }
@@ -195,7 +213,10 @@ fn describe(s: &Solved) -> ProfileOut {
 
 fn print_text(out: &ProfileOut) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "phase  start (s)   duration (s)   jerk (deg/s³)   speed at start (deg/s)");
+    let _ = writeln!(
+        s,
+        "phase  start (s)   duration (s)   jerk (deg/s³)   speed at start (deg/s)"
+    );
     for (i, p) in out.phases.iter().enumerate() {
         let _ = writeln!(
             s,
@@ -209,7 +230,10 @@ fn print_text(out: &ProfileOut) -> String {
     }
     let _ = writeln!(s, "total time: {:.9} s", out.duration_s);
     if let Some(added) = out.servo_added_time_s {
-        let _ = writeln!(s, "servo grid: +{added:.9} s against the continuous profile");
+        let _ = writeln!(
+            s,
+            "servo grid: +{added:.9} s against the continuous profile"
+        );
     }
     let _ = writeln!(s, "peak speed: {:.6} deg/s", out.peak_speed_deg_per_s);
     if let Some(c) = out.extreme_speed_deg_per_s {
@@ -227,25 +251,40 @@ fn print_text(out: &ProfileOut) -> String {
 
 fn write_samples(path: &Path, profile: &Profile, dt: f64) -> Result<(), CliError> {
     if !(dt.is_finite() && dt > 0.0) {
-        return Err(CliError::usage(format!("--dt {dt}: expected a finite number > 0")));
+        return Err(CliError::usage(format!(
+            "--dt {dt}: expected a finite number > 0"
+        )));
     }
     if profile.duration() / dt > 5e7 {
-        return Err(CliError::usage(format!("--dt {dt} would write more than 5e7 samples")));
+        return Err(CliError::usage(format!(
+            "--dt {dt} would write more than 5e7 samples"
+        )));
     }
     let mut s = String::from("t_s,angle_deg,speed_deg_per_s,accel_deg_per_s2,jerk_deg_per_s3\n");
     for (t, st) in profile.samples(dt) {
-        let _ = writeln!(s, "{t},{},{},{},{}", st.position, st.velocity, st.acceleration, st.jerk);
+        let _ = writeln!(
+            s,
+            "{t},{},{},{},{}",
+            st.position, st.velocity, st.acceleration, st.jerk
+        );
     }
-    std::fs::write(path, s).map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))
+    std::fs::write(path, s)
+        .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
     if let Some(batch) = &args.batch {
         return run_batch(batch, args.out.as_deref(), args.reverse.into());
     }
-    let need = |v: Option<f64>, name: &str| v.ok_or_else(|| CliError::usage(format!("--{name} is required")));
+    let need = |v: Option<f64>, name: &str| {
+        v.ok_or_else(|| CliError::usage(format!("--{name} is required")))
+    };
     let spec = MoveSpec {
-        mv: Move { distance: need(args.distance, "distance")?, v_start: need(args.v_start, "v-start")?, v_end: need(args.v_end, "v-end")? },
+        mv: Move {
+            distance: need(args.distance, "distance")?,
+            v_start: need(args.v_start, "v-start")?,
+            v_end: need(args.v_end, "v-end")?,
+        },
         jerk: need(args.jerk, "jerk")?,
         accel: need(args.accel, "accel")?,
         decel: args.decel,
@@ -261,7 +300,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
     let out = describe(&solved);
     if args.json {
-        let text = serde_json::to_string_pretty(&out).map_err(|e| CliError::failed(e.to_string()))?;
+        let text =
+            serde_json::to_string_pretty(&out).map_err(|e| CliError::failed(e.to_string()))?;
         println!("{text}");
     } else {
         print!("{}", print_text(&out));
@@ -285,7 +325,11 @@ const REQUIRED: [&str; 6] = ["distance", "v_start", "v_end", "jerk", "accel", "v
 const OPTIONAL: [&str; 4] = ["decel", "min_duration", "period", "reverse"];
 
 /// Parses one data row into a move; the error names the field and the value.
-fn parse_row(cols: &[usize; 10], cells: &[&str], default_reverse: Reversal) -> Result<MoveSpec, String> {
+fn parse_row(
+    cols: &[usize; 10],
+    cells: &[&str],
+    default_reverse: Reversal,
+) -> Result<MoveSpec, String> {
     let names: Vec<&str> = REQUIRED.iter().chain(OPTIONAL.iter()).copied().collect();
     let cell = |k: usize| -> Option<&str> {
         let i = cols[k];
@@ -299,11 +343,16 @@ fn parse_row(cols: &[usize; 10], cells: &[&str], default_reverse: Reversal) -> R
             None => Ok(None),
             Some(text) => match text.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(Some(v)),
-                _ => Err(format!("field {}: '{text}' is not a finite number", names[k])),
+                _ => Err(format!(
+                    "field {}: '{text}' is not a finite number",
+                    names[k]
+                )),
             },
         }
     };
-    let req = |k: usize| -> Result<f64, String> { num(k)?.ok_or_else(|| format!("field {}: missing value", names[k])) };
+    let req = |k: usize| -> Result<f64, String> {
+        num(k)?.ok_or_else(|| format!("field {}: missing value", names[k]))
+    };
     let reverse = match cell(9) {
         None => default_reverse,
         Some(t) if t.eq_ignore_ascii_case("allow") => Reversal::Allow,
@@ -311,7 +360,11 @@ fn parse_row(cols: &[usize; 10], cells: &[&str], default_reverse: Reversal) -> R
         Some(t) => return Err(format!("field reverse: '{t}' is not allow or forbid")),
     };
     Ok(MoveSpec {
-        mv: Move { distance: req(0)?, v_start: req(1)?, v_end: req(2)? },
+        mv: Move {
+            distance: req(0)?,
+            v_start: req(1)?,
+            v_end: req(2)?,
+        },
         jerk: req(3)?,
         accel: req(4)?,
         vel: req(5)?,
@@ -323,12 +376,22 @@ fn parse_row(cols: &[usize; 10], cells: &[&str], default_reverse: Reversal) -> R
 }
 
 fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Result<(), CliError> {
-    let text = std::fs::read_to_string(input).map_err(|e| CliError::failed(format!("{}: cannot read: {e}", input.display())))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let text = std::fs::read_to_string(input)
+        .map_err(|e| CliError::failed(format!("{}: cannot read: {e}", input.display())))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     let Some((_, header)) = lines.next() else {
-        return Err(CliError::failed(format!("{}: empty file, expected a header line", input.display())));
+        return Err(CliError::failed(format!(
+            "{}: empty file, expected a header line",
+            input.display()
+        )));
     };
-    let heads: Vec<String> = header.split(',').map(|h| h.trim().to_ascii_lowercase()).collect();
+    let heads: Vec<String> = header
+        .split(',')
+        .map(|h| h.trim().to_ascii_lowercase())
+        .collect();
     let mut cols = [usize::MAX; 10];
     for (k, name) in REQUIRED.iter().chain(OPTIONAL.iter()).enumerate() {
         if let Some(i) = heads.iter().position(|h| h == name) {
@@ -337,35 +400,57 @@ fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Res
     }
     for (k, name) in REQUIRED.iter().enumerate() {
         if cols[k] == usize::MAX {
-            return Err(CliError::failed(format!("{}: line 1: header lacks the column '{name}' (need {})", input.display(), REQUIRED.join(","))));
+            return Err(CliError::failed(format!(
+                "{}: line 1: header lacks the column '{name}' (need {})",
+                input.display(),
+                REQUIRED.join(",")
+            )));
         }
     }
-    if let Some(unknown) = heads.iter().find(|h| !REQUIRED.contains(&h.as_str()) && !OPTIONAL.contains(&h.as_str())) {
-        return Err(CliError::failed(format!("{}: line 1: unknown column '{unknown}'", input.display())));
+    if let Some(unknown) = heads
+        .iter()
+        .find(|h| !REQUIRED.contains(&h.as_str()) && !OPTIONAL.contains(&h.as_str()))
+    {
+        return Err(CliError::failed(format!(
+            "{}: line 1: unknown column '{unknown}'",
+            input.display()
+        )));
     }
     let mut report = String::from("line,status,duration_s,peak_speed,message\n");
     let (mut ok, mut infeasible, mut errors) = (0, 0, 0);
     for (i, line) in lines {
         let cells: Vec<&str> = line.split(',').collect();
-        let (status, duration, peak, message) = match parse_row(&cols, &cells, default_reverse).map(|s| solve(&s)) {
-            Err(m) | Ok(Outcome::Error(m)) => {
-                errors += 1;
-                ("error", String::new(), String::new(), m)
-            }
-            Ok(Outcome::Infeasible(m)) => {
-                infeasible += 1;
-                ("infeasible", String::new(), String::new(), m)
-            }
-            Ok(Outcome::Ok(s)) => {
-                ok += 1;
-                let d = describe(&s);
-                ("ok", format!("{}", d.duration_s), format!("{}", d.peak_speed_deg_per_s), String::new())
-            }
-        };
-        let _ = writeln!(report, "{},{status},{duration},{peak},{}", i + 1, csv_field(&message));
+        let (status, duration, peak, message) =
+            match parse_row(&cols, &cells, default_reverse).map(|s| solve(&s)) {
+                Err(m) | Ok(Outcome::Error(m)) => {
+                    errors += 1;
+                    ("error", String::new(), String::new(), m)
+                }
+                Ok(Outcome::Infeasible(m)) => {
+                    infeasible += 1;
+                    ("infeasible", String::new(), String::new(), m)
+                }
+                Ok(Outcome::Ok(s)) => {
+                    ok += 1;
+                    let d = describe(&s);
+                    (
+                        "ok",
+                        format!("{}", d.duration_s),
+                        format!("{}", d.peak_speed_deg_per_s),
+                        String::new(),
+                    )
+                }
+            };
+        let _ = writeln!(
+            report,
+            "{},{status},{duration},{peak},{}",
+            i + 1,
+            csv_field(&message)
+        );
     }
     match out {
-        Some(p) => std::fs::write(p, &report).map_err(|e| CliError::failed(format!("{}: cannot write: {e}", p.display())))?,
+        Some(p) => std::fs::write(p, &report)
+            .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", p.display())))?,
         None => print!("{report}"),
     }
     eprintln!("{ok} ok, {infeasible} infeasible, {errors} error rows");

@@ -92,27 +92,96 @@ fn limiter_name(l: Limiter) -> &'static str {
 pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
     let mut s = String::new();
     let b = d.breakdown;
-    let pct = |x: f64| if d.total_s > 0.0 { 100.0 * x / d.total_s } else { 0.0 };
-    let _ = writeln!(s, "plan {plan} on {machine}, schedule {}", d.schedule.name());
-    let _ = writeln!(s, "{} layers, {} transitions", d.layers.len(), d.transitions.len());
-    let _ = writeln!(s, "total delivery time  {:9.2} s  ({})", d.total_s, min_sec(d.total_s));
-    let _ = writeln!(s, "  beam on            {:9.2} s  {:5.1} %", b.beam_on_s, pct(b.beam_on_s));
-    let _ = writeln!(s, "  energy switching   {:9.2} s  {:5.1} %", b.energy_switching_s, pct(b.energy_switching_s));
-    let _ = writeln!(s, "  lost (gantry)      {:9.2} s  {:5.1} %", b.lost_s, pct(b.lost_s));
+    let pct = |x: f64| {
+        if d.total_s > 0.0 {
+            100.0 * x / d.total_s
+        } else {
+            0.0
+        }
+    };
+    let _ = writeln!(
+        s,
+        "plan {plan} on {machine}, schedule {}",
+        d.schedule.name()
+    );
+    let _ = writeln!(
+        s,
+        "{} layers, {} transitions",
+        d.layers.len(),
+        d.transitions.len()
+    );
+    let _ = writeln!(
+        s,
+        "total delivery time  {:9.2} s  ({})",
+        d.total_s,
+        min_sec(d.total_s)
+    );
+    let _ = writeln!(
+        s,
+        "  beam on            {:9.2} s  {:5.1} %",
+        b.beam_on_s,
+        pct(b.beam_on_s)
+    );
+    let _ = writeln!(
+        s,
+        "  energy switching   {:9.2} s  {:5.1} %",
+        b.energy_switching_s,
+        pct(b.energy_switching_s)
+    );
+    let _ = writeln!(
+        s,
+        "  lost (gantry)      {:9.2} s  {:5.1} %",
+        b.lost_s,
+        pct(b.lost_s)
+    );
     let c = d.limiter_counts;
-    let _ = writeln!(s, "transitions limited by: ELST {}, V {}, A {}, J {}, none {}", c.elst, c.speed, c.accel, c.jerk, c.none);
+    let _ = writeln!(
+        s,
+        "transitions limited by: ELST {}, V {}, A {}, J {}, none {}",
+        c.elst, c.speed, c.accel, c.jerk, c.none
+    );
     if let Some(m) = d.margins {
         let _ = writeln!(s, "tightest margins:");
-        let _ = writeln!(s, "  speed        {:6.1} % of V     at t = {:8.2} s (layer {})", 100.0 * m.speed_use.value, m.speed_use.t_s, m.speed_use.layer);
-        let _ = writeln!(s, "  acceleration {:6.1} % of A/D   at t = {:8.2} s (layer {})", 100.0 * m.accel_use.value, m.accel_use.t_s, m.accel_use.layer);
-        let _ = writeln!(s, "  jerk         {:6.1} % of J     at t = {:8.2} s (layer {})", 100.0 * m.jerk_use.value, m.jerk_use.t_s, m.jerk_use.layer);
-        let _ = writeln!(s, "  window slack {:8.4} deg      at t = {:8.2} s (layer {})", m.window_slack_deg.value, m.window_slack_deg.t_s, m.window_slack_deg.layer);
+        let _ = writeln!(
+            s,
+            "  speed        {:6.1} % of V     at t = {:8.2} s (layer {})",
+            100.0 * m.speed_use.value,
+            m.speed_use.t_s,
+            m.speed_use.layer
+        );
+        let _ = writeln!(
+            s,
+            "  acceleration {:6.1} % of A/D   at t = {:8.2} s (layer {})",
+            100.0 * m.accel_use.value,
+            m.accel_use.t_s,
+            m.accel_use.layer
+        );
+        let _ = writeln!(
+            s,
+            "  jerk         {:6.1} % of J     at t = {:8.2} s (layer {})",
+            100.0 * m.jerk_use.value,
+            m.jerk_use.t_s,
+            m.jerk_use.layer
+        );
+        let _ = writeln!(
+            s,
+            "  window slack {:8.4} deg      at t = {:8.2} s (layer {})",
+            m.window_slack_deg.value, m.window_slack_deg.t_s, m.window_slack_deg.layer
+        );
         if m.elst_slack_s.value.is_finite() {
-            let _ = writeln!(s, "  ELST slack   {:8.4} s        at t = {:8.2} s (layer {})", m.elst_slack_s.value, m.elst_slack_s.t_s, m.elst_slack_s.layer);
+            let _ = writeln!(
+                s,
+                "  ELST slack   {:8.4} s        at t = {:8.2} s (layer {})",
+                m.elst_slack_s.value, m.elst_slack_s.t_s, m.elst_slack_s.layer
+            );
         }
     }
     let mut costly: Vec<_> = d.transitions.iter().collect();
-    costly.sort_by(|a, b| b.lost_s.total_cmp(&a.lost_s).then(b.duration_s.total_cmp(&a.duration_s)));
+    costly.sort_by(|a, b| {
+        b.lost_s
+            .total_cmp(&a.lost_s)
+            .then(b.duration_s.total_cmp(&a.duration_s))
+    });
     let _ = writeln!(s, "5 most costly transitions (time beyond the ELST):");
     let _ = writeln!(s, "  layers      start (s)  duration (s)  ELST (s)  lost (s)  gap (deg)  speeds (deg/s)   limit");
     for tr in costly.iter().take(5) {
@@ -133,12 +202,21 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
         );
     }
     if !d.violations.is_empty() {
-        let _ = writeln!(s, "{} prescribed speeds cannot be delivered (corrected speeds used above):", d.violations.len());
+        let _ = writeln!(
+            s,
+            "{} prescribed speeds cannot be delivered (corrected speeds used above):",
+            d.violations.len()
+        );
         for v in &d.violations {
             let _ = writeln!(
                 s,
                 "  arc {}, control point {} (layer {}): {:.4} deg/s → {:.4} deg/s: {}",
-                v.arc, v.control_point, v.layer, v.prescribed_deg_per_s, v.corrected_deg_per_s, v.reason
+                v.arc,
+                v.control_point,
+                v.layer,
+                v.prescribed_deg_per_s,
+                v.corrected_deg_per_s,
+                v.reason
             );
         }
     }
@@ -146,11 +224,18 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
 }
 
 fn write_csv(path: &Path, d: &Delivery, dt: f64) -> Result<(), CliError> {
-    let tl = d.timeline.as_ref().ok_or_else(|| CliError::failed("no timeline was built"))?;
-    let mut s = String::from("t_s,angle_deg,speed_deg_per_s,accel_deg_per_s2,jerk_deg_per_s3,beam_layer,energy_mev\n");
+    let tl = d
+        .timeline
+        .as_ref()
+        .ok_or_else(|| CliError::failed("no timeline was built"))?;
+    let mut s = String::from(
+        "t_s,angle_deg,speed_deg_per_s,accel_deg_per_s2,jerk_deg_per_s3,beam_layer,energy_mev\n",
+    );
     for (t, st) in tl.samples(dt) {
         let layer = tl.beam_layer_at(t);
-        let energy = layer.map(|l| d.layers[l].energy_mev.to_string()).unwrap_or_default();
+        let energy = layer
+            .map(|l| d.layers[l].energy_mev.to_string())
+            .unwrap_or_default();
         let _ = writeln!(
             s,
             "{t:.6},{},{},{},{},{},{energy}",
@@ -161,20 +246,28 @@ fn write_csv(path: &Path, d: &Delivery, dt: f64) -> Result<(), CliError> {
             layer.map(|l| l.to_string()).unwrap_or_default()
         );
     }
-    std::fs::write(path, s).map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))
+    std::fs::write(path, s)
+        .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
     if !(args.dt.is_finite() && args.dt > 0.0) {
-        return Err(CliError::usage(format!("--dt {}: expected a finite number > 0", args.dt)));
+        return Err(CliError::usage(format!(
+            "--dt {}: expected a finite number > 0",
+            args.dt
+        )));
     }
     let plan = load_plan(&args.plan)?;
     let machine = load_machine(args.machine.as_deref())?;
     let opts = Options::new(args.schedule.into());
-    let delivery = simulate(&plan, &machine, &opts).map_err(|e| CliError::failed(format!("{}: {e}", args.plan.display())))?;
+    let delivery = simulate(&plan, &machine, &opts)
+        .map_err(|e| CliError::failed(format!("{}: {e}", args.plan.display())))?;
     if let Some(tl) = &delivery.timeline {
         if tl.duration_s() / args.dt > 5e7 {
-            return Err(CliError::usage(format!("--dt {} would write more than 5e7 samples", args.dt)));
+            return Err(CliError::usage(format!(
+                "--dt {} would write more than 5e7 samples",
+                args.dt
+            )));
         }
     }
     print!("{}", summary(&delivery, &plan.name, &machine.name));
@@ -186,11 +279,20 @@ pub fn run(args: Args) -> Result<(), CliError> {
             machine: machine.name.clone(),
             delivery: &delivery,
         };
-        let text = serde_json::to_string_pretty(&out).map_err(|e| CliError::failed(e.to_string()))?;
-        std::fs::write(path, text).map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))?;
+        let text =
+            serde_json::to_string_pretty(&out).map_err(|e| CliError::failed(e.to_string()))?;
+        std::fs::write(path, text)
+            .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))?;
     }
     if let Some(path) = &args.csv {
         write_csv(path, &delivery, args.dt)?;
     }
-    crate::viewer::output(&delivery, &plan.name, args.dt, args.rrd.as_deref(), args.spawn, args.connect.as_deref())
+    crate::viewer::output(
+        &delivery,
+        &plan.name,
+        args.dt,
+        args.rrd.as_deref(),
+        args.spawn,
+        args.connect.as_deref(),
+    )
 }

@@ -44,10 +44,19 @@ pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
                 o.breakdown.lost_s.to_string(),
                 opt(o.speedup),
             ]);
-            f.extend([c.elst, c.speed, c.accel, c.jerk, c.none, o.violations].map(|n| n.to_string()));
+            f.extend(
+                [c.elst, c.speed, c.accel, c.jerk, c.none, o.violations].map(|n| n.to_string()),
+            );
             match &o.margins {
                 Some(m) => f.extend(
-                    [m.speed_use, m.accel_use, m.jerk_use, m.window_slack_deg, m.elst_slack_s].map(|x| x.value.to_string()),
+                    [
+                        m.speed_use,
+                        m.accel_use,
+                        m.jerk_use,
+                        m.window_slack_deg,
+                        m.elst_slack_s,
+                    ]
+                    .map(|x| x.value.to_string()),
                 ),
                 None => f.extend(std::iter::repeat_n(String::new(), 5)),
             }
@@ -60,7 +69,10 @@ pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
 
 /// A text field on one line, quoted when it holds a comma or a quote.
 fn text(s: &str) -> String {
-    let one_line: String = s.chars().map(|c| if c == '\n' || c == '\r' { ' ' } else { c }).collect();
+    let one_line: String = s
+        .chars()
+        .map(|c| if c == '\n' || c == '\r' { ' ' } else { c })
+        .collect();
     if one_line.contains([',', '"']) {
         format!("\"{}\"", one_line.replace('"', "\"\""))
     } else {
@@ -71,22 +83,40 @@ fn text(s: &str) -> String {
 /// Joins shard outputs (`(name, text)` pairs, in any order) into the table a single run writes.
 /// Every input must have the sweep header; indices must not repeat and must cover `0..n` without
 /// gaps, and be exactly `0..expected` when `expected` is given (the sweep's combination count).
-pub fn merge_csv(inputs: &[(String, String)], expected: Option<usize>) -> Result<String, EvalError> {
+pub fn merge_csv(
+    inputs: &[(String, String)],
+    expected: Option<usize>,
+) -> Result<String, EvalError> {
     let mut rows: Vec<(usize, &str, &str)> = Vec::new();
     for (name, text) in inputs {
-        let merr = |message: String| EvalError::Merge { file: name.clone(), message };
+        let merr = |message: String| EvalError::Merge {
+            file: name.clone(),
+            message,
+        };
         let mut lines = text.lines();
         match lines.next() {
             Some(h) if h == CSV_HEADER => {}
             Some(_) => return Err(merr("line 1: expected the arcsim sweep CSV header".into())),
-            None => return Err(merr("empty file; expected the arcsim sweep CSV header".into())),
+            None => {
+                return Err(merr(
+                    "empty file; expected the arcsim sweep CSV header".into(),
+                ))
+            }
         }
         if !text.ends_with('\n') {
-            return Err(merr("the last line is incomplete (no newline): was the run killed while writing?".into()));
+            return Err(merr(
+                "the last line is incomplete (no newline): was the run killed while writing?"
+                    .into(),
+            ));
         }
         for (n, line) in lines.enumerate() {
             let index = line.split(',').next().and_then(|i| i.parse::<usize>().ok());
-            let index = index.ok_or_else(|| merr(format!("line {}: expected a row starting with its index", n + 2)))?;
+            let index = index.ok_or_else(|| {
+                merr(format!(
+                    "line {}: expected a row starting with its index",
+                    n + 2
+                ))
+            })?;
             rows.push((index, line, name));
         }
     }
@@ -95,7 +125,10 @@ pub fn merge_csv(inputs: &[(String, String)], expected: Option<usize>) -> Result
         if pair[0].0 == pair[1].0 {
             return Err(EvalError::Merge {
                 file: pair[1].2.to_string(),
-                message: format!("row {} also appears in {}; expected each combination once", pair[1].0, pair[0].2),
+                message: format!(
+                    "row {} also appears in {}; expected each combination once",
+                    pair[1].0, pair[0].2
+                ),
             });
         }
     }
@@ -143,9 +176,18 @@ mod tests {
         let merged = merge_csv(&[b.clone(), a.clone()], Some(5)).expect("merge");
         assert_eq!(merged, file(&[0, 1, 2, 3, 4]));
         assert!(merge_csv(&[a.clone(), b.clone()], Some(6)).is_err());
-        assert!(merge_csv(&[a.clone()], None).expect_err("gap").to_string().contains("row 1 is missing"));
-        assert!(merge_csv(&[a.clone(), a.clone()], None).expect_err("dup").to_string().contains("also appears"));
-        assert!(merge_csv(&[("c".into(), "x\n".into())], None).expect_err("header").to_string().contains("header"));
+        assert!(merge_csv(&[a.clone()], None)
+            .expect_err("gap")
+            .to_string()
+            .contains("row 1 is missing"));
+        assert!(merge_csv(&[a.clone(), a.clone()], None)
+            .expect_err("dup")
+            .to_string()
+            .contains("also appears"));
+        assert!(merge_csv(&[("c".into(), "x\n".into())], None)
+            .expect_err("header")
+            .to_string()
+            .contains("header"));
     }
 
     #[test]

@@ -7,10 +7,18 @@ pub enum EvalError {
     /// A sweep file (or a file it names) is unreadable or wrong; `field` is the JSON path
     /// (e.g. `axes.jerk_deg_per_s3.steps`), empty for the whole file.
     #[error("{file}: {}{message}", located(field))]
-    Sweep { file: String, field: String, message: String },
+    Sweep {
+        file: String,
+        field: String,
+        message: String,
+    },
     /// A plan, machine or reference file named by the sweep failed to load.
     #[error("{file}: {field}: {message}")]
-    Input { file: String, field: String, message: String },
+    Input {
+        file: String,
+        field: String,
+        message: String,
+    },
     /// A `--shard K/N` argument that is not two integers with 1 <= K <= N.
     #[error("shard \"{0}\": expected K/N with 1 <= K <= N (e.g. 2/3)")]
     Shard(String),
@@ -31,6 +39,10 @@ fn located(field: &str) -> String {
 
 impl EvalError {
     pub(crate) fn sweep(file: &str, field: impl Into<String>, message: impl Into<String>) -> Self {
-        EvalError::Sweep { file: file.to_string(), field: field.into(), message: message.into() }
+        EvalError::Sweep {
+            file: file.to_string(),
+            field: field.into(),
+            message: message.into(),
+        }
     }
 }

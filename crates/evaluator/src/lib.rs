@@ -23,7 +23,10 @@ pub use csv::{merge_csv, write_csv_header, write_csv_row, CSV_HEADER};
 pub use error::EvalError;
 pub use run::{Evaluator, Outcome, Row, Status};
 pub use shard::Shard;
-pub use summary::{describe_setting, describe_steps, short, table, Change, Entry, Point, Profile, ProfilePoint, Sensitivity, Step, Summary};
+pub use summary::{
+    describe_setting, describe_steps, short, table, Change, Entry, Point, Profile, ProfilePoint,
+    Sensitivity, Step, Summary,
+};
 pub use sweep::{Axis, Grid, Run, Setting, Sweep, SweepPlan};
 pub use sweep_file::{parse_sweep_file, Target, SWEEP_FORMAT};
 

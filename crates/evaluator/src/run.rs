@@ -9,7 +9,10 @@ use std::time::{Duration, Instant};
 
 use arcsim_plan::{ArcPlan, ElstModel, Machine, ResolvedArc};
 use arcsim_planner::Limits;
-use arcsim_sequencer::{machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options, Schedule, SequenceError};
+use arcsim_sequencer::{
+    machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options, Schedule,
+    SequenceError,
+};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -95,7 +98,12 @@ pub struct Evaluator {
 }
 
 fn key(plan: usize, s: &Setting) -> VariantKey {
-    (plan, s.window_deg.map(f64::to_bits), s.elst_up_s.map(f64::to_bits), s.elst_down_s.map(f64::to_bits))
+    (
+        plan,
+        s.window_deg.map(f64::to_bits),
+        s.elst_up_s.map(f64::to_bits),
+        s.elst_down_s.map(f64::to_bits),
+    )
 }
 
 /// The plan and machine of one (window, ELST) variant, resolved.
@@ -112,7 +120,10 @@ fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
         None => arcsim_plan::resolve(plan, &m),
         Some(w) => {
             let mut p = plan.clone();
-            p.arcs.iter_mut().flat_map(|a| a.control_points.iter_mut()).for_each(|cp| cp.window_deg = Some(w));
+            p.arcs
+                .iter_mut()
+                .flat_map(|a| a.control_points.iter_mut())
+                .for_each(|cp| cp.window_deg = Some(w));
             arcsim_plan::resolve(&p, &m)
         }
     };
@@ -147,13 +158,25 @@ impl Evaluator {
                 for &w in &g.window {
                     for &u in &g.elst_up {
                         for &d in &g.elst_down {
-                            let s = Setting { window_deg: w, elst_up_s: u, elst_down_s: d, ..base };
+                            let s = Setting {
+                                window_deg: w,
+                                elst_up_s: u,
+                                elst_down_s: d,
+                                ..base
+                            };
                             variant_of.push(id_of(plan, &s));
                         }
                     }
                 }
                 let len = g.len();
-                blocks.push(Block { plan, run, offset, len, variant_of, base_total_s: None });
+                blocks.push(Block {
+                    plan,
+                    run,
+                    offset,
+                    len,
+                    variant_of,
+                    base_total_s: None,
+                });
                 offset += len;
             }
         }
@@ -161,7 +184,13 @@ impl Evaluator {
             .par_iter()
             .map(|(plan, s)| resolve_variant(&sweep.plans[*plan].plan, &sweep.machine, s))
             .collect();
-        let mut ev = Evaluator { sweep, base_limits, blocks, variants, variant_ids };
+        let mut ev = Evaluator {
+            sweep,
+            base_limits,
+            blocks,
+            variants,
+            variant_ids,
+        };
         let base_totals: Vec<Option<f64>> = ev
             .blocks
             .par_iter()
@@ -198,12 +227,19 @@ impl Evaluator {
     /// Plan index, schedule entry index and setting of combination `index` (< [`Evaluator::len`]).
     pub fn combination(&self, index: usize) -> (usize, usize, Setting) {
         let b = self.block(index);
-        (b.plan, b.run, self.sweep.runs[b.run].grid.setting(index - b.offset))
+        (
+            b.plan,
+            b.run,
+            self.sweep.runs[b.run].grid.setting(index - b.offset),
+        )
     }
 
     /// The base machine's total for a plan under a schedule entry (`None`: infeasible there).
     pub fn base_total_s(&self, plan: usize, run: usize) -> Option<f64> {
-        self.blocks.iter().find(|b| b.plan == plan && b.run == run).and_then(|b| b.base_total_s)
+        self.blocks
+            .iter()
+            .find(|b| b.plan == plan && b.run == run)
+            .and_then(|b| b.base_total_s)
     }
 
     /// The planner limits of a setting: J, A, V as given; an explicit deceleration limit scaled
@@ -226,27 +262,56 @@ impl Evaluator {
         let i = index - b.offset;
         let setting = g.setting(i);
         let variant = b.variant_of[i / (g.jerk.len() * g.accel.len() * g.speed.len())];
-        let (status, outcome, message) = self.simulate_variant(&self.variants[variant], run.schedule, &setting, b.base_total_s);
-        Row { index, plan: self.sweep.plans[b.plan].label.clone(), schedule: run.schedule, setting, status, outcome, message }
+        let (status, outcome, message) = self.simulate_variant(
+            &self.variants[variant],
+            run.schedule,
+            &setting,
+            b.base_total_s,
+        );
+        Row {
+            index,
+            plan: self.sweep.plans[b.plan].label.clone(),
+            schedule: run.schedule,
+            setting,
+            status,
+            outcome,
+            message,
+        }
     }
 
     /// Simulates any setting of a plan (resolving its variant if the grids do not use it).
-    pub fn simulate(&self, plan: usize, schedule: Schedule, s: &Setting, base_total_s: Option<f64>) -> (Status, Option<Outcome>, String) {
+    pub fn simulate(
+        &self,
+        plan: usize,
+        schedule: Schedule,
+        s: &Setting,
+        base_total_s: Option<f64>,
+    ) -> (Status, Option<Outcome>, String) {
         match self.variant_ids.get(&key(plan, s)) {
             Some(&v) => self.simulate_variant(&self.variants[v], schedule, s, base_total_s),
             None => {
-                let resolved = resolve_variant(&self.sweep.plans[plan].plan, &self.sweep.machine, s);
+                let resolved =
+                    resolve_variant(&self.sweep.plans[plan].plan, &self.sweep.machine, s);
                 self.simulate_variant(&resolved, schedule, s, base_total_s)
             }
         }
     }
 
-    fn simulate_variant(&self, arcs: &Resolved, schedule: Schedule, s: &Setting, base_total_s: Option<f64>) -> (Status, Option<Outcome>, String) {
+    fn simulate_variant(
+        &self,
+        arcs: &Resolved,
+        schedule: Schedule,
+        s: &Setting,
+        base_total_s: Option<f64>,
+    ) -> (Status, Option<Outcome>, String) {
         let arcs = match arcs {
             Ok(a) => a,
             Err(e) => return (Status::Invalid, None, e.clone()),
         };
-        let opts = Options { schedule, build_timeline: self.sweep.margins };
+        let opts = Options {
+            schedule,
+            build_timeline: self.sweep.margins,
+        };
         let limits = self.limits(s);
         let result = catch_unwind(AssertUnwindSafe(|| simulate_resolved(arcs, &limits, &opts)));
         match result {
@@ -261,7 +326,9 @@ impl Evaluator {
                 };
                 (Status::Ok, Some(outcome), String::new())
             }
-            Ok(Err(e @ SequenceError::Infeasible { .. })) => (Status::Infeasible, None, e.to_string()),
+            Ok(Err(e @ SequenceError::Infeasible { .. })) => {
+                (Status::Infeasible, None, e.to_string())
+            }
             Ok(Err(e @ SequenceError::Plan(_))) => (Status::Invalid, None, e.to_string()),
             Ok(Err(e)) => (Status::Error, None, e.to_string()),
             Err(panic) => {
@@ -270,7 +337,11 @@ impl Evaluator {
                     .map(|s| s.to_string())
                     .or_else(|| panic.downcast_ref::<String>().cloned())
                     .unwrap_or_else(|| "unknown panic".into());
-                (Status::Error, None, format!("the simulation panicked (a bug): {what}"))
+                (
+                    Status::Error,
+                    None,
+                    format!("the simulation panicked (a bug): {what}"),
+                )
             }
         }
     }
@@ -290,8 +361,10 @@ impl Evaluator {
         while done < indices.len() && !cancel.load(Ordering::Relaxed) {
             let part = &indices[done..(done + chunk).min(indices.len())];
             let started = Instant::now();
-            let rows: Vec<Option<Row>> =
-                part.par_iter().map(|&i| (!cancel.load(Ordering::Relaxed)).then(|| self.evaluate(i))).collect();
+            let rows: Vec<Option<Row>> = part
+                .par_iter()
+                .map(|&i| (!cancel.load(Ordering::Relaxed)).then(|| self.evaluate(i)))
+                .collect();
             let finished: Vec<Row> = rows.into_iter().map_while(|r| r).collect();
             sink(&finished)?;
             done += finished.len();

@@ -60,10 +60,15 @@ mod tests {
 
     #[test]
     fn shards_partition_the_indices() {
-        let mut all: Vec<usize> = (1..=3).flat_map(|k| Shard::new(k, 3).expect("shard").indices(10)).collect();
+        let mut all: Vec<usize> = (1..=3)
+            .flat_map(|k| Shard::new(k, 3).expect("shard").indices(10))
+            .collect();
         all.sort();
         assert_eq!(all, (0..10).collect::<Vec<_>>());
-        assert_eq!("2/3".parse::<Shard>().expect("valid").indices(7), vec![1, 4]);
+        assert_eq!(
+            "2/3".parse::<Shard>().expect("valid").indices(7),
+            vec![1, 4]
+        );
         for bad in ["0/3", "4/3", "1/0", "3", "a/b", "1/2/3", "-1/2"] {
             assert!(bad.parse::<Shard>().is_err(), "{bad}");
         }

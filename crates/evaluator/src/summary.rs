@@ -128,8 +128,10 @@ impl Evaluator {
         for plan in 0..sweep.plans.len() {
             for (run, r) in sweep.runs.iter().enumerate() {
                 let base_total = self.base_total_s(plan, run);
-                let swept: Vec<Axis> =
-                    Axis::ALL.into_iter().filter(|&a| r.grid.values(a) != vec![base.get(a)]).collect();
+                let swept: Vec<Axis> = Axis::ALL
+                    .into_iter()
+                    .filter(|&a| r.grid.values(a) != vec![base.get(a)])
+                    .collect();
                 let mut tasks = Vec::new();
                 for &axis in &swept {
                     for v in r.grid.values(axis).into_iter().flatten() {
@@ -138,11 +140,16 @@ impl Evaluator {
                 }
                 let sens_axes: Vec<Axis> = Axis::ALL
                     .into_iter()
-                    .filter(|&a| matches!(a, Axis::Jerk | Axis::Accel | Axis::Speed) || swept.contains(&a))
+                    .filter(|&a| {
+                        matches!(a, Axis::Jerk | Axis::Accel | Axis::Speed) || swept.contains(&a)
+                    })
                     .filter(|&a| sweep.base_value(a).is_some_and(|b| b > 0.0))
                     .collect();
                 for &axis in &sens_axes {
-                    tasks.extend([Task::Sens { axis, up: true }, Task::Sens { axis, up: false }]);
+                    tasks.extend([
+                        Task::Sens { axis, up: true },
+                        Task::Sens { axis, up: false },
+                    ]);
                 }
                 let setting_of = |t: &Task| match *t {
                     Task::Profile { axis, value } => base.with(axis, value),
@@ -153,7 +160,11 @@ impl Evaluator {
                 };
                 let totals: Vec<Option<f64>> = tasks
                     .par_iter()
-                    .map(|t| self.simulate(plan, r.schedule, &setting_of(t), base_total).1.map(|o| o.total_s))
+                    .map(|t| {
+                        self.simulate(plan, r.schedule, &setting_of(t), base_total)
+                            .1
+                            .map(|o| o.total_s)
+                    })
                     .collect();
                 let speedup = |t: Option<f64>| base_total.zip(t).map(|(b, t)| b / t);
                 let profiles: Vec<Profile> = swept
@@ -165,7 +176,11 @@ impl Evaluator {
                             .zip(&totals)
                             .filter_map(|(t, &total)| match *t {
                                 Task::Profile { axis: a, value } if a == axis => {
-                                    Some(ProfilePoint { value, total_s: total, speedup: speedup(total) })
+                                    Some(ProfilePoint {
+                                        value,
+                                        total_s: total,
+                                        speedup: speedup(total),
+                                    })
                                 }
                                 _ => None,
                             })
@@ -203,18 +218,33 @@ impl Evaluator {
                     .iter()
                     .filter(|row| row.status == Status::Ok)
                     .filter_map(|row| {
-                        row.outcome.map(|o| Point { index: Some(row.index), setting: row.setting, total_s: o.total_s, speedup: o.speedup })
+                        row.outcome.map(|o| Point {
+                            index: Some(row.index),
+                            setting: row.setting,
+                            total_s: o.total_s,
+                            speedup: o.speedup,
+                        })
                     })
                     .collect();
-                let fastest = feasible.iter().copied().min_by(|a, b| a.total_s.total_cmp(&b.total_s));
+                let fastest = feasible
+                    .iter()
+                    .copied()
+                    .min_by(|a, b| a.total_s.total_cmp(&b.total_s));
                 let mut candidates = feasible.clone();
                 for (t, &total) in tasks.iter().zip(&totals) {
                     if let (Task::Profile { .. }, Some(total_s)) = (t, total) {
-                        candidates.push(Point { index: None, setting: setting_of(t), total_s, speedup: speedup(Some(total_s)) });
+                        candidates.push(Point {
+                            index: None,
+                            setting: setting_of(t),
+                            total_s,
+                            speedup: speedup(Some(total_s)),
+                        });
                     }
                 }
                 let target_total_s = base_total.map(|b| sweep.target.total_s(b));
-                let cheapest = target_total_s.zip(base_total).and_then(|(target, b)| self.cheapest(&candidates, target, b));
+                let cheapest = target_total_s
+                    .zip(base_total)
+                    .and_then(|(target, b)| self.cheapest(&candidates, target, b));
                 entries.push(Entry {
                     plan: sweep.plans[plan].label.clone(),
                     schedule: r.schedule,
@@ -229,7 +259,13 @@ impl Evaluator {
                 });
             }
         }
-        Summary { sweep: sweep.name.clone(), combinations: self.len(), rows: rows.len(), target: sweep.target, entries }
+        Summary {
+            sweep: sweep.name.clone(),
+            combinations: self.len(),
+            rows: rows.len(),
+            target: sweep.target,
+            entries,
+        }
     }
 
     /// The changed limits of a setting and its cost, `None` when a change involves a zero value.
@@ -253,14 +289,32 @@ impl Evaluator {
 
     fn cheapest(&self, candidates: &[Point], target: f64, base_total: f64) -> Option<Change> {
         if base_total <= target {
-            return Some(Change { steps: Vec::new(), cost: 0.0, total_s: base_total, saving_s: 0.0, index: None });
+            return Some(Change {
+                steps: Vec::new(),
+                cost: 0.0,
+                total_s: base_total,
+                saving_s: 0.0,
+                index: None,
+            });
         }
         candidates
             .iter()
             .filter(|p| p.total_s <= target)
-            .filter_map(|p| self.change_of(&p.setting).map(|(steps, cost)| (p, steps, cost)))
-            .min_by(|a, b| a.2.total_cmp(&b.2).then(a.0.total_s.total_cmp(&b.0.total_s)))
-            .map(|(p, steps, cost)| Change { steps, cost, total_s: p.total_s, saving_s: base_total - p.total_s, index: p.index })
+            .filter_map(|p| {
+                self.change_of(&p.setting)
+                    .map(|(steps, cost)| (p, steps, cost))
+            })
+            .min_by(|a, b| {
+                a.2.total_cmp(&b.2)
+                    .then(a.0.total_s.total_cmp(&b.0.total_s))
+            })
+            .map(|(p, steps, cost)| Change {
+                steps,
+                cost,
+                total_s: p.total_s,
+                saving_s: base_total - p.total_s,
+                index: p.index,
+            })
     }
 }
 
@@ -297,8 +351,10 @@ pub fn describe_steps(steps: &[Step]) -> String {
 
 /// "J 2, A 1, V 6" plus any ELST / window the setting sets.
 pub fn describe_setting(s: &Setting) -> String {
-    let parts: Vec<String> =
-        Axis::ALL.into_iter().filter_map(|a| s.get(a).map(|v| format!("{} {}", a.symbol().0, short(v)))).collect();
+    let parts: Vec<String> = Axis::ALL
+        .into_iter()
+        .filter_map(|a| s.get(a).map(|v| format!("{} {}", a.symbol().0, short(v))))
+        .collect();
     parts.join(", ")
 }
 
@@ -336,8 +392,15 @@ impl Summary {
     /// The summary as aligned text tables.
     pub fn to_table(&self) -> String {
         let mut out = String::new();
-        let partial = if self.rows < self.combinations { format!(" ({} of {} combinations)", self.rows, self.combinations) } else { String::new() };
-        out += &format!("Sweep \"{}\"{partial}: delivery time per plan and schedule\n", self.sweep);
+        let partial = if self.rows < self.combinations {
+            format!(" ({} of {} combinations)", self.rows, self.combinations)
+        } else {
+            String::new()
+        };
+        out += &format!(
+            "Sweep \"{}\"{partial}: delivery time per plan and schedule\n",
+            self.sweep
+        );
         let rows: Vec<Vec<String>> = self
             .entries
             .iter()
@@ -350,22 +413,44 @@ impl Summary {
                     opt(e.base_total_s, 1),
                     opt(e.fastest.map(|p| p.total_s), 1),
                     opt(e.fastest.and_then(|p| p.speedup), 3),
-                    e.fastest.map_or("-".into(), |p| describe_setting(&p.setting)),
+                    e.fastest
+                        .map_or("-".into(), |p| describe_setting(&p.setting)),
                 ]
             })
             .collect();
         out += &table(
-            &["plan", "schedule", "rows", "feasible", "base [s]", "fastest [s]", "speed-up", "fastest setting"],
+            &[
+                "plan",
+                "schedule",
+                "rows",
+                "feasible",
+                "base [s]",
+                "fastest [s]",
+                "speed-up",
+                "fastest setting",
+            ],
             &[true, true, false, false, false, false, false, true],
             &rows,
         );
 
-        let axes: Vec<Axis> = Axis::ALL.into_iter().filter(|a| self.entries.iter().any(|e| e.sensitivity.iter().any(|s| s.axis == *a))).collect();
+        let axes: Vec<Axis> = Axis::ALL
+            .into_iter()
+            .filter(|a| {
+                self.entries
+                    .iter()
+                    .any(|e| e.sensitivity.iter().any(|s| s.axis == *a))
+            })
+            .collect();
         out += "\nSensitivity at the base machine: change of the total for +10 % of one limit, in s\n\
                 (central difference (T(1.1 L) - T(L/1.1)) / 2; negative = raising the limit saves time)\n";
         let mut header = vec!["plan".to_string(), "schedule".to_string()];
         header.extend(axes.iter().map(|a| {
-            let base = self.entries.iter().flat_map(|e| &e.sensitivity).find(|s| s.axis == *a).map(|s| s.base_value);
+            let base = self
+                .entries
+                .iter()
+                .flat_map(|e| &e.sensitivity)
+                .find(|s| s.axis == *a)
+                .map(|s| s.base_value);
             format!("{} (base {})", a.symbol().0, base.map_or("-".into(), short))
         }));
         let rows: Vec<Vec<String>> = self
@@ -374,7 +459,10 @@ impl Summary {
             .map(|e| {
                 let mut r = vec![e.plan.clone(), e.schedule.name().to_string()];
                 r.extend(axes.iter().map(|a| {
-                    e.sensitivity.iter().find(|s| s.axis == *a).map_or("-".into(), |s| opt(s.s_per_10_percent, 2))
+                    e.sensitivity
+                        .iter()
+                        .find(|s| s.axis == *a)
+                        .map_or("-".into(), |s| opt(s.s_per_10_percent, 2))
                 }));
                 r
             })
@@ -411,7 +499,18 @@ impl Summary {
                 ],
             })
             .collect();
-        out += &table(&["plan", "schedule", "target [s]", "change", "total [s]", "saves [s]"], &[true, true, false, true], &rows);
+        out += &table(
+            &[
+                "plan",
+                "schedule",
+                "target [s]",
+                "change",
+                "total [s]",
+                "saves [s]",
+            ],
+            &[true, true, false, true],
+            &rows,
+        );
 
         if self.entries.iter().any(|e| !e.profiles.is_empty()) {
             out += "\nTime at each value of one limit, the others at the base machine\n";
@@ -431,7 +530,18 @@ impl Summary {
                     }
                 }
             }
-            out += &table(&["plan", "schedule", "limit", "value", "total [s]", "speed-up"], &[true, true, true], &rows);
+            out += &table(
+                &[
+                    "plan",
+                    "schedule",
+                    "limit",
+                    "value",
+                    "total [s]",
+                    "speed-up",
+                ],
+                &[true, true, true],
+                &rows,
+            );
         }
         out
     }

@@ -79,7 +79,14 @@ pub enum Axis {
 }
 
 impl Axis {
-    pub const ALL: [Axis; 6] = [Axis::Jerk, Axis::Accel, Axis::Speed, Axis::ElstUp, Axis::ElstDown, Axis::Window];
+    pub const ALL: [Axis; 6] = [
+        Axis::Jerk,
+        Axis::Accel,
+        Axis::Speed,
+        Axis::ElstUp,
+        Axis::ElstDown,
+        Axis::Window,
+    ];
 
     /// The field name in sweep files and output columns.
     pub fn field(self) -> &'static str {
@@ -136,7 +143,12 @@ impl Setting {
 impl Grid {
     /// Number of grid points (at least 1 once loaded).
     pub fn len(&self) -> usize {
-        self.jerk.len() * self.accel.len() * self.speed.len() * self.elst_up.len() * self.elst_down.len() * self.window.len()
+        self.jerk.len()
+            * self.accel.len()
+            * self.speed.len()
+            * self.elst_up.len()
+            * self.elst_down.len()
+            * self.window.len()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -177,13 +189,19 @@ impl Sweep {
     /// Reads a sweep file and everything it names (paths relative to the file), loading plan files
     /// with [`arcsim_plan::load_plan`].
     pub fn load(path: &Path) -> Result<Sweep, EvalError> {
-        Sweep::load_with(path, &|p: &Path| arcsim_plan::load_plan(p).map_err(|e| e.to_string()))
+        Sweep::load_with(path, &|p: &Path| {
+            arcsim_plan::load_plan(p).map_err(|e| e.to_string())
+        })
     }
 
     /// As [`Sweep::load`], with a plan loader of the caller's (e.g. one that also reads DICOM).
-    pub fn load_with(path: &Path, load_plan: &dyn Fn(&Path) -> Result<ArcPlan, String>) -> Result<Sweep, EvalError> {
+    pub fn load_with(
+        path: &Path,
+        load_plan: &dyn Fn(&Path) -> Result<ArcPlan, String>,
+    ) -> Result<Sweep, EvalError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| EvalError::sweep(&file, "", format!("cannot read: {e}")))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| EvalError::sweep(&file, "", format!("cannot read: {e}")))?;
         let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Sweep::from_text(&text, &file, &base_dir, load_plan)
     }
@@ -237,7 +255,9 @@ impl Sweep {
                 ElstModel::Polynomial { .. } => None,
             },
             Axis::ElstDown => match self.machine.elst {
-                ElstModel::Constant { down_s, .. } | ElstModel::Polynomial { down_s, .. } => Some(down_s),
+                ElstModel::Constant { down_s, .. } | ElstModel::Polynomial { down_s, .. } => {
+                    Some(down_s)
+                }
             },
             Axis::Window => Some(self.machine.default_window_deg),
             other => self.base_setting().get(other),
@@ -257,7 +277,11 @@ impl Sweep {
 
 fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Run>, EvalError> {
     if spec.schedules.is_empty() {
-        return Err(EvalError::sweep(file, "schedules", "expected at least one schedule; an empty sweep has nothing to run"));
+        return Err(EvalError::sweep(
+            file,
+            "schedules",
+            "expected at least one schedule; an empty sweep has nothing to run",
+        ));
     }
     let g = &machine.gantry;
     spec.schedules
@@ -311,28 +335,55 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
 
 /// Expands and checks one axis: at least one value, each finite and > 0 (>= 0 when `zero_ok`),
 /// no value twice.
-fn axis_values(spec: &AxisSpec, field: &str, file: &str, zero_ok: bool) -> Result<Vec<f64>, EvalError> {
+fn axis_values(
+    spec: &AxisSpec,
+    field: &str,
+    file: &str,
+    zero_ok: bool,
+) -> Result<Vec<f64>, EvalError> {
     let bad = |sub: &str, msg: String| EvalError::sweep(file, format!("{field}{sub}"), msg);
-    let lower = if zero_ok { "finite and >= 0" } else { "finite and > 0" };
+    let lower = if zero_ok {
+        "finite and >= 0"
+    } else {
+        "finite and > 0"
+    };
     let ok = |x: f64| x.is_finite() && (x > 0.0 || (zero_ok && x == 0.0));
     match *spec {
         AxisSpec::Values(ref v) if v.is_empty() => {
-            return Err(bad("", "expected at least one value; an axis with no values makes an empty sweep".into()))
+            return Err(bad(
+                "",
+                "expected at least one value; an axis with no values makes an empty sweep".into(),
+            ))
         }
         AxisSpec::Values(ref v) => {
             if let Some((i, x)) = v.iter().enumerate().find(|(_, &x)| !ok(x)) {
-                return Err(bad(&format!("[{i}]"), format!("expected a value {lower}, got {x}")));
+                return Err(bad(
+                    &format!("[{i}]"),
+                    format!("expected a value {lower}, got {x}"),
+                ));
             }
         }
         AxisSpec::Range { steps: 0, .. } => {
-            return Err(bad(".steps", "expected at least 1 step; an axis with no values makes an empty sweep".into()))
+            return Err(bad(
+                ".steps",
+                "expected at least 1 step; an axis with no values makes an empty sweep".into(),
+            ))
         }
-        AxisSpec::Range { from, to, scale, .. } => {
+        AxisSpec::Range {
+            from, to, scale, ..
+        } => {
             for (name, x) in [("from", from), ("to", to)] {
                 let positive = x.is_finite() && x > 0.0;
                 if !ok(x) || (scale == crate::sweep_file::Scale::Log && !positive) {
-                    let need = if scale == crate::sweep_file::Scale::Log { "finite and > 0 (log scale)" } else { lower };
-                    return Err(bad(&format!(".{name}"), format!("expected a value {need}, got {x}")));
+                    let need = if scale == crate::sweep_file::Scale::Log {
+                        "finite and > 0 (log scale)"
+                    } else {
+                        lower
+                    };
+                    return Err(bad(
+                        &format!(".{name}"),
+                        format!("expected a value {need}, got {x}"),
+                    ));
                 }
             }
         }
@@ -341,7 +392,12 @@ fn axis_values(spec: &AxisSpec, field: &str, file: &str, zero_ok: bool) -> Resul
     let mut seen = HashMap::new();
     for (i, x) in values.iter().enumerate() {
         if let Some(j) = seen.insert(x.to_bits(), i) {
-            return Err(bad("", format!("value {x} appears twice (positions {j} and {i}); expected distinct values")));
+            return Err(bad(
+                "",
+                format!(
+                    "value {x} appears twice (positions {j} and {i}); expected distinct values"
+                ),
+            ));
         }
     }
     Ok(values)
@@ -354,7 +410,11 @@ fn load_plans(
     load_plan: &dyn Fn(&Path) -> Result<ArcPlan, String>,
 ) -> Result<Vec<SweepPlan>, EvalError> {
     if spec.plans.is_empty() {
-        return Err(EvalError::sweep(file, "plans", "expected at least one plan; an empty sweep has nothing to run"));
+        return Err(EvalError::sweep(
+            file,
+            "plans",
+            "expected at least one plan; an empty sweep has nothing to run",
+        ));
     }
     let mut plans = Vec::new();
     let mut references: HashMap<PathBuf, String> = HashMap::new();
@@ -363,37 +423,66 @@ fn load_plans(
         match source {
             PlanSource::Path(pattern) => {
                 let full = base_dir.join(pattern);
-                let full_str = full.to_str().ok_or_else(|| EvalError::sweep(file, &field, "expected a UTF-8 path"))?;
-                let paths = glob::glob(full_str)
-                    .map_err(|e| EvalError::sweep(file, &field, format!("bad glob \"{pattern}\": {e}")))?;
-                let mut paths: Vec<PathBuf> = paths
-                    .collect::<Result<_, _>>()
-                    .map_err(|e| EvalError::sweep(file, &field, format!("cannot list \"{pattern}\": {e}")))?;
+                let full_str = full
+                    .to_str()
+                    .ok_or_else(|| EvalError::sweep(file, &field, "expected a UTF-8 path"))?;
+                let paths = glob::glob(full_str).map_err(|e| {
+                    EvalError::sweep(file, &field, format!("bad glob \"{pattern}\": {e}"))
+                })?;
+                let mut paths: Vec<PathBuf> = paths.collect::<Result<_, _>>().map_err(|e| {
+                    EvalError::sweep(file, &field, format!("cannot list \"{pattern}\": {e}"))
+                })?;
                 paths.sort();
                 if paths.is_empty() {
-                    return Err(EvalError::sweep(file, &field, format!("\"{pattern}\" matches no file (relative to {})", dir_name(base_dir))));
+                    return Err(EvalError::sweep(
+                        file,
+                        &field,
+                        format!(
+                            "\"{pattern}\" matches no file (relative to {})",
+                            dir_name(base_dir)
+                        ),
+                    ));
                 }
                 for p in paths {
-                    let plan = load_plan(&p).map_err(|message| EvalError::Input { file: file.to_string(), field: field.clone(), message })?;
-                    let label = p.strip_prefix(base_dir).unwrap_or(&p).to_string_lossy().replace('\\', "/");
+                    let plan = load_plan(&p).map_err(|message| EvalError::Input {
+                        file: file.to_string(),
+                        field: field.clone(),
+                        message,
+                    })?;
+                    let label = p
+                        .strip_prefix(base_dir)
+                        .unwrap_or(&p)
+                        .to_string_lossy()
+                        .replace('\\', "/");
                     plans.push(SweepPlan { label, plan });
                 }
             }
-            PlanSource::AtomCase { atom_case, reference } => {
+            PlanSource::AtomCase {
+                atom_case,
+                reference,
+            } => {
                 let path = base_dir.join(reference);
                 let text = match references.get(&path) {
                     Some(t) => t.clone(),
                     None => {
                         let t = std::fs::read_to_string(&path).map_err(|e| {
-                            EvalError::sweep(file, format!("{field}.reference"), format!("cannot read {}: {e}", path.display()))
+                            EvalError::sweep(
+                                file,
+                                format!("{field}.reference"),
+                                format!("cannot read {}: {e}", path.display()),
+                            )
                         })?;
                         references.insert(path.clone(), t.clone());
                         t
                     }
                 };
-                let plan = arcsim_plan::atom_case_plan(&text, atom_case)
-                    .map_err(|e| EvalError::sweep(file, format!("{field}.atom_case"), e.to_string()))?;
-                plans.push(SweepPlan { label: format!("atom:{atom_case}"), plan });
+                let plan = arcsim_plan::atom_case_plan(&text, atom_case).map_err(|e| {
+                    EvalError::sweep(file, format!("{field}.atom_case"), e.to_string())
+                })?;
+                plans.push(SweepPlan {
+                    label: format!("atom:{atom_case}"),
+                    plan,
+                });
             }
         }
     }

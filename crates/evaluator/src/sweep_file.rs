@@ -46,7 +46,10 @@ pub enum PlanSource {
     /// A plan file, or a glob matching several (relative to the sweep file).
     Path(String),
     /// A case of the ATOM article reference file: `{"atom_case": "prostate", "reference": PATH}`.
-    AtomCase { atom_case: String, reference: String },
+    AtomCase {
+        atom_case: String,
+        reference: String,
+    },
 }
 
 /// The swept axes; each is absent (the base machine's value), one number, a list of numbers,
@@ -88,7 +91,12 @@ pub enum Scale {
 #[derive(Debug, Clone, PartialEq)]
 pub enum AxisSpec {
     Values(Vec<f64>),
-    Range { from: f64, to: f64, steps: usize, scale: Scale },
+    Range {
+        from: f64,
+        to: f64,
+        steps: usize,
+        scale: Scale,
+    },
 }
 
 /// One entry of `schedules`.
@@ -131,7 +139,12 @@ impl AxisSpec {
         match *self {
             AxisSpec::Values(ref v) => v.clone(),
             AxisSpec::Range { from, steps: 1, .. } => vec![from],
-            AxisSpec::Range { from, to, steps, scale } => (0..steps)
+            AxisSpec::Range {
+                from,
+                to,
+                steps,
+                scale,
+            } => (0..steps)
                 .map(|i| {
                     let f = i as f64 / (steps - 1) as f64;
                     if i + 1 == steps {
@@ -165,7 +178,11 @@ pub fn parse_sweep_file(text: &str, file: &str) -> Result<SweepFile, EvalError> 
         }
     };
     if sweep.format != SWEEP_FORMAT {
-        return Err(EvalError::sweep(file, "format", format!("expected \"{SWEEP_FORMAT}\", got \"{}\"", sweep.format)));
+        return Err(EvalError::sweep(
+            file,
+            "format",
+            format!("expected \"{SWEEP_FORMAT}\", got \"{}\"", sweep.format),
+        ));
     }
     Ok(sweep)
 }
@@ -175,10 +192,16 @@ fn json_error(file: &str, path: &str, e: &serde_json::Error) -> EvalError {
     let msg = msg.rfind(" at line ").map_or(msg.as_str(), |i| &msg[..i]);
     let field = if path == "." { "" } else { path };
     let kind = match e.classify() {
-        serde_json::error::Category::Syntax | serde_json::error::Category::Eof => "malformed JSON: ",
+        serde_json::error::Category::Syntax | serde_json::error::Category::Eof => {
+            "malformed JSON: "
+        }
         _ => "",
     };
-    EvalError::sweep(file, field, format!("{kind}{msg} (line {}, column {})", e.line(), e.column()))
+    EvalError::sweep(
+        file,
+        field,
+        format!("{kind}{msg} (line {}, column {})", e.line(), e.column()),
+    )
 }
 
 fn wrong_format(text: &str, file: &str) -> Option<EvalError> {
@@ -188,7 +211,11 @@ fn wrong_format(text: &str, file: &str) -> Option<EvalError> {
         Some(serde_json::Value::String(s)) if s == SWEEP_FORMAT => return None,
         Some(other) => other.to_string(),
     };
-    Some(EvalError::sweep(file, "format", format!("expected \"{SWEEP_FORMAT}\", got {found}; this is not a sweep file")))
+    Some(EvalError::sweep(
+        file,
+        "format",
+        format!("expected \"{SWEEP_FORMAT}\", got {found}; this is not a sweep file"),
+    ))
 }
 
 // ---- serde for the entries that take several shapes ----
@@ -213,7 +240,10 @@ impl<'de> Deserialize<'de> for PlanSource {
             }
             fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<PlanSource, M::Error> {
                 let r = AtomRef::deserialize(MapAccessDeserializer::new(map))?;
-                Ok(PlanSource::AtomCase { atom_case: r.atom_case, reference: r.reference })
+                Ok(PlanSource::AtomCase {
+                    atom_case: r.atom_case,
+                    reference: r.reference,
+                })
             }
         }
         d.deserialize_any(V)
@@ -293,11 +323,17 @@ impl<'de> Deserialize<'de> for ScheduleEntry {
             }
             fn visit_str<E: de::Error>(self, s: &str) -> Result<ScheduleEntry, E> {
                 let schedule = s.parse::<Schedule>().map_err(E::custom)?;
-                Ok(ScheduleEntry { schedule, axes: None })
+                Ok(ScheduleEntry {
+                    schedule,
+                    axes: None,
+                })
             }
             fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<ScheduleEntry, M::Error> {
                 let o = ScheduleObject::deserialize(MapAccessDeserializer::new(map))?;
-                Ok(ScheduleEntry { schedule: o.schedule, axes: o.axes })
+                Ok(ScheduleEntry {
+                    schedule: o.schedule,
+                    axes: o.axes,
+                })
             }
         }
         d.deserialize_any(V)
@@ -309,7 +345,9 @@ mod tests {
     use super::*;
 
     fn err(text: &str) -> String {
-        parse_sweep_file(text, "s.json").expect_err("should fail").to_string()
+        parse_sweep_file(text, "s.json")
+            .expect_err("should fail")
+            .to_string()
     }
 
     const OK: &str = r#"{"format": "arcsim-sweep/1", "name": "t", "plans": ["a.json", {"atom_case": "liver", "reference": "r.json"}],
@@ -320,10 +358,27 @@ mod tests {
     #[test]
     fn parses_every_shape() {
         let s = parse_sweep_file(OK, "s.json").expect("valid");
-        assert_eq!(s.plans[1], PlanSource::AtomCase { atom_case: "liver".into(), reference: "r.json".into() });
-        assert_eq!(s.axes.accel_deg_per_s2.as_ref().map(AxisSpec::values), Some(vec![0.25, 0.625, 1.0]));
-        assert_eq!(s.axes.speed_deg_per_s.as_ref().map(AxisSpec::values), Some(vec![5.0]));
-        let j = s.schedules[1].axes.as_ref().and_then(|a| a.jerk_deg_per_s3.as_ref()).map(AxisSpec::values).expect("axis");
+        assert_eq!(
+            s.plans[1],
+            PlanSource::AtomCase {
+                atom_case: "liver".into(),
+                reference: "r.json".into()
+            }
+        );
+        assert_eq!(
+            s.axes.accel_deg_per_s2.as_ref().map(AxisSpec::values),
+            Some(vec![0.25, 0.625, 1.0])
+        );
+        assert_eq!(
+            s.axes.speed_deg_per_s.as_ref().map(AxisSpec::values),
+            Some(vec![5.0])
+        );
+        let j = s.schedules[1]
+            .axes
+            .as_ref()
+            .and_then(|a| a.jerk_deg_per_s3.as_ref())
+            .map(AxisSpec::values)
+            .expect("axis");
         assert!((j[1] - 1.0).abs() < 1e-12 && j[2] == 10.0);
         assert_eq!(s.schedules[1].schedule, Schedule::Optimal);
         assert_eq!(s.target, None);
@@ -332,17 +387,29 @@ mod tests {
     #[test]
     fn errors_are_located() {
         let e = err(&OK.replace("\"steps\": 3}", "\"steps\": \"3\"}"));
-        assert!(e.starts_with("s.json: axes.accel_deg_per_s2.steps: invalid type"), "{e}");
+        assert!(
+            e.starts_with("s.json: axes.accel_deg_per_s2.steps: invalid type"),
+            "{e}"
+        );
         let e = err(&OK.replace("\"speed_deg_per_s\"", "\"speed\""));
-        assert!(e.starts_with("s.json: axes.speed: unknown field `speed`"), "{e}");
+        assert!(
+            e.starts_with("s.json: axes.speed: unknown field `speed`"),
+            "{e}"
+        );
         let e = err(&OK.replace("\"optimal\"", "\"fastest\""));
-        assert!(e.contains("schedules[1].schedule: unknown variant `fastest`"), "{e}");
+        assert!(
+            e.contains("schedules[1].schedule: unknown variant `fastest`"),
+            "{e}"
+        );
         let e = err(&OK.replace("\"scan\",", "\"scann\","));
         assert!(e.contains("schedules[0]: unknown schedule 'scann'"), "{e}");
         let e = err(&OK.replace("\"atom_case\"", "\"atomcase\""));
         assert!(e.contains("plans[1].atomcase: unknown field"), "{e}");
         let e = err(&OK.replace("arcsim-sweep/1", "arcsim-plan/1"));
-        assert!(e.starts_with("s.json: format: expected \"arcsim-sweep/1\""), "{e}");
+        assert!(
+            e.starts_with("s.json: format: expected \"arcsim-sweep/1\""),
+            "{e}"
+        );
         let e = err(&OK.replace("{\"values\": [1]}", "{\"values\": [1], \"from\": 1}"));
         assert!(e.contains("axes.window_deg: expected either"), "{e}");
         let e = err("{\"format\": \"arcsim-sweep/1\",");

@@ -27,7 +27,11 @@ fn inputs(n: usize) -> Vec<(Move, Limits)> {
             let a = 10f64.powf(rng.unit() * 1.3 - 1.0);
             let v = 10f64.powf(rng.unit());
             let lim = Limits::new(j, a, v).expect("limits");
-            let mv = Move { distance: 10f64.powf(rng.unit() * 3.3 - 2.0), v_start: rng.unit() * v, v_end: rng.unit() * v };
+            let mv = Move {
+                distance: 10f64.powf(rng.unit() * 3.3 - 2.0),
+                v_start: rng.unit() * v,
+                v_end: rng.unit() * v,
+            };
             (mv, lim)
         })
         .collect()
@@ -40,7 +44,11 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             i = (i + 1) & 1023;
             let (mv, lim) = &data[i];
-            black_box(min_time(black_box(*mv), lim, Reversal::Allow).map(|p| p.duration()).unwrap_or(0.0))
+            black_box(
+                min_time(black_box(*mv), lim, Reversal::Allow)
+                    .map(|p| p.duration())
+                    .unwrap_or(0.0),
+            )
         })
     });
     let mut otg = Ruckig::<1, ThrowErrorHandler>::new(None, 0.001);
@@ -71,11 +79,24 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             m = (m + 1) & 1023;
             let (mv, lim) = &data[m];
-            black_box(exact_duration(black_box(*mv), lim, 5.0).map(|p| p.duration()).unwrap_or(0.0))
+            black_box(
+                exact_duration(black_box(*mv), lim, 5.0)
+                    .map(|p| p.duration())
+                    .unwrap_or(0.0),
+            )
         })
     });
     let lim = Limits::new(0.5, 0.5, 5.0).expect("limits");
-    let p = min_time(Move { distance: 2.0, v_start: 1.0, v_end: 1.5 }, &lim, Reversal::Forbid).expect("profile");
+    let p = min_time(
+        Move {
+            distance: 2.0,
+            v_start: 1.0,
+            v_end: 1.5,
+        },
+        &lim,
+        Reversal::Forbid,
+    )
+    .expect("profile");
     let total = p.duration();
     let mut t = 0.0;
     c.bench_function("Profile::state_at", |b| {

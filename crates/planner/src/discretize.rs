@@ -27,19 +27,33 @@ fn round_up(t: f64, period: f64) -> f64 {
 
 /// Re-times `profile` so every phase is a whole multiple of `period`, keeping its start and end
 /// state and every limit in `lim`. Works on seven-phase (peak/valley, cruise) profiles.
-pub fn discretize(profile: &Profile, period: f64, lim: &Limits) -> Result<Discretized, PlannerError> {
+pub fn discretize(
+    profile: &Profile,
+    period: f64,
+    lim: &Limits,
+) -> Result<Discretized, PlannerError> {
     if !(period.is_finite() && period > 0.0) {
-        return Err(PlannerError::InvalidInput { name: "period", value: period, expected: "a finite number > 0" });
+        return Err(PlannerError::InvalidInput {
+            name: "period",
+            value: period,
+            expected: "a finite number > 0",
+        });
     }
     lim.validate()?;
     let Some(shape) = profile.two_step().copied() else {
         return Err(PlannerError::PeriodTooCoarse {
             period,
-            detail: "only single peak/valley profiles can be re-timed; this one has several cruises"
-                .into(),
+            detail:
+                "only single peak/valley profiles can be re-timed; this one has several cruises"
+                    .into(),
         });
     };
-    let TwoStep { direction: dir, v_start: vs, v_end: ve, .. } = shape;
+    let TwoStep {
+        direction: dir,
+        v_start: vs,
+        v_end: ve,
+        ..
+    } = shape;
     let start = profile.start_state();
     let distance = dir * (profile.end_state().position - start.position);
     let (mut t1, mut t2, t3, mut t4, mut t5) = (
@@ -61,7 +75,10 @@ pub fn discretize(profile: &Profile, period: f64, lim: &Limits) -> Result<Discre
                 t1 = period;
                 continue;
             }
-            return Ok(Discretized { profile: profile.clone(), added_time: 0.0 });
+            return Ok(Discretized {
+                profile: profile.clone(),
+                added_time: 0.0,
+            });
         }
         c = (distance - 0.5 * vs * tau1 - 0.5 * ve * tau2) / weight;
         let mut again = false;
@@ -84,15 +101,37 @@ pub fn discretize(profile: &Profile, period: f64, lim: &Limits) -> Result<Discre
         t5 = 0.0;
     }
     // Jerks that give exactly the speed changes c - vs and ve - c (Δv = j·t1·(t1 + t2)).
-    let j1 = if t1 > 0.0 { (c - vs) / (t1 * (t1 + t2)) } else { 0.0 };
-    let j2 = if t4 > 0.0 { (ve - c) / (t4 * (t4 + t5)) } else { 0.0 };
+    let j1 = if t1 > 0.0 {
+        (c - vs) / (t1 * (t1 + t2))
+    } else {
+        0.0
+    };
+    let j2 = if t4 > 0.0 {
+        (ve - c) / (t4 * (t4 + t5))
+    } else {
+        0.0
+    };
     let tol = 1e-12;
-    let acc_bound = |j: f64| if j >= 0.0 { lim.max_accel } else { lim.max_decel };
+    let acc_bound = |j: f64| {
+        if j >= 0.0 {
+            lim.max_accel
+        } else {
+            lim.max_decel
+        }
+    };
     let checks = [
         ("|jerk| of the first speed change", j1.abs(), lim.max_jerk),
         ("|jerk| of the second speed change", j2.abs(), lim.max_jerk),
-        ("acceleration of the first speed change", (j1 * t1).abs(), acc_bound(j1)),
-        ("acceleration of the second speed change", (j2 * t4).abs(), acc_bound(j2)),
+        (
+            "acceleration of the first speed change",
+            (j1 * t1).abs(),
+            acc_bound(j1),
+        ),
+        (
+            "acceleration of the second speed change",
+            (j2 * t4).abs(),
+            acc_bound(j2),
+        ),
         ("extreme speed", c.abs(), lim.max_vel),
     ];
     for (what, got, limit) in checks {
@@ -110,13 +149,34 @@ pub fn discretize(profile: &Profile, period: f64, lim: &Limits) -> Result<Discre
         });
     }
     let segs = [
-        Segment { duration: t1, jerk: dir * j1 },
-        Segment { duration: t2, jerk: 0.0 },
-        Segment { duration: t1, jerk: -dir * j1 },
-        Segment { duration: t3, jerk: 0.0 },
-        Segment { duration: t4, jerk: dir * j2 },
-        Segment { duration: t5, jerk: 0.0 },
-        Segment { duration: t4, jerk: -dir * j2 },
+        Segment {
+            duration: t1,
+            jerk: dir * j1,
+        },
+        Segment {
+            duration: t2,
+            jerk: 0.0,
+        },
+        Segment {
+            duration: t1,
+            jerk: -dir * j1,
+        },
+        Segment {
+            duration: t3,
+            jerk: 0.0,
+        },
+        Segment {
+            duration: t4,
+            jerk: dir * j2,
+        },
+        Segment {
+            duration: t5,
+            jerk: 0.0,
+        },
+        Segment {
+            duration: t4,
+            jerk: -dir * j2,
+        },
     ];
     let new = Profile::new(start.position, start.velocity, 0.0, &segs).with_two_step(TwoStep {
         direction: dir,
@@ -130,7 +190,16 @@ pub fn discretize(profile: &Profile, period: f64, lim: &Limits) -> Result<Discre
         t5,
     });
     let forbid = vs >= 0.0 && ve >= 0.0 && shape.v_peak >= 0.0;
-    new.verify(profile.end_state().position, profile.end_state().velocity, lim, forbid, 1e-9)?;
+    new.verify(
+        profile.end_state().position,
+        profile.end_state().velocity,
+        lim,
+        forbid,
+        1e-9,
+    )?;
     let added_time = new.duration() - profile.duration();
-    Ok(Discretized { profile: new, added_time })
+    Ok(Discretized {
+        profile: new,
+        added_time,
+    })
 }

@@ -9,17 +9,34 @@ pub enum PlannerError {
     /// A limit is not a finite number > 0.
     InvalidLimit { name: &'static str, value: f64 },
     /// An input is not finite (or otherwise malformed).
-    InvalidInput { name: &'static str, value: f64, expected: &'static str },
+    InvalidInput {
+        name: &'static str,
+        value: f64,
+        expected: &'static str,
+    },
     /// A boundary speed exceeds the speed limit V.
-    SpeedAboveLimit { name: &'static str, value: f64, limit: f64 },
+    SpeedAboveLimit {
+        name: &'static str,
+        value: f64,
+        limit: f64,
+    },
     /// Reversal is forbidden and a boundary speed points against the direction of travel.
     SpeedAgainstTravel { name: &'static str, value: f64 },
     /// Reversal is forbidden and `v_end` cannot be reached within the distance (paper case 3).
     /// `max_end_speed` is the highest end speed reachable from `v_start`; `max_start_speed` the
     /// highest start speed from which `v_end` is still reachable.
-    Unreachable { v_start: f64, v_end: f64, distance: f64, max_end_speed: f64, max_start_speed: f64 },
+    Unreachable {
+        v_start: f64,
+        v_end: f64,
+        distance: f64,
+        max_end_speed: f64,
+        max_start_speed: f64,
+    },
     /// No profile lasts the requested duration; `feasible` lists the durations that exist.
-    DurationInfeasible { requested: f64, feasible: Vec<(f64, f64)> },
+    DurationInfeasible {
+        requested: f64,
+        feasible: Vec<(f64, f64)>,
+    },
     /// The servo period is too coarse to keep the limits for this move.
     PeriodTooCoarse { period: f64, detail: String },
     /// A profile failed its own integration check: a planner bug, never silently returned.
@@ -32,7 +49,11 @@ impl fmt::Display for PlannerError {
             PlannerError::InvalidLimit { name, value } => {
                 write!(f, "limit {name} = {value}: expected a finite number > 0")
             }
-            PlannerError::InvalidInput { name, value, expected } => {
+            PlannerError::InvalidInput {
+                name,
+                value,
+                expected,
+            } => {
                 write!(f, "{name} = {value}: expected {expected}")
             }
             PlannerError::SpeedAboveLimit { name, value, limit } => {
@@ -42,7 +63,13 @@ impl fmt::Display for PlannerError {
                 f,
                 "{name} = {value} points against the direction of travel and reversal is forbidden"
             ),
-            PlannerError::Unreachable { v_start, v_end, distance, max_end_speed, max_start_speed } => {
+            PlannerError::Unreachable {
+                v_start,
+                v_end,
+                distance,
+                max_end_speed,
+                max_start_speed,
+            } => {
                 write!(
                     f,
                     "end speed {v_end} is not reachable from {v_start} within distance {distance} \
@@ -50,7 +77,10 @@ impl fmt::Display for PlannerError {
                      the highest start speed that still reaches {v_end} is {max_start_speed:.6}"
                 )
             }
-            PlannerError::DurationInfeasible { requested, feasible } => {
+            PlannerError::DurationInfeasible {
+                requested,
+                feasible,
+            } => {
                 write!(f, "no profile lasts {requested} s; feasible durations:")?;
                 for (i, (lo, hi)) in feasible.iter().enumerate() {
                     let sep = if i == 0 { " " } else { ", " };
@@ -63,9 +93,14 @@ impl fmt::Display for PlannerError {
                 Ok(())
             }
             PlannerError::PeriodTooCoarse { period, detail } => {
-                write!(f, "servo period {period} s is too coarse for this move: {detail}")
+                write!(
+                    f,
+                    "servo period {period} s is too coarse for this move: {detail}"
+                )
             }
-            PlannerError::Verification(msg) => write!(f, "planner self-check failed (a bug): {msg}"),
+            PlannerError::Verification(msg) => {
+                write!(f, "planner self-check failed (a bug): {msg}")
+            }
         }
     }
 }

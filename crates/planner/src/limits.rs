@@ -33,7 +33,12 @@ impl Limits {
         max_decel: f64,
         max_vel: f64,
     ) -> Result<Self, PlannerError> {
-        let lim = Limits { max_jerk, max_accel, max_decel, max_vel };
+        let lim = Limits {
+            max_jerk,
+            max_accel,
+            max_decel,
+            max_vel,
+        };
         lim.validate()?;
         Ok(lim)
     }
@@ -55,6 +60,10 @@ impl Limits {
 
     /// The same limits seen from a move in the opposite direction (A and D swap roles).
     pub(crate) fn time_reversed(&self) -> Limits {
-        Limits { max_accel: self.max_decel, max_decel: self.max_accel, ..*self }
+        Limits {
+            max_accel: self.max_decel,
+            max_decel: self.max_accel,
+            ..*self
+        }
     }
 }

@@ -12,7 +12,10 @@
 //! minimum time), and then a root of `f(c) = d` is the profile. Where two separate speed changes
 //! would take longer than T, the direct change with cruises at both end speeds fills in.
 
-use crate::min_time::{build_two_step, min_forward_distance, solve_shape, travel_frame, unreachable, Move, Shape, Travel};
+use crate::min_time::{
+    build_two_step, min_forward_distance, solve_shape, travel_frame, unreachable, Move, Shape,
+    Travel,
+};
 use crate::profile::{Profile, Segment};
 use crate::roots::brent;
 use crate::speed_change::duration;
@@ -35,7 +38,9 @@ impl DurationSet {
     }
     /// Whether `t` is feasible (with a relative tolerance of 1e-9).
     pub fn contains(&self, t: f64) -> bool {
-        self.intervals.iter().any(|&(lo, hi)| t >= lo * (1.0 - 1e-9) && t <= hi * (1.0 + 1e-9))
+        self.intervals
+            .iter()
+            .any(|&(lo, hi)| t >= lo * (1.0 - 1e-9) && t <= hi * (1.0 + 1e-9))
     }
 }
 
@@ -77,17 +82,39 @@ impl Stretch {
         let (vs, ve, lim) = (self.tr.vs, self.tr.ve, &self.lim);
         let (lo, hi) = (vs.min(ve), vs.max(ve));
         let (c, u1, u2, a1, a2) = match side {
-            Side::Valley => (lo - x, (vs - lo) + x, (ve - lo) + x, lim.max_decel, lim.max_accel),
-            Side::Peak => (hi + x, (hi - vs) + x, (hi - ve) + x, lim.max_accel, lim.max_decel),
+            Side::Valley => (
+                lo - x,
+                (vs - lo) + x,
+                (ve - lo) + x,
+                lim.max_decel,
+                lim.max_accel,
+            ),
+            Side::Peak => (
+                hi + x,
+                (hi - vs) + x,
+                (hi - ve) + x,
+                lim.max_accel,
+                lim.max_decel,
+            ),
             Side::Plateau => {
-                let a = if ve >= vs { lim.max_accel } else { lim.max_decel };
+                let a = if ve >= vs {
+                    lim.max_accel
+                } else {
+                    lim.max_decel
+                };
                 let c = if ve >= vs { vs + x } else { vs - x };
                 (c, x, ((ve - vs).abs() - x).max(0.0), a, a)
             }
         };
         let t1 = duration(u1, lim.max_jerk, a1);
         let t2 = duration(u2, lim.max_jerk, a2);
-        Candidate { t: t1 + t2, d: 0.5 * (vs + c) * t1 + 0.5 * (c + ve) * t2, c, u1, u2 }
+        Candidate {
+            t: t1 + t2,
+            d: 0.5 * (vs + c) * t1 + 0.5 * (c + ve) * t2,
+            c,
+            u1,
+            u2,
+        }
     }
 
     /// Largest offset on `side` (up to `x_max`) whose cruise-free profile fits in `t`; T grows
@@ -118,10 +145,18 @@ impl Stretch {
                 parts.push((Side::Plateau, 0.0, span));
             } else {
                 if self.eval(Side::Plateau, span).t <= t {
-                    parts.push((Side::Plateau, brent(|x| self.eval(Side::Plateau, x).t - t, xm, span), span));
+                    parts.push((
+                        Side::Plateau,
+                        brent(|x| self.eval(Side::Plateau, x).t - t, xm, span),
+                        span,
+                    ));
                 }
                 if self.eval(Side::Plateau, 0.0).t <= t {
-                    parts.push((Side::Plateau, 0.0, brent(|x| self.eval(Side::Plateau, x).t - t, 0.0, xm)));
+                    parts.push((
+                        Side::Plateau,
+                        0.0,
+                        brent(|x| self.eval(Side::Plateau, x).t - t, 0.0, xm),
+                    ));
                 }
             }
         }
@@ -139,7 +174,9 @@ impl Stretch {
 
     /// A profile candidate lasting exactly `t` with distance d, if one is found.
     fn solve(&self, t: f64) -> Option<Candidate> {
-        self.parts(t).into_iter().find_map(|(side, a, b)| self.solve_in(side, t, a, b).map(|x| self.eval(side, x)))
+        self.parts(t)
+            .into_iter()
+            .find_map(|(side, a, b)| self.solve_in(side, t, a, b).map(|x| self.eval(side, x)))
     }
 
     /// A root of f(x) = d for duration `t` with `x` in `[a, b]` (T <= t throughout).
@@ -148,7 +185,9 @@ impl Stretch {
             return None;
         }
         let f = |x: f64| self.excess(side, x, t);
-        let xs: Vec<f64> = (0..=SAMPLES).map(|i| a + (b - a) * i as f64 / SAMPLES as f64).collect();
+        let xs: Vec<f64> = (0..=SAMPLES)
+            .map(|i| a + (b - a) * i as f64 / SAMPLES as f64)
+            .collect();
         let fs: Vec<f64> = xs.iter().map(|&x| f(x)).collect();
         // At the ends of a feasible interval the root sits on a sample (e.g. the valley that
         // lasts t with no cruise): accept it within rounding.
@@ -157,7 +196,9 @@ impl Stretch {
             return Some(xs[i]);
         }
         // Any sign change between neighbouring samples brackets a root.
-        (0..SAMPLES).find(|&i| (fs[i] < 0.0) != (fs[i + 1] < 0.0)).map(|i| brent(f, xs[i], xs[i + 1]))
+        (0..SAMPLES)
+            .find(|&i| (fs[i] < 0.0) != (fs[i + 1] < 0.0))
+            .map(|i| brent(f, xs[i], xs[i + 1]))
     }
 
     /// Cruise times (at v_s, at v_e) around the direct speed change that make it last `t`, when
@@ -178,7 +219,11 @@ impl Stretch {
             return None;
         }
         // t_a + t_b = tau, vs·t_a + ve·t_b = rest.
-        let t_a = if vs == ve { 0.5 * tau } else { ((rest - ve * tau) / (vs - ve)).clamp(0.0, tau) };
+        let t_a = if vs == ve {
+            0.5 * tau
+        } else {
+            ((rest - ve * tau) / (vs - ve)).clamp(0.0, tau)
+        };
         Some((t_a, tau - t_a))
     }
 
@@ -188,19 +233,45 @@ impl Stretch {
             return Some(build_two_step(self.opt, dir, lim));
         }
         if let Some((t_a, t_b)) = self.split_cruise(t) {
-            let a = if ve >= vs { lim.max_accel } else { lim.max_decel };
+            let a = if ve >= vs {
+                lim.max_accel
+            } else {
+                lim.max_decel
+            };
             let ch = crate::SpeedChange::new(vs, ve, lim.max_jerk, a);
             let segs = [
-                Segment { duration: t_a, jerk: 0.0 },
-                Segment { duration: ch.t1, jerk: dir * ch.jerk },
-                Segment { duration: ch.t2, jerk: 0.0 },
-                Segment { duration: ch.t1, jerk: -dir * ch.jerk },
-                Segment { duration: t_b, jerk: 0.0 },
+                Segment {
+                    duration: t_a,
+                    jerk: 0.0,
+                },
+                Segment {
+                    duration: ch.t1,
+                    jerk: dir * ch.jerk,
+                },
+                Segment {
+                    duration: ch.t2,
+                    jerk: 0.0,
+                },
+                Segment {
+                    duration: ch.t1,
+                    jerk: -dir * ch.jerk,
+                },
+                Segment {
+                    duration: t_b,
+                    jerk: 0.0,
+                },
             ];
             return Some(Profile::new(0.0, dir * vs, 0.0, &segs));
         }
         let k = self.solve(t).or_else(|| self.interval_end(t))?;
-        let shape = Shape { vs, c: k.c, cruise: (t - k.t).max(0.0), ve, u1: k.u1, u2: k.u2 };
+        let shape = Shape {
+            vs,
+            c: k.c,
+            cruise: (t - k.t).max(0.0),
+            ve,
+            u1: k.u1,
+            u2: k.u2,
+        };
         Some(build_two_step(shape, dir, lim))
     }
 
@@ -214,14 +285,20 @@ impl Stretch {
     /// `x` below `min(v_s, v_e)`, a duration `T(x)` is feasible iff `D(x) <= d`; `D` rises from `d0`
     /// to a hump and falls to the stop-and-go distance at rest, so the set is one or two intervals.
     fn durations(&self) -> DurationSet {
-        let all = DurationSet { intervals: vec![(self.t_opt, f64::INFINITY)] };
+        let all = DurationSet {
+            intervals: vec![(self.t_opt, f64::INFINITY)],
+        };
         match self.valley_ends() {
             None => all,
             Some((x_b, x_a)) => {
                 let first = (self.t_opt, self.eval(Side::Valley, x_b).t.max(self.t_opt));
                 match x_a {
-                    Some(x_a) => DurationSet { intervals: vec![first, (self.eval(Side::Valley, x_a).t, f64::INFINITY)] },
-                    None => DurationSet { intervals: vec![first] },
+                    Some(x_a) => DurationSet {
+                        intervals: vec![first, (self.eval(Side::Valley, x_a).t, f64::INFINITY)],
+                    },
+                    None => DurationSet {
+                        intervals: vec![first],
+                    },
                 }
             }
         }
@@ -249,7 +326,11 @@ impl Stretch {
     /// The cruise-free valley at an end of a feasible interval, when `t` is (within 1e-9) there.
     fn interval_end(&self, t: f64) -> Option<Candidate> {
         let (x_b, x_a) = self.valley_ends()?;
-        [Some(x_b), x_a].into_iter().flatten().map(|x| self.eval(Side::Valley, x)).find(|k| (k.t - t).abs() <= 1e-9 * t)
+        [Some(x_b), x_a]
+            .into_iter()
+            .flatten()
+            .map(|x| self.eval(Side::Valley, x))
+            .find(|k| (k.t - t).abs() <= 1e-9 * t)
     }
 }
 
@@ -260,7 +341,12 @@ fn stretch(mv: &Move, lim: &Limits) -> Result<Stretch, PlannerError> {
     }
     let opt = solve_shape(tr.vs, tr.ve, tr.d, lim);
     let t_opt = opt.duration(lim);
-    Ok(Stretch { tr, lim: *lim, opt, t_opt })
+    Ok(Stretch {
+        tr,
+        lim: *lim,
+        opt,
+        t_opt,
+    })
 }
 
 /// All durations a move can last with speed in [0, V] along its direction of travel.
@@ -283,16 +369,26 @@ pub fn duration_feasible(mv: Move, lim: &Limits, t: f64) -> Result<bool, Planner
 /// Errors with the feasible durations when no such profile exists.
 pub fn exact_duration(mv: Move, lim: &Limits, t_min: f64) -> Result<Profile, PlannerError> {
     if !(t_min.is_finite() && t_min >= 0.0) {
-        return Err(PlannerError::InvalidInput { name: "min_duration", value: t_min, expected: "a finite number >= 0" });
+        return Err(PlannerError::InvalidInput {
+            name: "min_duration",
+            value: t_min,
+            expected: "a finite number >= 0",
+        });
     }
     let s = stretch(&mv, lim)?;
     let target = t_min.max(s.t_opt);
     let Some(prof) = s.profile(target) else {
-        return Err(PlannerError::DurationInfeasible { requested: target, feasible: s.durations().intervals });
+        return Err(PlannerError::DurationInfeasible {
+            requested: target,
+            feasible: s.durations().intervals,
+        });
     };
     prof.verify(mv.distance, s.tr.dir * s.tr.ve, lim, true, 1e-9)?;
     if (prof.duration() - target).abs() > 1e-9 * target.max(1.0) {
-        return Err(PlannerError::Verification(format!("duration {} instead of the requested {target}", prof.duration())));
+        return Err(PlannerError::Verification(format!(
+            "duration {} instead of the requested {target}",
+            prof.duration()
+        )));
     }
     Ok(prof)
 }
@@ -300,14 +396,21 @@ pub fn exact_duration(mv: Move, lim: &Limits, t_min: f64) -> Result<Profile, Pla
 impl DurationSet {
     /// The shortest feasible duration >= `t` (e.g. an ELST that falls in a gap of the set).
     pub fn at_least(&self, t: f64) -> Option<f64> {
-        self.intervals.iter().find(|&&(_, hi)| hi * (1.0 + 1e-9) >= t).map(|&(lo, _)| lo.max(t))
+        self.intervals
+            .iter()
+            .find(|&&(_, hi)| hi * (1.0 + 1e-9) >= t)
+            .map(|&(lo, _)| lo.max(t))
     }
 }
 
 /// The shortest duration >= `t_min` that `mv` can last with speed in [0, V] (Ruckig's
 /// `minimum_duration` semantics): `t_min` itself when feasible, else the start of the next
 /// feasible interval. `None` when every feasible duration is shorter.
-pub fn shortest_duration_at_least(mv: Move, lim: &Limits, t_min: f64) -> Result<Option<f64>, PlannerError> {
+pub fn shortest_duration_at_least(
+    mv: Move,
+    lim: &Limits,
+    t_min: f64,
+) -> Result<Option<f64>, PlannerError> {
     let s = stretch(&mv, lim)?;
     if t_min <= s.t_opt {
         return Ok(Some(s.t_opt));
@@ -319,14 +422,22 @@ pub fn shortest_duration_at_least(mv: Move, lim: &Limits, t_min: f64) -> Result<
 /// end before an energy switch is ready does.
 pub fn at_least_duration(mv: Move, lim: &Limits, t_min: f64) -> Result<Profile, PlannerError> {
     if !(t_min.is_finite() && t_min >= 0.0) {
-        return Err(PlannerError::InvalidInput { name: "min_duration", value: t_min, expected: "a finite number >= 0" });
+        return Err(PlannerError::InvalidInput {
+            name: "min_duration",
+            value: t_min,
+            expected: "a finite number >= 0",
+        });
     }
     let s = stretch(&mv, lim)?;
     let target = if t_min <= s.t_opt {
         s.t_opt
     } else {
         let set = s.durations();
-        set.at_least(t_min).ok_or(PlannerError::DurationInfeasible { requested: t_min, feasible: set.intervals })?
+        set.at_least(t_min)
+            .ok_or(PlannerError::DurationInfeasible {
+                requested: t_min,
+                feasible: set.intervals,
+            })?
     };
     exact_duration(mv, lim, target)
 }

@@ -40,8 +40,16 @@ pub enum Reversal {
 /// Duration and distance of `v_s → c → v_e` with no cruise, in the direction of travel.
 #[inline]
 pub(crate) fn two_change(vs: f64, c: f64, ve: f64, lim: &Limits) -> (f64, f64) {
-    let a1 = if c >= vs { lim.max_accel } else { lim.max_decel };
-    let a2 = if ve >= c { lim.max_accel } else { lim.max_decel };
+    let a1 = if c >= vs {
+        lim.max_accel
+    } else {
+        lim.max_decel
+    };
+    let a2 = if ve >= c {
+        lim.max_accel
+    } else {
+        lim.max_decel
+    };
     let t1 = duration((c - vs).abs(), lim.max_jerk, a1);
     let t2 = duration((ve - c).abs(), lim.max_jerk, a2);
     (t1 + t2, 0.5 * (vs + c) * t1 + 0.5 * (c + ve) * t2)
@@ -64,8 +72,16 @@ pub(crate) struct Shape {
 impl Shape {
     /// Total duration, from the speed changes as solved (not re-derived from `c`).
     pub(crate) fn duration(&self, lim: &Limits) -> f64 {
-        let a1 = if self.c >= self.vs { lim.max_accel } else { lim.max_decel };
-        let a2 = if self.ve >= self.c { lim.max_accel } else { lim.max_decel };
+        let a1 = if self.c >= self.vs {
+            lim.max_accel
+        } else {
+            lim.max_decel
+        };
+        let a2 = if self.ve >= self.c {
+            lim.max_accel
+        } else {
+            lim.max_decel
+        };
         duration(self.u1, lim.max_jerk, a1) + self.cruise + duration(self.u2, lim.max_jerk, a2)
     }
 }
@@ -73,9 +89,20 @@ impl Shape {
 /// Distance of `v_s → c → v_e` at offset `x` from `base`, its derivative in `x`, and the speed
 /// changes. Peak (`sgn = 1`): accelerate under A then brake under D; valley: the reverse.
 #[inline]
-fn offset_eval(vs: f64, ve: f64, base: f64, sgn: f64, x: f64, lim: &Limits) -> (f64, f64, f64, f64) {
+fn offset_eval(
+    vs: f64,
+    ve: f64,
+    base: f64,
+    sgn: f64,
+    x: f64,
+    lim: &Limits,
+) -> (f64, f64, f64, f64) {
     let j = lim.max_jerk;
-    let (a1, a2) = if sgn > 0.0 { (lim.max_accel, lim.max_decel) } else { (lim.max_decel, lim.max_accel) };
+    let (a1, a2) = if sgn > 0.0 {
+        (lim.max_accel, lim.max_decel)
+    } else {
+        (lim.max_decel, lim.max_accel)
+    };
     let c = base + sgn * x;
     let u1 = sgn * (base - vs) + x;
     let u2 = sgn * (base - ve) + x;
@@ -98,13 +125,17 @@ fn closed_form_guess(vs: f64, ve: f64, d: f64, lim: &Limits, peak: bool) -> f64 
         // (c²-vs²)/2A + (vs+c)A/2J + (c²-ve²)/2D + (c+ve)D/2J = d
         let qa = 0.5 / a + 0.5 / dm;
         let qb = (a + dm) / (2.0 * j);
-        let qc = -vs * vs / (2.0 * a) + vs * a / (2.0 * j) - ve * ve / (2.0 * dm) + ve * dm / (2.0 * j) - d;
+        let qc = -vs * vs / (2.0 * a) + vs * a / (2.0 * j) - ve * ve / (2.0 * dm)
+            + ve * dm / (2.0 * j)
+            - d;
         (-qb + (qb * qb - 4.0 * qa * qc).max(0.0).sqrt()) / (2.0 * qa)
     } else {
         // (vs²-c²)/2D + (vs+c)D/2J + (ve²-c²)/2A + (c+ve)A/2J = d
         let qa = -(0.5 / a + 0.5 / dm);
         let qb = (a + dm) / (2.0 * j);
-        let qc = vs * vs / (2.0 * dm) + vs * dm / (2.0 * j) + ve * ve / (2.0 * a) + ve * a / (2.0 * j) - d;
+        let qc =
+            vs * vs / (2.0 * dm) + vs * dm / (2.0 * j) + ve * ve / (2.0 * a) + ve * a / (2.0 * j)
+                - d;
         (-qb + (qb * qb - 4.0 * qa * qc).max(0.0).sqrt()) / (2.0 * qa)
     }
 }
@@ -128,12 +159,23 @@ pub(crate) fn solve_shape(vs: f64, ve: f64, d: f64, lim: &Limits) -> Shape {
             return solve_offset(vs, ve, d, lim, -1.0, m, m - c_top, m);
         }
     }
-    let (sgn, base) = if peak { (1.0, vs.max(ve).max(0.0)) } else { (-1.0, m.min(0.0)) };
+    let (sgn, base) = if peak {
+        (1.0, vs.max(ve).max(0.0))
+    } else {
+        (-1.0, m.min(0.0))
+    };
     let x_max = v_max - sgn * base;
     let (d_lim, _, u1, u2) = offset_eval(vs, ve, base, sgn, x_max, lim);
     // Case 1: the limit speed is reached (with the cruise at ±V).
     if (peak && d_lim <= d) || (!peak && d_lim >= d) {
-        return Shape { vs, c: sgn * v_max, cruise: sgn * (d - d_lim) / v_max, ve, u1, u2 };
+        return Shape {
+            vs,
+            c: sgn * v_max,
+            cruise: sgn * (d - d_lim) / v_max,
+            ve,
+            u1,
+            u2,
+        };
     }
     solve_offset(vs, ve, d, lim, sgn, base, 0.0, x_max)
 }
@@ -141,11 +183,27 @@ pub(crate) fn solve_shape(vs: f64, ve: f64, d: f64, lim: &Limits) -> Shape {
 /// Case 2 (peak) or 3 (valley): `D(c) = d` for `c = base + sgn·x`, `x in [x_lo, x_hi]`, where
 /// `sgn·(D - d)` increases with `x`; exact by safeguarded Newton from the closed-form guess.
 #[allow(clippy::too_many_arguments)]
-fn solve_offset(vs: f64, ve: f64, d: f64, lim: &Limits, sgn: f64, base: f64, x_lo: f64, x_hi: f64) -> Shape {
+fn solve_offset(
+    vs: f64,
+    ve: f64,
+    d: f64,
+    lim: &Limits,
+    sgn: f64,
+    base: f64,
+    x_lo: f64,
+    x_hi: f64,
+) -> Shape {
     // Already there at the bracket's low end (e.g. d = d0): no extreme beyond it.
     let (d_lo, _, u1, u2) = offset_eval(vs, ve, base, sgn, x_lo, lim);
     if sgn * (d_lo - d) >= 0.0 {
-        return Shape { vs, c: base + sgn * x_lo, cruise: 0.0, ve, u1, u2 };
+        return Shape {
+            vs,
+            c: base + sgn * x_lo,
+            cruise: 0.0,
+            ve,
+            u1,
+            u2,
+        };
     }
     let guess = sgn * (closed_form_guess(vs, ve, d, lim, sgn > 0.0) - base);
     let x = newton_bracketed(
@@ -158,24 +216,68 @@ fn solve_offset(vs: f64, ve: f64, d: f64, lim: &Limits, sgn: f64, base: f64, x_l
         guess,
     );
     let (_, _, u1, u2) = offset_eval(vs, ve, base, sgn, x, lim);
-    Shape { vs, c: base + sgn * x, cruise: 0.0, ve, u1, u2 }
+    Shape {
+        vs,
+        c: base + sgn * x,
+        cruise: 0.0,
+        ve,
+        u1,
+        u2,
+    }
 }
 
 /// Builds the seven-phase profile of a shape; `dir` = ±1 maps travel frame to coordinates.
 pub(crate) fn build_two_step(shape: Shape, dir: f64, lim: &Limits) -> Profile {
-    let Shape { vs, c, cruise, ve, u1, u2, .. } = shape;
-    let a1 = if c >= vs { lim.max_accel } else { lim.max_decel };
-    let a2 = if ve >= c { lim.max_accel } else { lim.max_decel };
+    let Shape {
+        vs,
+        c,
+        cruise,
+        ve,
+        u1,
+        u2,
+        ..
+    } = shape;
+    let a1 = if c >= vs {
+        lim.max_accel
+    } else {
+        lim.max_decel
+    };
+    let a2 = if ve >= c {
+        lim.max_accel
+    } else {
+        lim.max_decel
+    };
     let up = SpeedChange::from_delta(u1, c >= vs, lim.max_jerk, a1);
     let down = SpeedChange::from_delta(u2, ve >= c, lim.max_jerk, a2);
     let segs = [
-        Segment { duration: up.t1, jerk: dir * up.jerk },
-        Segment { duration: up.t2, jerk: 0.0 },
-        Segment { duration: up.t1, jerk: -dir * up.jerk },
-        Segment { duration: cruise, jerk: 0.0 },
-        Segment { duration: down.t1, jerk: dir * down.jerk },
-        Segment { duration: down.t2, jerk: 0.0 },
-        Segment { duration: down.t1, jerk: -dir * down.jerk },
+        Segment {
+            duration: up.t1,
+            jerk: dir * up.jerk,
+        },
+        Segment {
+            duration: up.t2,
+            jerk: 0.0,
+        },
+        Segment {
+            duration: up.t1,
+            jerk: -dir * up.jerk,
+        },
+        Segment {
+            duration: cruise,
+            jerk: 0.0,
+        },
+        Segment {
+            duration: down.t1,
+            jerk: dir * down.jerk,
+        },
+        Segment {
+            duration: down.t2,
+            jerk: 0.0,
+        },
+        Segment {
+            duration: down.t1,
+            jerk: -dir * down.jerk,
+        },
     ];
     Profile::new(0.0, dir * vs, 0.0, &segs).with_two_step(TwoStep {
         direction: dir,
@@ -202,29 +304,49 @@ pub(crate) struct Travel {
 /// Validates a move against the limits and maps it to its direction of travel.
 pub(crate) fn travel_frame(mv: &Move, lim: &Limits, forbid: bool) -> Result<Travel, PlannerError> {
     lim.validate()?;
-    for (name, value) in [("distance", mv.distance), ("v_start", mv.v_start), ("v_end", mv.v_end)] {
+    for (name, value) in [
+        ("distance", mv.distance),
+        ("v_start", mv.v_start),
+        ("v_end", mv.v_end),
+    ] {
         if !value.is_finite() {
-            return Err(PlannerError::InvalidInput { name, value, expected: "a finite number" });
+            return Err(PlannerError::InvalidInput {
+                name,
+                value,
+                expected: "a finite number",
+            });
         }
     }
     let slack = lim.max_vel * 1e-12;
     for (name, value) in [("v_start", mv.v_start), ("v_end", mv.v_end)] {
         if value.abs() > lim.max_vel + slack {
-            return Err(PlannerError::SpeedAboveLimit { name, value, limit: lim.max_vel });
+            return Err(PlannerError::SpeedAboveLimit {
+                name,
+                value,
+                limit: lim.max_vel,
+            });
         }
     }
     let dir = crate::profile::travel_direction(mv.distance, mv.v_start, mv.v_end);
     let clamp = |v: f64| (dir * v).clamp(-lim.max_vel, lim.max_vel);
     let (mut vs, mut ve) = (clamp(mv.v_start), clamp(mv.v_end));
     if forbid {
-        for (name, value, v) in [("v_start", mv.v_start, &mut vs), ("v_end", mv.v_end, &mut ve)] {
+        for (name, value, v) in [
+            ("v_start", mv.v_start, &mut vs),
+            ("v_end", mv.v_end, &mut ve),
+        ] {
             if *v < -slack {
                 return Err(PlannerError::SpeedAgainstTravel { name, value });
             }
             *v = v.max(0.0);
         }
     }
-    Ok(Travel { dir, d: dir * mv.distance, vs, ve })
+    Ok(Travel {
+        dir,
+        d: dir * mv.distance,
+        vs,
+        ve,
+    })
 }
 
 /// The minimum-time profile for `mv` under `lim`.
@@ -272,11 +394,29 @@ pub fn min_time_shape(mv: Move, lim: &Limits, reversal: Reversal) -> Result<TwoS
     if forbid && shape.c < -1e-12 * lim.max_vel {
         return Err(unreachable(&mv, &tr, lim));
     }
-    let a1 = if shape.c >= shape.vs { lim.max_accel } else { lim.max_decel };
-    let a2 = if shape.ve >= shape.c { lim.max_accel } else { lim.max_decel };
+    let a1 = if shape.c >= shape.vs {
+        lim.max_accel
+    } else {
+        lim.max_decel
+    };
+    let a2 = if shape.ve >= shape.c {
+        lim.max_accel
+    } else {
+        lim.max_decel
+    };
     let (t1, t2) = crate::speed_change::periods(shape.u1, lim.max_jerk, a1);
     let (t4, t5) = crate::speed_change::periods(shape.u2, lim.max_jerk, a2);
-    Ok(TwoStep { direction: tr.dir, v_start: tr.vs, v_peak: shape.c, v_end: tr.ve, t1, t2, t3: shape.cruise, t4, t5 })
+    Ok(TwoStep {
+        direction: tr.dir,
+        v_start: tr.vs,
+        v_peak: shape.c,
+        v_end: tr.ve,
+        t1,
+        t2,
+        t3: shape.cruise,
+        t4,
+        t5,
+    })
 }
 
 impl TwoStep {

@@ -97,7 +97,10 @@ impl Profile {
         prof.a[0] = acceleration;
         for s in segments.iter().filter(|s| s.duration > 0.0) {
             let k = prof.len;
-            assert!(k < MAX_SEGMENTS, "planner built more than {MAX_SEGMENTS} segments");
+            assert!(
+                k < MAX_SEGMENTS,
+                "planner built more than {MAX_SEGMENTS} segments"
+            );
             prof.segments[k] = *s;
             let (p, v, a) = advance(prof.p[k], prof.v[k], prof.a[k], s.jerk, s.duration);
             prof.t[k + 1] = prof.t[k] + s.duration;
@@ -131,13 +134,23 @@ impl Profile {
 
     /// State at the start.
     pub fn start_state(&self) -> State {
-        State { position: self.p[0], velocity: self.v[0], acceleration: self.a[0], jerk: 0.0 }
+        State {
+            position: self.p[0],
+            velocity: self.v[0],
+            acceleration: self.a[0],
+            jerk: 0.0,
+        }
     }
 
     /// State at the end (from the precomputed boundaries).
     pub fn end_state(&self) -> State {
         let k = self.len;
-        State { position: self.p[k], velocity: self.v[k], acceleration: self.a[k], jerk: 0.0 }
+        State {
+            position: self.p[k],
+            velocity: self.v[k],
+            acceleration: self.a[k],
+            jerk: 0.0,
+        }
     }
 
     /// State at time `t` (s from the start). Before the start and after the end the axis is
@@ -168,7 +181,12 @@ impl Profile {
         }
         let j = self.segments[k].jerk;
         let (p, v, a) = advance(self.p[k], self.v[k], self.a[k], j, t - self.t[k]);
-        State { position: p, velocity: v, acceleration: a, jerk: j }
+        State {
+            position: p,
+            velocity: v,
+            acceleration: a,
+            jerk: j,
+        }
     }
 
     /// Samples every `dt` seconds from 0, always including the end instant.
@@ -254,14 +272,23 @@ impl Profile {
         }
         // Scales of the move itself (not of the limits), so tiny moves are held to tiny errors.
         let e = self.extrema();
-        let vel_scale = e.max_velocity.max(-e.min_velocity).max(target_velocity.abs()).max(f64::MIN_POSITIVE);
-        let pos_scale = (target_position - self.p[0]).abs().max(vel_scale * self.duration()).max(f64::MIN_POSITIVE);
+        let vel_scale = e
+            .max_velocity
+            .max(-e.min_velocity)
+            .max(target_velocity.abs())
+            .max(f64::MIN_POSITIVE);
+        let pos_scale = (target_position - self.p[0])
+            .abs()
+            .max(vel_scale * self.duration())
+            .max(f64::MIN_POSITIVE);
         let acc_scale = limits.max_accel.max(limits.max_decel);
         let bad = |what: &str, got: f64, want: f64, scale: f64| -> Result<(), PlannerError> {
             if (got - want).abs() <= tol * scale && got.is_finite() {
                 Ok(())
             } else {
-                Err(PlannerError::Verification(format!("{what}: got {got}, expected {want}")))
+                Err(PlannerError::Verification(format!(
+                    "{what}: got {got}, expected {want}"
+                )))
             }
         };
         bad("end position", p, target_position, pos_scale)?;
@@ -288,11 +315,17 @@ impl Profile {
         ];
         for (what, got, limit) in checks {
             if got > limit * (1.0 + lim_tol) {
-                return Err(PlannerError::Verification(format!("{what} {got} exceeds limit {limit}")));
+                return Err(PlannerError::Verification(format!(
+                    "{what} {got} exceeds limit {limit}"
+                )));
             }
         }
         if forbid_reversal {
-            let min_along = if dir > 0.0 { e.min_velocity } else { -e.max_velocity };
+            let min_along = if dir > 0.0 {
+                e.min_velocity
+            } else {
+                -e.max_velocity
+            };
             if min_along < -lim_tol * vel_scale {
                 return Err(PlannerError::Verification(format!(
                     "speed {min_along} against the direction of travel"

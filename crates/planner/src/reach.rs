@@ -30,7 +30,11 @@ pub struct LinearGap {
 impl LinearGap {
     /// A fixed gap that does not depend on the speeds.
     pub fn plain(distance: f64) -> Self {
-        LinearGap { distance, t_start: 0.0, t_end: 0.0 }
+        LinearGap {
+            distance,
+            t_start: 0.0,
+            t_end: 0.0,
+        }
     }
 
     /// The gap left at boundary speeds `vs`, `ve`.
@@ -39,15 +43,25 @@ impl LinearGap {
     }
 
     fn reversed(&self) -> Self {
-        LinearGap { distance: self.distance, t_start: self.t_end, t_end: self.t_start }
+        LinearGap {
+            distance: self.distance,
+            t_start: self.t_end,
+            t_end: self.t_start,
+        }
     }
 
     fn validate(&self) -> Result<(), PlannerError> {
-        for (name, value) in
-            [("gap distance", self.distance), ("t_start", self.t_start), ("t_end", self.t_end)]
-        {
+        for (name, value) in [
+            ("gap distance", self.distance),
+            ("t_start", self.t_start),
+            ("t_end", self.t_end),
+        ] {
             if !(value.is_finite() && value >= 0.0) {
-                return Err(PlannerError::InvalidInput { name, value, expected: "a finite number >= 0" });
+                return Err(PlannerError::InvalidInput {
+                    name,
+                    value,
+                    expected: "a finite number >= 0",
+                });
             }
         }
         Ok(())
@@ -56,13 +70,21 @@ impl LinearGap {
 
 fn check_speed(name: &'static str, value: f64, lim: &Limits) -> Result<f64, PlannerError> {
     if !value.is_finite() {
-        return Err(PlannerError::InvalidInput { name, value, expected: "a finite number" });
+        return Err(PlannerError::InvalidInput {
+            name,
+            value,
+            expected: "a finite number",
+        });
     }
     if value < -lim.max_vel * 1e-12 {
         return Err(PlannerError::SpeedAgainstTravel { name, value });
     }
     if value > lim.max_vel * (1.0 + 1e-12) {
-        return Err(PlannerError::SpeedAboveLimit { name, value, limit: lim.max_vel });
+        return Err(PlannerError::SpeedAboveLimit {
+            name,
+            value,
+            limit: lim.max_vel,
+        });
     }
     Ok(value.clamp(0.0, lim.max_vel))
 }
@@ -70,7 +92,11 @@ fn check_speed(name: &'static str, value: f64, lim: &Limits) -> Result<f64, Plan
 /// Highest end speed `v_e in [v_s, V]` reachable from `v_start` without reversing, when the
 /// speed change must fit in `gap.at(v_start, v_e)`. `None` when not even `v_e = v_start` fits.
 /// Speeds are magnitudes along the direction of travel.
-pub fn max_end_speed(v_start: f64, gap: &LinearGap, lim: &Limits) -> Result<Option<f64>, PlannerError> {
+pub fn max_end_speed(
+    v_start: f64,
+    gap: &LinearGap,
+    lim: &Limits,
+) -> Result<Option<f64>, PlannerError> {
     lim.validate()?;
     gap.validate()?;
     let vs = check_speed("v_start", v_start, lim)?;
@@ -79,7 +105,11 @@ pub fn max_end_speed(v_start: f64, gap: &LinearGap, lim: &Limits) -> Result<Opti
 
 /// Highest start speed `v_s in [v_e, V]` from which `v_end` is reached without reversing within
 /// `gap.at(v_s, v_end)`. `None` when not even `v_s = v_end` fits.
-pub fn max_start_speed(v_end: f64, gap: &LinearGap, lim: &Limits) -> Result<Option<f64>, PlannerError> {
+pub fn max_start_speed(
+    v_end: f64,
+    gap: &LinearGap,
+    lim: &Limits,
+) -> Result<Option<f64>, PlannerError> {
     lim.validate()?;
     gap.validate()?;
     let ve = check_speed("v_end", v_end, lim)?;
@@ -110,7 +140,11 @@ fn highest_fit(vs: f64, gap: &LinearGap, lim: &Limits, via_rest: bool) -> Option
         let u = ve - from;
         let t = duration(u, j, a);
         let val = fixed + 0.5 * (from + ve) * t - gap.at(vs, ve);
-        let slope = if u > 0.0 { 0.5 * (from + ve) * duration_deriv(u, j, a) } else { 0.0 };
+        let slope = if u > 0.0 {
+            0.5 * (from + ve) * duration_deriv(u, j, a)
+        } else {
+            0.0
+        };
         (val, 0.5 * t + 0.5 * gap.t_end + slope)
     };
     if f(vs).0 > 0.0 {
@@ -144,7 +178,11 @@ pub fn fits(v_start: f64, v_end: f64, gap: &LinearGap, lim: &Limits) -> bool {
     if d < 0.0 {
         return false;
     }
-    let mv = crate::Move { distance: d, v_start, v_end };
+    let mv = crate::Move {
+        distance: d,
+        v_start,
+        v_end,
+    };
     match crate::min_time::travel_frame(&mv, lim, true) {
         Ok(tr) => crate::min_time::min_forward_distance(tr.vs, tr.ve, lim) <= tr.d,
         Err(_) => false,

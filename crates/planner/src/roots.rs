@@ -10,7 +10,11 @@ pub fn newton_bracketed(
     mut hi: f64,
     x0: f64,
 ) -> f64 {
-    let mut x = if x0 > lo && x0 < hi { x0 } else { 0.5 * (lo + hi) };
+    let mut x = if x0 > lo && x0 < hi {
+        x0
+    } else {
+        0.5 * (lo + hi)
+    };
     let mut dx_old = hi - lo;
     let mut dx = dx_old;
     let (mut f, mut df) = fdf(x);

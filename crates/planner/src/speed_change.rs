@@ -25,7 +25,11 @@ impl SpeedChange {
     /// The speed change of magnitude `u >= 0`, up (`speed_up`) or down.
     pub fn from_delta(u: f64, speed_up: bool, max_jerk: f64, max_acc: f64) -> Self {
         let (t1, t2) = periods(u, max_jerk, max_acc);
-        SpeedChange { t1, t2, jerk: if speed_up { max_jerk } else { -max_jerk } }
+        SpeedChange {
+            t1,
+            t2,
+            jerk: if speed_up { max_jerk } else { -max_jerk },
+        }
     }
 
     /// Total duration 2·t1 + t2 (eq. 4).

@@ -16,8 +16,20 @@ fn brute_force_integration_matches_profile_end() {
         let p = min_time(mv, &lim, Reversal::Allow).expect("profile");
         let (pos, vel, acc) = brute_force_end(&p, 16);
         let scale = move_scale(&mv, &lim, p.duration());
-        assert!((pos - mv.distance).abs() <= 1e-9 * scale, "case {case}: {pos} vs {} {mv:?} {lim:?} {:?} end {:?}", mv.distance, p.segments(), p.end_state());
-        assert!((vel - mv.v_end).abs() <= 1e-9 * lim.max_vel, "case {case}: {vel} vs {} {mv:?} {lim:?} {:?} end {:?}", mv.v_end, p.segments(), p.end_state());
+        assert!(
+            (pos - mv.distance).abs() <= 1e-9 * scale,
+            "case {case}: {pos} vs {} {mv:?} {lim:?} {:?} end {:?}",
+            mv.distance,
+            p.segments(),
+            p.end_state()
+        );
+        assert!(
+            (vel - mv.v_end).abs() <= 1e-9 * lim.max_vel,
+            "case {case}: {vel} vs {} {mv:?} {lim:?} {:?} end {:?}",
+            mv.v_end,
+            p.segments(),
+            p.end_state()
+        );
         let a_scale = lim.max_accel.max(lim.max_decel);
         assert!(acc.abs() <= 1e-9 * a_scale, "case {case}: acc {acc}");
     }
@@ -26,7 +38,16 @@ fn brute_force_integration_matches_profile_end() {
 #[test]
 fn state_at_is_continuous_and_samples_cover_the_move() {
     let lim = Limits::new(0.5, 0.5, 5.0).expect("limits");
-    let p = min_time(Move { distance: 10.0, v_start: 0.5, v_end: 1.0 }, &lim, Reversal::Forbid).expect("ok");
+    let p = min_time(
+        Move {
+            distance: 10.0,
+            v_start: 0.5,
+            v_end: 1.0,
+        },
+        &lim,
+        Reversal::Forbid,
+    )
+    .expect("ok");
     let mut t = 0.0;
     for s in p.segments() {
         t += s.duration;
@@ -58,15 +79,36 @@ fn no_grid_extreme_speed_beats_the_planner() {
         let mut best = f64::INFINITY;
         for i in 0..=n {
             let c = -lim.max_vel + 2.0 * lim.max_vel * i as f64 / n as f64;
-            let a1 = if c >= vs { lim.max_accel } else { lim.max_decel };
-            let a2 = if ve >= c { lim.max_accel } else { lim.max_decel };
-            let (t1, t2) = (duration((c - vs).abs(), lim.max_jerk, a1), duration((ve - c).abs(), lim.max_jerk, a2));
+            let a1 = if c >= vs {
+                lim.max_accel
+            } else {
+                lim.max_decel
+            };
+            let a2 = if ve >= c {
+                lim.max_accel
+            } else {
+                lim.max_decel
+            };
+            let (t1, t2) = (
+                duration((c - vs).abs(), lim.max_jerk, a1),
+                duration((ve - c).abs(), lim.max_jerk, a2),
+            );
             let dist = 0.5 * (vs + c) * t1 + 0.5 * (c + ve) * t2;
-            let cruise = if c != 0.0 { (d - dist) / c } else if (d - dist).abs() < 1e-15 { 0.0 } else { -1.0 };
+            let cruise = if c != 0.0 {
+                (d - dist) / c
+            } else if (d - dist).abs() < 1e-15 {
+                0.0
+            } else {
+                -1.0
+            };
             if cruise >= 0.0 {
                 best = best.min(t1 + t2 + cruise);
             }
         }
-        assert!(p.duration() <= best * (1.0 + 1e-12) + 1e-15, "case {case}: planner {} vs grid {best}", p.duration());
+        assert!(
+            p.duration() <= best * (1.0 + 1e-12) + 1e-15,
+            "case {case}: planner {} vs grid {best}",
+            p.duration()
+        );
     }
 }

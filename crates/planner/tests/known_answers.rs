@@ -7,7 +7,16 @@ use common::{new_ruckig, ruckig_duration};
 
 fn peak(j: f64, a: f64, v: f64, d: f64, vs: f64, ve: f64) -> (f64, f64) {
     let lim = Limits::new(j, a, v).expect("limits");
-    let p = min_time(Move { distance: d, v_start: vs, v_end: ve }, &lim, Reversal::Allow).expect("profile");
+    let p = min_time(
+        Move {
+            distance: d,
+            v_start: vs,
+            v_end: ve,
+        },
+        &lim,
+        Reversal::Allow,
+    )
+    .expect("profile");
     (p.two_step().expect("seven-phase").v_peak, p.duration())
 }
 
@@ -22,12 +31,18 @@ fn paper_table3_case1_with_half_jerk() {
     ];
     for (name, d, vs, ve, printed) in rows {
         let (vm, _) = peak(1000.0, 20.0, 1.2, d, vs, ve);
-        assert!((vm - printed).abs() < 0.5e-4, "{name}: v_m = {vm:.6}, paper {printed}");
+        assert!(
+            (vm - printed).abs() < 0.5e-4,
+            "{name}: v_m = {vm:.6}, paper {printed}"
+        );
     }
     // Ex4: the paper prints -0.3821; the exact optimum under the same convention is -0.3831.
     let (vm, _) = peak(1000.0, 20.0, 1.2, 0.033, 0.0, 1.2);
     assert!((vm - (-0.3831)).abs() < 0.5e-4, "Ex4: {vm}");
-    assert!((vm - (-0.3821)).abs() > 5e-4, "Ex4 should differ from the misprint: {vm}");
+    assert!(
+        (vm - (-0.3821)).abs() > 5e-4,
+        "Ex4 should differ from the misprint: {vm}"
+    );
 }
 
 /// The true optimum under the stated limits for all eight examples (peak speed, duration),
@@ -38,7 +53,9 @@ fn table3_true_optimum_under_stated_limits() {
     let rows: [(&str, f64, f64, f64, f64, f64, f64, f64, f64); 7] = [
         ("Ex1", 2000.0, 20.0, 1.2, 0.033, 0.0, 0.0, 0.7185, 0.091854),
         ("Ex2", 2000.0, 20.0, 1.2, 0.033, 0.0, 0.03, 0.7170, 0.090198),
-        ("Ex3", 2000.0, 20.0, 1.2, 0.00033, 0.0, 0.4, -0.2513, 0.065128),
+        (
+            "Ex3", 2000.0, 20.0, 1.2, 0.00033, 0.0, 0.4, -0.2513, 0.065128,
+        ),
         ("Ex4", 2000.0, 20.0, 1.2, 0.033, 0.0, 1.2, -0.3359, 0.113589),
         ("Ex5", 1.2e4, 40.0, 0.8, 0.033, 0.0, 0.0, 0.8, 0.064583),
         ("Ex6", 1.2e4, 40.0, 0.8, 0.033, 0.0, 0.03, 0.8, 0.063785),
@@ -47,16 +64,40 @@ fn table3_true_optimum_under_stated_limits() {
     let mut otg = new_ruckig();
     for (name, j, a, v, d, vs, ve, vm_want, t_want) in rows {
         let (vm, t) = peak(j, a, v, d, vs, ve);
-        assert!((vm - vm_want).abs() < 0.5e-4, "{name}: v_m {vm:.6} vs {vm_want}");
+        assert!(
+            (vm - vm_want).abs() < 0.5e-4,
+            "{name}: v_m {vm:.6} vs {vm_want}"
+        );
         assert!((t - t_want).abs() < 0.5e-6, "{name}: T {t:.7} vs {t_want}");
         let lim = Limits::new(j, a, v).expect("limits");
-        let tr = ruckig_duration(&Move { distance: d, v_start: vs, v_end: ve }, &lim, &mut otg).expect("ruckig");
+        let tr = ruckig_duration(
+            &Move {
+                distance: d,
+                v_start: vs,
+                v_end: ve,
+            },
+            &lim,
+            &mut otg,
+        )
+        .expect("ruckig");
         assert!((t - tr).abs() <= 1e-9 * tr, "{name}: {t} vs ruckig {tr}");
     }
     // Ex8: v_e = 1.2 exceeds V = 0.8: a typed error, not a profile.
     let lim = Limits::new(1.2e4, 40.0, 0.8).expect("limits");
-    let err = min_time(Move { distance: 0.033, v_start: 0.0, v_end: 1.2 }, &lim, Reversal::Allow).unwrap_err();
-    assert!(matches!(err, PlannerError::SpeedAboveLimit { name: "v_end", .. }), "{err:?}");
+    let err = min_time(
+        Move {
+            distance: 0.033,
+            v_start: 0.0,
+            v_end: 1.2,
+        },
+        &lim,
+        Reversal::Allow,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(err, PlannerError::SpeedAboveLimit { name: "v_end", .. }),
+        "{err:?}"
+    );
 }
 
 /// Speed change alone (eq. 3–4): trapezoid and triangle durations and distances.
@@ -76,14 +117,39 @@ fn basic_profile_equations() {
 /// Invalid limits and inputs are typed errors, never panics or NaN.
 #[test]
 fn bad_inputs_are_typed_errors() {
-    for (j, a, v) in [(0.0, 1.0, 1.0), (1.0, -1.0, 1.0), (1.0, 1.0, f64::NAN), (f64::INFINITY, 1.0, 1.0)] {
-        assert!(matches!(Limits::new(j, a, v), Err(PlannerError::InvalidLimit { .. })));
+    for (j, a, v) in [
+        (0.0, 1.0, 1.0),
+        (1.0, -1.0, 1.0),
+        (1.0, 1.0, f64::NAN),
+        (f64::INFINITY, 1.0, 1.0),
+    ] {
+        assert!(matches!(
+            Limits::new(j, a, v),
+            Err(PlannerError::InvalidLimit { .. })
+        ));
     }
     let lim = Limits::new(1.0, 1.0, 1.0).expect("limits");
-    let nan = Move { distance: f64::NAN, v_start: 0.0, v_end: 0.0 };
-    assert!(matches!(min_time(nan, &lim, Reversal::Allow), Err(PlannerError::InvalidInput { name: "distance", .. })));
-    let back = Move { distance: 1.0, v_start: -0.5, v_end: 0.0 };
-    assert!(matches!(min_time(back, &lim, Reversal::Forbid), Err(PlannerError::SpeedAgainstTravel { .. })));
+    let nan = Move {
+        distance: f64::NAN,
+        v_start: 0.0,
+        v_end: 0.0,
+    };
+    assert!(matches!(
+        min_time(nan, &lim, Reversal::Allow),
+        Err(PlannerError::InvalidInput {
+            name: "distance",
+            ..
+        })
+    ));
+    let back = Move {
+        distance: 1.0,
+        v_start: -0.5,
+        v_end: 0.0,
+    };
+    assert!(matches!(
+        min_time(back, &lim, Reversal::Forbid),
+        Err(PlannerError::SpeedAgainstTravel { .. })
+    ));
     assert!(min_time(back, &lim, Reversal::Allow).is_ok());
 }
 
@@ -92,13 +158,28 @@ fn bad_inputs_are_typed_errors() {
 #[test]
 fn gap_too_short_reports_exact_bounds() {
     let lim = Limits::new(0.5, 0.5, 5.0).expect("limits");
-    let mv = Move { distance: 0.5, v_start: 2.0, v_end: 0.5 };
+    let mv = Move {
+        distance: 0.5,
+        v_start: 2.0,
+        v_end: 0.5,
+    };
     let err = min_time(mv, &lim, Reversal::Forbid).unwrap_err();
-    let PlannerError::Unreachable { max_start_speed, .. } = err else { panic!("{err:?}") };
+    let PlannerError::Unreachable {
+        max_start_speed, ..
+    } = err
+    else {
+        panic!("{err:?}")
+    };
     assert!(max_start_speed < 2.0 && max_start_speed > 0.5);
-    let ok = Move { v_start: max_start_speed, ..mv };
+    let ok = Move {
+        v_start: max_start_speed,
+        ..mv
+    };
     assert!(min_time(ok, &lim, Reversal::Forbid).is_ok());
-    let too_fast = Move { v_start: max_start_speed * (1.0 + 1e-9), ..mv };
+    let too_fast = Move {
+        v_start: max_start_speed * (1.0 + 1e-9),
+        ..mv
+    };
     assert!(min_time(too_fast, &lim, Reversal::Forbid).is_err());
 }
 
@@ -108,11 +189,28 @@ fn gap_too_short_reports_exact_bounds() {
 #[test]
 fn golden_ratio_return_to_start() {
     let phi = 0.5 * (1.0 + 5f64.sqrt());
-    for (v, j) in [(1.0, 1.0), (8.037834236398688e-8, 3022.9005540918), (0.3, 0.5)] {
+    for (v, j) in [
+        (1.0, 1.0),
+        (8.037834236398688e-8, 3022.9005540918),
+        (0.3, 0.5),
+    ] {
         let lim = Limits::new(j, 1e6, 10.0).expect("limits");
-        let p = min_time(Move { distance: 0.0, v_start: v, v_end: 0.0 }, &lim, Reversal::Allow).expect("profile");
+        let p = min_time(
+            Move {
+                distance: 0.0,
+                v_start: v,
+                v_end: 0.0,
+            },
+            &lim,
+            Reversal::Allow,
+        )
+        .expect("profile");
         let t = 2.0 * (v / j).sqrt() * (phi.sqrt() + (1.0 / phi).sqrt());
-        assert!((p.duration() - t).abs() <= 1e-12 * t, "v={v}: {} vs {t}", p.duration());
+        assert!(
+            (p.duration() - t).abs() <= 1e-12 * t,
+            "v={v}: {} vs {t}",
+            p.duration()
+        );
         let vm = p.two_step().expect("seven-phase").v_peak;
         assert!((vm + v / phi).abs() <= 1e-9 * v, "v={v}: valley {vm}");
     }

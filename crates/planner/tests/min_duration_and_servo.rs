@@ -3,7 +3,8 @@
 mod common;
 
 use arcsim_planner::{
-    discretize, exact_duration, feasible_durations, max_duration, min_time, Move, PlannerError, Reversal,
+    discretize, exact_duration, feasible_durations, max_duration, min_time, Move, PlannerError,
+    Reversal,
 };
 use common::*;
 
@@ -23,8 +24,13 @@ fn exact_durations_on_random_moves() {
             }
             Err(e) => panic!("case {case}: {e}"),
         };
-        let t_opt = min_time(mv, &lim, Reversal::Forbid).expect("forbid ok").duration();
-        assert!((set.min() - t_opt).abs() <= 1e-12 * t_opt.max(1.0), "case {case}: {set:?} vs {t_opt}");
+        let t_opt = min_time(mv, &lim, Reversal::Forbid)
+            .expect("forbid ok")
+            .duration();
+        assert!(
+            (set.min() - t_opt).abs() <= 1e-12 * t_opt.max(1.0),
+            "case {case}: {set:?} vs {t_opt}"
+        );
         // A requested duration: up to 20x the minimum time, or a little beyond the longest.
         let t_req = if rng.chance(0.2) && set.max().is_finite() {
             set.max() * (1.0 + rng.uniform(1e-6, 0.5))
@@ -34,27 +40,55 @@ fn exact_durations_on_random_moves() {
         match exact_duration(mv, &lim, t_req) {
             Ok(p) => {
                 solved += 1;
-                assert!(set.contains(t_req), "case {case}: solved {t_req} outside {set:?}");
-                assert!((p.duration() - t_req).abs() <= 1e-9 * t_req.max(1.0), "case {case}: {} vs {t_req}", p.duration());
+                assert!(
+                    set.contains(t_req),
+                    "case {case}: solved {t_req} outside {set:?}"
+                );
+                assert!(
+                    (p.duration() - t_req).abs() <= 1e-9 * t_req.max(1.0),
+                    "case {case}: {} vs {t_req}",
+                    p.duration()
+                );
                 let end = p.end_state();
                 let scale = move_scale(&mv, &lim, p.duration());
-                assert!((end.position - mv.distance).abs() <= 1e-9 * scale, "case {case}: end {end:?}");
-                assert!((end.velocity - mv.v_end).abs() <= 1e-9 * lim.max_vel, "case {case}: end {end:?}");
+                assert!(
+                    (end.position - mv.distance).abs() <= 1e-9 * scale,
+                    "case {case}: end {end:?}"
+                );
+                assert!(
+                    (end.velocity - mv.v_end).abs() <= 1e-9 * lim.max_vel,
+                    "case {case}: end {end:?}"
+                );
                 let e = p.extrema();
-                assert!(e.min_velocity >= -1e-12 * lim.max_vel, "case {case}: reverses {e:?}");
-                assert!(e.max_velocity <= lim.max_vel * (1.0 + 1e-12), "case {case}: {e:?}");
-                assert!(e.max_abs_jerk <= lim.max_jerk * (1.0 + 1e-12), "case {case}");
+                assert!(
+                    e.min_velocity >= -1e-12 * lim.max_vel,
+                    "case {case}: reverses {e:?}"
+                );
+                assert!(
+                    e.max_velocity <= lim.max_vel * (1.0 + 1e-12),
+                    "case {case}: {e:?}"
+                );
+                assert!(
+                    e.max_abs_jerk <= lim.max_jerk * (1.0 + 1e-12),
+                    "case {case}"
+                );
             }
             Err(PlannerError::DurationInfeasible { feasible, .. }) => {
                 infeasible += 1;
-                assert!(!set.contains(t_req), "case {case}: {t_req} in {set:?} but refused {mv:?} {lim:?}");
+                assert!(
+                    !set.contains(t_req),
+                    "case {case}: {t_req} in {set:?} but refused {mv:?} {lim:?}"
+                );
                 assert_eq!(feasible, set.intervals);
             }
             Err(e) => panic!("case {case}: {e}"),
         }
     }
     println!("solved {solved}, infeasible {infeasible}, reversing {reversing}");
-    assert!(solved > 10_000 && infeasible > 100, "solved {solved}, infeasible {infeasible}");
+    assert!(
+        solved > 10_000 && infeasible > 100,
+        "solved {solved}, infeasible {infeasible}"
+    );
 }
 
 /// The ELST situation on the ATOM gantry: a 2° step that must last 5 s. At 1.5°/s the gantry can
@@ -62,12 +96,20 @@ fn exact_durations_on_random_moves() {
 #[test]
 fn energy_switch_on_atom_gantry() {
     let lim = arcsim_planner::Limits::new(0.5, 0.5, 5.0).expect("limits");
-    let fast = Move { distance: 1.6, v_start: 1.5, v_end: 1.5 };
+    let fast = Move {
+        distance: 1.6,
+        v_start: 1.5,
+        v_end: 1.5,
+    };
     let t_max = max_duration(fast, &lim).expect("feasible");
     assert!(t_max.is_finite() && t_max < 5.0, "{t_max}");
     let err = exact_duration(fast, &lim, 5.0).unwrap_err();
     assert!(err.to_string().contains("feasible durations"), "{err}");
-    let slow = Move { distance: 1.6, v_start: 0.3, v_end: 0.3 };
+    let slow = Move {
+        distance: 1.6,
+        v_start: 0.3,
+        v_end: 0.3,
+    };
     let p = exact_duration(slow, &lim, 5.0).expect("slow enough");
     assert!((p.duration() - 5.0).abs() < 1e-9);
     assert!(max_duration(slow, &lim).expect("ok").is_infinite());
@@ -81,30 +123,67 @@ fn servo_discretisation_keeps_limits_and_end_state() {
         let lim = random_limits(&mut rng);
         let forward = rng.chance(0.5);
         let mv = random_move(&mut rng, &lim, forward);
-        let reversal = if forward { Reversal::Forbid } else { Reversal::Allow };
-        let Ok(p) = min_time(mv, &lim, reversal) else { continue };
+        let reversal = if forward {
+            Reversal::Forbid
+        } else {
+            Reversal::Allow
+        };
+        let Ok(p) = min_time(mv, &lim, reversal) else {
+            continue;
+        };
         // Periods from 1e-4 to 1e-1 of the move's duration (and an absolute servo-like 1 ms).
-        let period = if rng.chance(0.3) { 1e-3 } else { p.duration().max(1e-9) * rng.log_uniform(-4.0, -1.0) };
+        let period = if rng.chance(0.3) {
+            1e-3
+        } else {
+            p.duration().max(1e-9) * rng.log_uniform(-4.0, -1.0)
+        };
         match discretize(&p, period, &lim) {
             Ok(dz) => {
                 ok += 1;
-                assert!(dz.added_time >= -1e-12 * p.duration().max(1.0), "case {case}: {}", dz.added_time);
+                assert!(
+                    dz.added_time >= -1e-12 * p.duration().max(1.0),
+                    "case {case}: {}",
+                    dz.added_time
+                );
                 for s in dz.profile.segments() {
                     let n = s.duration / period;
-                    assert!((n - n.round()).abs() <= 1e-9 * n.max(1.0), "case {case}: phase {} not a multiple of {period}", s.duration);
+                    assert!(
+                        (n - n.round()).abs() <= 1e-9 * n.max(1.0),
+                        "case {case}: phase {} not a multiple of {period}",
+                        s.duration
+                    );
                 }
                 let (e0, e1) = (p.end_state(), dz.profile.end_state());
                 let scale = move_scale(&mv, &lim, dz.profile.duration());
-                assert!((e1.position - e0.position).abs() <= 1e-9 * scale, "case {case}: {e1:?} vs {e0:?}");
-                assert!((e1.velocity - e0.velocity).abs() <= 1e-9 * lim.max_vel, "case {case}");
+                assert!(
+                    (e1.position - e0.position).abs() <= 1e-9 * scale,
+                    "case {case}: {e1:?} vs {e0:?}"
+                );
+                assert!(
+                    (e1.velocity - e0.velocity).abs() <= 1e-9 * lim.max_vel,
+                    "case {case}"
+                );
                 let e = dz.profile.extrema();
                 let amax = lim.max_accel.max(lim.max_decel);
-                assert!(e.max_abs_jerk <= lim.max_jerk * (1.0 + 1e-12), "case {case}: jerk {}", e.max_abs_jerk);
-                assert!(e.max_acceleration.max(-e.min_acceleration) <= amax * (1.0 + 1e-12), "case {case}");
-                assert!(e.max_velocity.max(-e.min_velocity) <= lim.max_vel * (1.0 + 1e-12), "case {case}");
+                assert!(
+                    e.max_abs_jerk <= lim.max_jerk * (1.0 + 1e-12),
+                    "case {case}: jerk {}",
+                    e.max_abs_jerk
+                );
+                assert!(
+                    e.max_acceleration.max(-e.min_acceleration) <= amax * (1.0 + 1e-12),
+                    "case {case}"
+                );
+                assert!(
+                    e.max_velocity.max(-e.min_velocity) <= lim.max_vel * (1.0 + 1e-12),
+                    "case {case}"
+                );
             }
             Err(PlannerError::PeriodTooCoarse { .. }) => coarse += 1,
-            Err(e) => panic!("case {case}: {e} {mv:?} {lim:?} period {period} {:?}", p.two_step()),
+            Err(e) => panic!(
+                "case {case}: {e} {mv:?} {lim:?} period {period} {:?}",
+                p.two_step()
+            ),
         }
     }
     println!("discretised {ok}, too coarse {coarse}");
@@ -116,8 +195,21 @@ fn servo_discretisation_keeps_limits_and_end_state() {
 #[test]
 fn servo_rounding_up_adds_bounded_time() {
     let lim = arcsim_planner::Limits::new(0.5, 0.5, 5.0).expect("limits");
-    let p = min_time(Move { distance: 2.0, v_start: 1.0, v_end: 0.4 }, &lim, Reversal::Forbid).expect("ok");
+    let p = min_time(
+        Move {
+            distance: 2.0,
+            v_start: 1.0,
+            v_end: 0.4,
+        },
+        &lim,
+        Reversal::Forbid,
+    )
+    .expect("ok");
     let dz = discretize(&p, 1e-3, &lim).expect("fine period");
-    assert!(dz.added_time >= 0.0 && dz.added_time < 7.0 * 1e-3, "{}", dz.added_time);
+    assert!(
+        dz.added_time >= 0.0 && dz.added_time < 7.0 * 1e-3,
+        "{}",
+        dz.added_time
+    );
     assert!(dz.profile.extrema().max_abs_jerk <= 0.5 * (1.0 + 1e-12));
 }

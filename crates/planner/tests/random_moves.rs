@@ -16,7 +16,12 @@ struct Tally {
     ruckig_missing: usize,
 }
 
-fn check_case(rng: &mut Rng, otg: &mut rsruckig::prelude::Ruckig<1, rsruckig::prelude::ThrowErrorHandler>, tally: &mut Tally, case: usize) {
+fn check_case(
+    rng: &mut Rng,
+    otg: &mut rsruckig::prelude::Ruckig<1, rsruckig::prelude::ThrowErrorHandler>,
+    tally: &mut Tally,
+    case: usize,
+) {
     let lim = random_limits(rng);
     let forward_only = rng.chance(0.4);
     let mv = random_move(rng, &lim, forward_only);
@@ -31,19 +36,51 @@ fn check_case(rng: &mut Rng, otg: &mut rsruckig::prelude::Ruckig<1, rsruckig::pr
     let e = prof.extrema();
     let v_scale = e.max_velocity.max(-e.min_velocity).max(1e-300);
     let scale = mv.distance.abs().max(v_scale * t).max(1e-300);
-    assert!((end.position - mv.distance).abs() <= 1e-9 * scale, "{}: end position {}", ctx(), end.position);
-    assert!((end.velocity - mv.v_end).abs() <= 1e-9 * v_scale, "{}: end velocity {}", ctx(), end.velocity);
+    assert!(
+        (end.position - mv.distance).abs() <= 1e-9 * scale,
+        "{}: end position {}",
+        ctx(),
+        end.position
+    );
+    assert!(
+        (end.velocity - mv.v_end).abs() <= 1e-9 * v_scale,
+        "{}: end velocity {}",
+        ctx(),
+        end.velocity
+    );
     let rel = 1e-12;
-    assert!(e.max_abs_jerk <= lim.max_jerk * (1.0 + rel), "{}: jerk {}", ctx(), e.max_abs_jerk);
+    assert!(
+        e.max_abs_jerk <= lim.max_jerk * (1.0 + rel),
+        "{}: jerk {}",
+        ctx(),
+        e.max_abs_jerk
+    );
     let amax = lim.max_accel.max(lim.max_decel);
-    assert!(e.max_acceleration <= amax * (1.0 + rel) && -e.min_acceleration <= amax * (1.0 + rel), "{}: acc", ctx());
-    assert!(e.max_velocity <= lim.max_vel * (1.0 + rel) && -e.min_velocity <= lim.max_vel * (1.0 + rel), "{}: vel {e:?}", ctx());
+    assert!(
+        e.max_acceleration <= amax * (1.0 + rel) && -e.min_acceleration <= amax * (1.0 + rel),
+        "{}: acc",
+        ctx()
+    );
+    assert!(
+        e.max_velocity <= lim.max_vel * (1.0 + rel) && -e.min_velocity <= lim.max_vel * (1.0 + rel),
+        "{}: vel {e:?}",
+        ctx()
+    );
     for s in prof.segments() {
-        assert!(s.duration > 0.0 && s.duration.is_finite() && s.jerk.is_finite(), "{}: segment {s:?}", ctx());
+        assert!(
+            s.duration > 0.0 && s.duration.is_finite() && s.jerk.is_finite(),
+            "{}: segment {s:?}",
+            ctx()
+        );
     }
     // Sampled limits agree with the extrema (sampling can only find less).
     for (_, st) in prof.samples(t / 37.0) {
-        assert!(st.velocity.abs() <= lim.max_vel * (1.0 + rel) && st.acceleration.abs() <= amax * (1.0 + rel), "{}: sample {st:?}", ctx());
+        assert!(
+            st.velocity.abs() <= lim.max_vel * (1.0 + rel)
+                && st.acceleration.abs() <= amax * (1.0 + rel),
+            "{}: sample {st:?}",
+            ctx()
+        );
         assert!(st.position.is_finite());
     }
 
@@ -53,22 +90,24 @@ fn check_case(rng: &mut Rng, otg: &mut rsruckig::prelude::Ruckig<1, rsruckig::pr
         assert_eq!(t, 0.0, "{}", ctx());
         tally.ruckig_compared += 1;
     } else {
-    match ruckig_duration(&mv, &lim, otg) {
-        // rsruckig works to a position precision of about 1e-8: a move whose whole extent is
-        // smaller is below what it resolves (it may call it reached, or miss the optimum; see the
-        // analytic golden-ratio case in known_answers.rs, where this planner is exact).
-        Some(tr) if scale < 1e-8 || (tr == 0.0 && mv.distance.abs() < 1e-8) => tally.ruckig_missing += 1,
-        Some(tr) => {
-            tally.ruckig_compared += 1;
-            assert!(
-                (t - tr).abs() <= 1e-9 * tr.max(1e-300) + 1e-12 * scale / lim.max_vel,
-                "{}: duration {t} vs ruckig {tr} (diff {:e})",
-                ctx(),
-                t - tr
-            );
+        match ruckig_duration(&mv, &lim, otg) {
+            // rsruckig works to a position precision of about 1e-8: a move whose whole extent is
+            // smaller is below what it resolves (it may call it reached, or miss the optimum; see the
+            // analytic golden-ratio case in known_answers.rs, where this planner is exact).
+            Some(tr) if scale < 1e-8 || (tr == 0.0 && mv.distance.abs() < 1e-8) => {
+                tally.ruckig_missing += 1
+            }
+            Some(tr) => {
+                tally.ruckig_compared += 1;
+                assert!(
+                    (t - tr).abs() <= 1e-9 * tr.max(1e-300) + 1e-12 * scale / lim.max_vel,
+                    "{}: duration {t} vs ruckig {tr} (diff {:e})",
+                    ctx(),
+                    t - tr
+                );
+            }
+            None => tally.ruckig_missing += 1,
         }
-        None => tally.ruckig_missing += 1,
-    }
     }
 
     // Reversal forbidden: the same profile when it does not reverse, else a typed result.
@@ -76,19 +115,46 @@ fn check_case(rng: &mut Rng, otg: &mut rsruckig::prelude::Ruckig<1, rsruckig::pr
         match min_time(mv, &lim, Reversal::Forbid) {
             Ok(p) => {
                 tally.forbid_ok += 1;
-                assert!((p.duration() - t).abs() <= 1e-12 * t.max(1.0), "{}: forbid changes duration", ctx());
-                assert!(p.extrema().min_velocity >= -1e-12 * lim.max_vel, "{}: forbid reverses", ctx());
+                assert!(
+                    (p.duration() - t).abs() <= 1e-12 * t.max(1.0),
+                    "{}: forbid changes duration",
+                    ctx()
+                );
+                assert!(
+                    p.extrema().min_velocity >= -1e-12 * lim.max_vel,
+                    "{}: forbid reverses",
+                    ctx()
+                );
             }
-            Err(PlannerError::Unreachable { max_end_speed, max_start_speed, .. }) => {
+            Err(PlannerError::Unreachable {
+                max_end_speed,
+                max_start_speed,
+                ..
+            }) => {
                 tally.forbid_unreachable += 1;
-                assert!(e.min_velocity < 0.0, "{}: unreachable but the optimum never reverses", ctx());
+                assert!(
+                    e.min_velocity < 0.0,
+                    "{}: unreachable but the optimum never reverses",
+                    ctx()
+                );
                 assert!(max_end_speed.is_finite() && max_start_speed.is_finite());
                 if mv.v_end > mv.v_start {
-                    assert!(max_end_speed < mv.v_end, "{}: reachable {max_end_speed}", ctx());
+                    assert!(
+                        max_end_speed < mv.v_end,
+                        "{}: reachable {max_end_speed}",
+                        ctx()
+                    );
                     // The reported bound itself is reachable, exactly.
-                    let m = Move { v_end: max_end_speed, ..mv };
+                    let m = Move {
+                        v_end: max_end_speed,
+                        ..mv
+                    };
                     let ok = min_time(m, &lim, Reversal::Forbid);
-                    assert!(ok.is_ok(), "{}: bound {max_end_speed} not reachable: {ok:?}", ctx());
+                    assert!(
+                        ok.is_ok(),
+                        "{}: bound {max_end_speed} not reachable: {ok:?}",
+                        ctx()
+                    );
                 }
             }
             Err(other) => panic!("{}: {other}", ctx()),
@@ -112,7 +178,10 @@ fn hundred_thousand_random_moves() {
     println!("{tally:?}");
     assert_eq!(tally.allow, 100_000);
     assert!(tally.ruckig_compared > 95_000, "{tally:?}");
-    assert!(tally.forbid_unreachable > 1_000 && tally.forbid_ok > 1_000, "{tally:?}");
+    assert!(
+        tally.forbid_unreachable > 1_000 && tally.forbid_ok > 1_000,
+        "{tally:?}"
+    );
 }
 
 #[test]

@@ -1,15 +1,18 @@
 //! Entry points: resolve, schedule, then build, measure and verify one delivery.
 
 use arcsim_plan::{ArcPlan, Machine, ResolvedArc};
-use arcsim_planner::{exact_duration, min_time_shape, shortest_duration_at_least, Limits, Move, Profile, Reversal, TwoStep};
+use arcsim_planner::{
+    exact_duration, min_time_shape, shortest_duration_at_least, Limits, Move, Profile, Reversal,
+    TwoStep,
+};
 
 use crate::optimal::optimal;
 use crate::scan::{scan, ArcProblem};
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
 use crate::{
-    Breakdown, Delivery, LayerRow, Limiter, LimiterCounts, Options, Schedule, SequenceError, SpeedBound, TransitionRow,
-    Violation,
+    Breakdown, Delivery, LayerRow, Limiter, LimiterCounts, Options, Schedule, SequenceError,
+    SpeedBound, TransitionRow, Violation,
 };
 
 /// The planner limits of a machine model.
@@ -25,14 +28,22 @@ pub fn machine_limits(machine: &Machine) -> Result<Limits, SequenceError> {
 }
 
 /// Simulates the delivery of `plan` on `machine`.
-pub fn simulate(plan: &ArcPlan, machine: &Machine, opts: &Options) -> Result<Delivery, SequenceError> {
+pub fn simulate(
+    plan: &ArcPlan,
+    machine: &Machine,
+    opts: &Options,
+) -> Result<Delivery, SequenceError> {
     let arcs = arcsim_plan::resolve(plan, machine)?;
     let limits = machine_limits(machine)?;
     simulate_resolved(&arcs, &limits, opts)
 }
 
 /// Simulates already-resolved arcs (sweeps resolve once and vary the limits).
-pub fn simulate_resolved(arcs: &[ResolvedArc], limits: &Limits, opts: &Options) -> Result<Delivery, SequenceError> {
+pub fn simulate_resolved(
+    arcs: &[ResolvedArc],
+    limits: &Limits,
+    opts: &Options,
+) -> Result<Delivery, SequenceError> {
     limits.validate().map_err(SequenceError::Limits)?;
     let problems: Vec<ArcProblem> = arcs.iter().map(|a| ArcProblem::new(a, limits)).collect();
     let mut speeds = Vec::with_capacity(arcs.len());
@@ -51,7 +62,15 @@ pub fn simulate_resolved(arcs: &[ResolvedArc], limits: &Limits, opts: &Options) 
                     .iter()
                     .zip(&seed_bounds)
                     .enumerate()
-                    .map(|(k, (&v, &sb))| if (v - p.cap[k]).abs() <= 1e-12 * (1.0 + v) { p.cap_bound[k] } else if v == seed[k] { sb } else { SpeedBound::Optimised })
+                    .map(|(k, (&v, &sb))| {
+                        if (v - p.cap[k]).abs() <= 1e-12 * (1.0 + v) {
+                            p.cap_bound[k]
+                        } else if v == seed[k] {
+                            sb
+                        } else {
+                            SpeedBound::Optimised
+                        }
+                    })
                     .collect();
                 (best, b)
             }
@@ -74,12 +93,21 @@ pub fn simulate_resolved(arcs: &[ResolvedArc], limits: &Limits, opts: &Options) 
 
 /// Per-layer caps from the plan's required speeds, and every point where they cannot be
 /// delivered (above V, window overflow, ends not at rest, transitions that do not fit).
-fn prescribed_caps(arc: &ResolvedArc, p: &ArcProblem, lim: &Limits, offset: usize) -> (Vec<f64>, Vec<SpeedBound>, Vec<Violation>) {
+fn prescribed_caps(
+    arc: &ResolvedArc,
+    p: &ArcProblem,
+    lim: &Limits,
+    offset: usize,
+) -> (Vec<f64>, Vec<SpeedBound>, Vec<Violation>) {
     let n = p.len();
     let mut caps = p.cap.clone();
     let mut bounds = p.cap_bound.clone();
     let mut found = Vec::new();
-    let req: Vec<Option<f64>> = arc.layers.iter().map(|l| l.required_speed_deg_per_s).collect();
+    let req: Vec<Option<f64>> = arc
+        .layers
+        .iter()
+        .map(|l| l.required_speed_deg_per_s)
+        .collect();
     let mut flag = |k: usize, v: f64, reason: String| {
         found.push(Violation {
             layer: offset + k,
@@ -93,11 +121,28 @@ fn prescribed_caps(arc: &ResolvedArc, p: &ArcProblem, lim: &Limits, offset: usiz
     for k in 0..n {
         let Some(v) = req[k] else { continue };
         if (k == 0 || k + 1 == n) && v > 0.0 {
-            flag(k, v, "the first and last layers of an arc are delivered at rest".into());
+            flag(
+                k,
+                v,
+                "the first and last layers of an arc are delivered at rest".into(),
+            );
         } else if v > lim.max_vel * (1.0 + 1e-12) {
-            flag(k, v, format!("above the gantry speed limit V = {} deg/s", lim.max_vel));
+            flag(
+                k,
+                v,
+                format!("above the gantry speed limit V = {} deg/s", lim.max_vel),
+            );
         } else if v * p.t[k] > p.window[k] * (1.0 + 1e-12) {
-            flag(k, v, format!("sweeps {:.4} deg in {:.4} s, more than the {:.4} deg window", v * p.t[k], p.t[k], p.window[k]));
+            flag(
+                k,
+                v,
+                format!(
+                    "sweeps {:.4} deg in {:.4} s, more than the {:.4} deg window",
+                    v * p.t[k],
+                    p.t[k],
+                    p.window[k]
+                ),
+            );
         }
         if k > 0 && k + 1 < n && v < caps[k] {
             caps[k] = v;
@@ -106,13 +151,24 @@ fn prescribed_caps(arc: &ResolvedArc, p: &ArcProblem, lim: &Limits, offset: usiz
     }
     // Transitions between two prescribed (and otherwise valid) speeds.
     for k in 0..n.saturating_sub(1) {
-        let (Some(a), Some(b)) = (req[k], req[k + 1]) else { continue };
-        let (a, b) = (if k == 0 { 0.0 } else { a.min(p.cap[k]) }, if k + 2 == n { 0.0 } else { b.min(p.cap[k + 1]) });
+        let (Some(a), Some(b)) = (req[k], req[k + 1]) else {
+            continue;
+        };
+        let (a, b) = (
+            if k == 0 { 0.0 } else { a.min(p.cap[k]) },
+            if k + 2 == n { 0.0 } else { b.min(p.cap[k + 1]) },
+        );
         if p.cost(k, a, b, lim).is_none() {
             let mv = p.transition_move(k, a, b);
             let why = match min_time_shape(mv, lim, Reversal::Forbid) {
-                Err(e) => format!("transition to the next layer does not fit its {:.4} deg gap: {e}", mv.distance),
-                Ok(_) => format!("transition to the next layer cannot last its {:.3} s energy switch", p.elst[k + 1]),
+                Err(e) => format!(
+                    "transition to the next layer does not fit its {:.4} deg gap: {e}",
+                    mv.distance
+                ),
+                Ok(_) => format!(
+                    "transition to the next layer cannot last its {:.3} s energy switch",
+                    p.elst[k + 1]
+                ),
             };
             flag(k, req[k].unwrap_or(a), why);
         }
@@ -132,7 +188,10 @@ pub fn simulate_with_speeds(
     limits.validate().map_err(SequenceError::Limits)?;
     let total: usize = arcs.iter().map(|a| a.layers.len()).sum();
     if speeds_deg_per_s.len() != total {
-        return Err(SequenceError::Input(format!("{} speeds given for {total} layers", speeds_deg_per_s.len())));
+        return Err(SequenceError::Input(format!(
+            "{} speeds given for {total} layers",
+            speeds_deg_per_s.len()
+        )));
     }
     let problems: Vec<ArcProblem> = arcs.iter().map(|a| ArcProblem::new(a, limits)).collect();
     let mut speeds = Vec::new();
@@ -141,7 +200,11 @@ pub fn simulate_with_speeds(
     for (a, p) in arcs.iter().zip(&problems) {
         let v = speeds_deg_per_s[at..at + p.len()].to_vec();
         for (k, &s) in v.iter().enumerate() {
-            let cap = if k == 0 || k + 1 == p.len() { 0.0 } else { p.cap[k] };
+            let cap = if k == 0 || k + 1 == p.len() {
+                0.0
+            } else {
+                p.cap[k]
+            };
             if !(s.is_finite() && s >= 0.0 && s <= cap * (1.0 + 1e-9) + 1e-12) {
                 return Err(SequenceError::Infeasible {
                     arc: a.arc_index,
@@ -150,11 +213,27 @@ pub fn simulate_with_speeds(
                 });
             }
         }
-        speeds.push(v.iter().enumerate().map(|(k, &s)| s.min(p.cap[k])).collect::<Vec<_>>());
+        speeds.push(
+            v.iter()
+                .enumerate()
+                .map(|(k, &s)| s.min(p.cap[k]))
+                .collect::<Vec<_>>(),
+        );
         bounds.push(vec![SpeedBound::Prescribed; p.len()]);
         at += p.len();
     }
-    assemble(arcs, &problems, &speeds, &bounds, limits, &Options { schedule: Schedule::Prescribed, ..opts.clone() }, Vec::new())
+    assemble(
+        arcs,
+        &problems,
+        &speeds,
+        &bounds,
+        limits,
+        &Options {
+            schedule: Schedule::Prescribed,
+            ..opts.clone()
+        },
+        Vec::new(),
+    )
 }
 
 /// One solved transition: its profile (when a timeline is built) and its summary.
@@ -178,25 +257,58 @@ fn limiter_of(shape: &TwoStep, lim: &Limits) -> Limiter {
 }
 
 /// Solves one forward move of `mv` lasting at least `elst`.
-fn solve_move(mv: Move, elst: f64, lim: &Limits, with_profile: bool, arc: usize, layer: usize) -> Result<Solved, SequenceError> {
-    let infeasible = |e: arcsim_planner::PlannerError| SequenceError::Infeasible { arc, layer, message: e.to_string() };
+fn solve_move(
+    mv: Move,
+    elst: f64,
+    lim: &Limits,
+    with_profile: bool,
+    arc: usize,
+    layer: usize,
+) -> Result<Solved, SequenceError> {
+    let infeasible = |e: arcsim_planner::PlannerError| SequenceError::Infeasible {
+        arc,
+        layer,
+        message: e.to_string(),
+    };
     let shape = min_time_shape(mv, lim, Reversal::Forbid).map_err(infeasible)?;
     let min_time = shape.duration();
-    let limiter = if elst > min_time { Limiter::Elst } else { limiter_of(&shape, lim) };
+    let limiter = if elst > min_time {
+        Limiter::Elst
+    } else {
+        limiter_of(&shape, lim)
+    };
     let duration = if elst > min_time {
-        shortest_duration_at_least(mv, lim, elst).map_err(infeasible)?.ok_or_else(|| SequenceError::Infeasible {
-            arc,
-            layer,
-            message: format!("the move cannot last its {elst} s energy switch"),
-        })?
+        shortest_duration_at_least(mv, lim, elst)
+            .map_err(infeasible)?
+            .ok_or_else(|| SequenceError::Infeasible {
+                arc,
+                layer,
+                message: format!("the move cannot last its {elst} s energy switch"),
+            })?
     } else {
         min_time
     };
-    let profile = if with_profile { Some(exact_duration(mv, lim, duration).map_err(infeasible)?) } else { None };
-    Ok(Solved { profile, duration, min_time, limiter })
+    let profile = if with_profile {
+        Some(exact_duration(mv, lim, duration).map_err(infeasible)?)
+    } else {
+        None
+    };
+    Ok(Solved {
+        profile,
+        duration,
+        min_time,
+        limiter,
+    })
 }
 
-fn push_profile(pieces: &mut Vec<Piece>, prof: &Profile, t0: f64, angle0: f64, dir: f64, transition: usize) {
+fn push_profile(
+    pieces: &mut Vec<Piece>,
+    prof: &Profile,
+    t0: f64,
+    angle0: f64,
+    dir: f64,
+    transition: usize,
+) {
     let mut t = t0;
     let mut time_in = 0.0;
     for seg in prof.segments() {
@@ -243,7 +355,11 @@ fn assemble(
                         // Stop-and-turn between arcs: rest to rest, lasting at least the ELST.
                         let delta = p.angle[0] - angle;
                         let dir = if delta < 0.0 { -1.0 } else { 1.0 };
-                        let mv = Move { distance: delta.abs(), v_start: 0.0, v_end: 0.0 };
+                        let mv = Move {
+                            distance: delta.abs(),
+                            v_start: 0.0,
+                            v_end: 0.0,
+                        };
                         let s = solve_move(mv, p.elst[0], lim, build, arc.arc_index, 0)?;
                         if let Some(prof) = &s.profile {
                             push_profile(&mut pieces, prof, t, angle, dir, transitions.len());
@@ -351,7 +467,11 @@ fn assemble(
     Ok(Delivery {
         schedule: opts.schedule,
         total_s: t,
-        breakdown: Breakdown { beam_on_s, energy_switching_s, lost_s },
+        breakdown: Breakdown {
+            beam_on_s,
+            energy_switching_s,
+            lost_s,
+        },
         limits: (*lim).into(),
         layers,
         transitions,

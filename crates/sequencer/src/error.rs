@@ -12,7 +12,11 @@ pub enum SequenceError {
     Limits(arcsim_planner::PlannerError),
     /// No feasible timeline (should not happen for valid plans: rest is always feasible).
     #[error("arc {arc}, layer {layer}: {message}")]
-    Infeasible { arc: usize, layer: usize, message: String },
+    Infeasible {
+        arc: usize,
+        layer: usize,
+        message: String,
+    },
     /// The integrated timeline broke a constraint: a bug, reported instead of ignored.
     #[error("timeline verification failed (a bug): {0}")]
     Verification(String),

@@ -28,11 +28,21 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
         // Monotone-branch bounds (exact): a pair fits iff it is within them.
         let max_end: Vec<f64> = from
             .iter()
-            .map(|&vs| max_end_speed(vs, &gap, lim).ok().flatten().unwrap_or(f64::NEG_INFINITY))
+            .map(|&vs| {
+                max_end_speed(vs, &gap, lim)
+                    .ok()
+                    .flatten()
+                    .unwrap_or(f64::NEG_INFINITY)
+            })
             .collect();
         let max_start: Vec<f64> = to
             .iter()
-            .map(|&ve| max_start_speed(ve, &gap, lim).ok().flatten().unwrap_or(f64::NEG_INFINITY))
+            .map(|&ve| {
+                max_start_speed(ve, &gap, lim)
+                    .ok()
+                    .flatten()
+                    .unwrap_or(f64::NEG_INFINITY)
+            })
             .collect();
         let mut next = vec![f64::INFINITY; to.len()];
         let mut arg = vec![usize::MAX; to.len()];
@@ -41,7 +51,11 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
                 if !best[j].is_finite() {
                     continue;
                 }
-                let fits = if ve >= vs { ve <= max_end[j] } else { vs <= max_start[i] };
+                let fits = if ve >= vs {
+                    ve <= max_end[j]
+                } else {
+                    vs <= max_start[i]
+                };
                 if !fits {
                     continue;
                 }
@@ -85,7 +99,12 @@ fn grid_around(centre: f64, half_width: f64, upper: f64, extra: &[f64]) -> Vec<f
 /// Minimum-time speeds of an arc. `upper`: per-layer upper bounds (scan without ELST);
 /// `seed`: a feasible schedule (the scan) that the result never does worse than.
 /// Returns the speeds and the speed tolerance of the last grid (deg/s).
-pub(crate) fn optimal(p: &ArcProblem, lim: &Limits, upper: &[f64], seed: &[f64]) -> (Vec<f64>, f64) {
+pub(crate) fn optimal(
+    p: &ArcProblem,
+    lim: &Limits,
+    upper: &[f64],
+    seed: &[f64],
+) -> (Vec<f64>, f64) {
     let n = p.len();
     if n <= 2 {
         return (seed.to_vec(), 0.0);
@@ -105,7 +124,11 @@ pub(crate) fn optimal(p: &ArcProblem, lim: &Limits, upper: &[f64], seed: &[f64])
     let mut half: Vec<f64> = upper.iter().map(|u| u / (GRID - 1) as f64).collect();
     for _ in 0..REFINEMENTS {
         for k in 0..n {
-            grids[k] = if upper[k] <= 0.0 { vec![0.0] } else { grid_around(path[k], half[k], upper[k], &[path[k]]) };
+            grids[k] = if upper[k] <= 0.0 {
+                vec![0.0]
+            } else {
+                grid_around(path[k], half[k], upper[k], &[path[k]])
+            };
         }
         if let Some((_, better)) = best_path(p, lim, &grids) {
             path = better;

@@ -7,7 +7,8 @@
 
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::{
-    max_end_speed, max_start_speed, min_time_shape, shortest_duration_at_least, LinearGap, Limits, Move, Reversal,
+    max_end_speed, max_start_speed, min_time_shape, shortest_duration_at_least, Limits, LinearGap,
+    Move, Reversal,
 };
 
 use crate::SpeedBound;
@@ -69,12 +70,20 @@ impl ArcProblem {
 
     /// The gap of transition `k` as a linear function of its boundary speeds (planner eq. 5).
     pub fn gap(&self, k: usize) -> LinearGap {
-        LinearGap { distance: (self.s[k + 1] - self.s[k]).max(0.0), t_start: self.t[k], t_end: self.t[k + 1] }
+        LinearGap {
+            distance: (self.s[k + 1] - self.s[k]).max(0.0),
+            t_start: self.t[k],
+            t_end: self.t[k + 1],
+        }
     }
 
     /// The planner move of transition `k` at speeds `vs`, `ve`.
     pub fn transition_move(&self, k: usize, vs: f64, ve: f64) -> Move {
-        Move { distance: self.gap(k).at(vs, ve).max(0.0), v_start: vs, v_end: ve }
+        Move {
+            distance: self.gap(k).at(vs, ve).max(0.0),
+            v_start: vs,
+            v_end: ve,
+        }
     }
 
     /// Duration of transition `k` at speeds `vs`, `ve`: the shortest feasible duration of at least
@@ -98,7 +107,13 @@ impl ArcProblem {
 /// pass) or left (backward pass) within their gaps, with the planner's exact bounds; with
 /// `with_elst`, also lower both speeds of a transition that cannot last its ELST (by a common
 /// factor, bisected). Repeats until nothing changes; the result is feasible.
-pub(crate) fn scan(p: &ArcProblem, lim: &Limits, caps: &[f64], bounds: &[SpeedBound], with_elst: bool) -> (Vec<f64>, Vec<SpeedBound>) {
+pub(crate) fn scan(
+    p: &ArcProblem,
+    lim: &Limits,
+    caps: &[f64],
+    bounds: &[SpeedBound],
+    with_elst: bool,
+) -> (Vec<f64>, Vec<SpeedBound>) {
     let n = p.len();
     let mut v = caps.to_vec();
     let mut bound = bounds.to_vec();
@@ -110,7 +125,10 @@ pub(crate) fn scan(p: &ArcProblem, lim: &Limits, caps: &[f64], bounds: &[SpeedBo
         for k in (0..n - 1).rev() {
             // Braking branch (v_k >= v_k+1): the highest start speed that still reaches v_k+1.
             if v[k] > v[k + 1] {
-                let b = max_start_speed(v[k + 1], &p.gap(k), lim).ok().flatten().unwrap_or(v[k + 1]);
+                let b = max_start_speed(v[k + 1], &p.gap(k), lim)
+                    .ok()
+                    .flatten()
+                    .unwrap_or(v[k + 1]);
                 if v[k] > b {
                     v[k] = b;
                     bound[k] = SpeedBound::Gap;
@@ -121,7 +139,10 @@ pub(crate) fn scan(p: &ArcProblem, lim: &Limits, caps: &[f64], bounds: &[SpeedBo
         for k in 1..n {
             // Speed-up branch (v_k > v_k-1): the highest end speed reachable from v_k-1.
             if v[k] > v[k - 1] {
-                let b = max_end_speed(v[k - 1], &p.gap(k - 1), lim).ok().flatten().unwrap_or(v[k - 1]);
+                let b = max_end_speed(v[k - 1], &p.gap(k - 1), lim)
+                    .ok()
+                    .flatten()
+                    .unwrap_or(v[k - 1]);
                 if v[k] > b {
                     v[k] = b;
                     bound[k] = SpeedBound::Gap;
@@ -133,7 +154,8 @@ pub(crate) fn scan(p: &ArcProblem, lim: &Limits, caps: &[f64], bounds: &[SpeedBo
             // A move that does not fit its gap is the passes' job (next round); here only the
             // transitions whose move fits but cannot last the ELST, or that the passes could not
             // settle after many rounds.
-            let fits = min_time_shape(p.transition_move(k, v[k], v[k + 1]), lim, Reversal::Forbid).is_ok();
+            let fits =
+                min_time_shape(p.transition_move(k, v[k], v[k + 1]), lim, Reversal::Forbid).is_ok();
             if !fits && _round < 100 {
                 changed = true;
                 continue;
@@ -147,7 +169,12 @@ pub(crate) fn scan(p: &ArcProblem, lim: &Limits, caps: &[f64], bounds: &[SpeedBo
                     let ok = if with_elst {
                         p.cost(k, mid * v[k], mid * v[k + 1], lim).is_some()
                     } else {
-                        min_time_shape(p.transition_move(k, mid * v[k], mid * v[k + 1]), lim, Reversal::Forbid).is_ok()
+                        min_time_shape(
+                            p.transition_move(k, mid * v[k], mid * v[k + 1]),
+                            lim,
+                            Reversal::Forbid,
+                        )
+                        .is_ok()
                     };
                     if ok {
                         lo = mid;
@@ -155,7 +182,11 @@ pub(crate) fn scan(p: &ArcProblem, lim: &Limits, caps: &[f64], bounds: &[SpeedBo
                         hi = mid;
                     }
                 }
-                let why = if with_elst { SpeedBound::Elst } else { SpeedBound::Gap };
+                let why = if with_elst {
+                    SpeedBound::Elst
+                } else {
+                    SpeedBound::Gap
+                };
                 for i in [k, k + 1] {
                     if v[i] > 0.0 {
                         v[i] *= lo;

@@ -41,7 +41,11 @@ pub struct Timeline {
 impl Piece {
     /// State `dt` seconds into the piece.
     pub fn state_after(&self, dt: f64) -> GantryState {
-        let (v, a, j) = (self.speed_deg_per_s, self.accel_deg_per_s2, self.jerk_deg_per_s3);
+        let (v, a, j) = (
+            self.speed_deg_per_s,
+            self.accel_deg_per_s2,
+            self.jerk_deg_per_s3,
+        );
         GantryState {
             angle_deg: self.angle_deg + dt * (v + dt * (a / 2.0 + dt * j / 6.0)),
             speed_deg_per_s: v + dt * (a + dt * j / 2.0),
@@ -54,7 +58,9 @@ impl Piece {
 impl Timeline {
     /// Total duration (s).
     pub fn duration_s(&self) -> f64 {
-        self.pieces.last().map_or(0.0, |p| p.t_start_s + p.duration_s)
+        self.pieces
+            .last()
+            .map_or(0.0, |p| p.t_start_s + p.duration_s)
     }
 
     /// Index of the piece active at `t` (the last one at or after the end).
@@ -92,7 +98,10 @@ impl Timeline {
             return Vec::new();
         }
         let n = (total / dt).floor() as usize;
-        let mut out: Vec<(f64, GantryState)> = (0..=n).map(|i| i as f64 * dt).map(|t| (t, self.state_at(t))).collect();
+        let mut out: Vec<(f64, GantryState)> = (0..=n)
+            .map(|i| i as f64 * dt)
+            .map(|t| (t, self.state_at(t)))
+            .collect();
         if out.last().is_none_or(|(t, _)| *t < total) {
             out.push((total, self.state_at(total)));
         }

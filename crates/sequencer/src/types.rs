@@ -20,7 +20,12 @@ pub enum Schedule {
 }
 
 impl Schedule {
-    pub const ALL: [Schedule; 4] = [Schedule::Prescribed, Schedule::Scan, Schedule::Optimal, Schedule::StepAndShoot];
+    pub const ALL: [Schedule; 4] = [
+        Schedule::Prescribed,
+        Schedule::Scan,
+        Schedule::Optimal,
+        Schedule::StepAndShoot,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -38,7 +43,11 @@ impl std::str::FromStr for Schedule {
         Schedule::ALL
             .into_iter()
             .find(|k| k.name() == s)
-            .ok_or_else(|| format!("unknown schedule '{s}' (expected prescribed, scan, optimal or step-and-shoot)"))
+            .ok_or_else(|| {
+                format!(
+                    "unknown schedule '{s}' (expected prescribed, scan, optimal or step-and-shoot)"
+                )
+            })
     }
 }
 
@@ -52,13 +61,19 @@ pub struct Options {
 
 impl Default for Options {
     fn default() -> Self {
-        Options { schedule: Schedule::Scan, build_timeline: true }
+        Options {
+            schedule: Schedule::Scan,
+            build_timeline: true,
+        }
     }
 }
 
 impl Options {
     pub fn new(schedule: Schedule) -> Self {
-        Options { schedule, ..Options::default() }
+        Options {
+            schedule,
+            ..Options::default()
+        }
     }
 }
 

@@ -39,7 +39,11 @@ pub fn random_limits(rng: &mut Rng) -> Limits {
     let j = rng.log_uniform(-1.0, 4.0);
     let a = rng.log_uniform(-1.0, 1.7);
     let v = rng.log_uniform(-1.0, 1.3);
-    let d = if rng.chance(0.3) { a * rng.log_uniform(-0.5, 0.5) } else { a };
+    let d = if rng.chance(0.3) {
+        a * rng.log_uniform(-0.5, 0.5)
+    } else {
+        a
+    };
     Limits::with_decel(j, a, d, v).expect("valid limits")
 }
 
@@ -52,7 +56,11 @@ pub fn random_move(rng: &mut Rng, lim: &Limits, forward_only: bool) -> Move {
         if r < 0.12 {
             0.0
         } else if r < 0.22 {
-            if forward_only || rng.chance(0.5) { v } else { -v }
+            if forward_only || rng.chance(0.5) {
+                v
+            } else {
+                -v
+            }
         } else if forward_only {
             rng.uniform(0.0, v)
         } else {
@@ -73,14 +81,27 @@ pub fn random_move(rng: &mut Rng, lim: &Limits, forward_only: bool) -> Move {
     if !forward_only && rng.chance(0.5) {
         d = -d;
     }
-    Move { distance: d, v_start: vs, v_end: ve }
+    Move {
+        distance: d,
+        v_start: vs,
+        v_end: ve,
+    }
 }
 
 /// Ruckig's minimum duration for the same move with zero boundary accelerations.
 /// Limits are mapped so that `max_accel` acts along the direction of travel.
-pub fn ruckig_duration(mv: &Move, lim: &Limits, otg: &mut Ruckig<1, ThrowErrorHandler>) -> Option<f64> {
-    let forward = arcsim_planner::profile::travel_direction(mv.distance, mv.v_start, mv.v_end) > 0.0;
-    let (a_max, a_min) = if forward { (lim.max_accel, -lim.max_decel) } else { (lim.max_decel, -lim.max_accel) };
+pub fn ruckig_duration(
+    mv: &Move,
+    lim: &Limits,
+    otg: &mut Ruckig<1, ThrowErrorHandler>,
+) -> Option<f64> {
+    let forward =
+        arcsim_planner::profile::travel_direction(mv.distance, mv.v_start, mv.v_end) > 0.0;
+    let (a_max, a_min) = if forward {
+        (lim.max_accel, -lim.max_decel)
+    } else {
+        (lim.max_decel, -lim.max_accel)
+    };
     let mut input = InputParameter::new(None);
     input.current_position[0] = 0.0;
     input.current_velocity[0] = mv.v_start;
