@@ -10,6 +10,7 @@ mod import;
 mod input;
 mod profile;
 mod simulate;
+mod sweep;
 mod validate;
 mod viewer;
 
@@ -38,6 +39,10 @@ enum Command {
     GeneratePlan(generate::Args),
     /// Convert a DICOM RT Ion Plan into an arcsim plan (JSON) and summarise it.
     Import(import::Args),
+    /// Evaluate plans x machine variants x schedules from a sweep file, in parallel.
+    Sweep(sweep::Args),
+    /// Join the CSV outputs of `sweep --shard K/N` into the single-run table.
+    SweepMerge(sweep::MergeArgs),
 }
 
 fn main() -> ExitCode {
@@ -48,6 +53,8 @@ fn main() -> ExitCode {
         Command::Validate(args) => validate::run(args),
         Command::GeneratePlan(args) => generate::run(args),
         Command::Import(args) => import::run(args),
+        Command::Sweep(args) => sweep::run(args),
+        Command::SweepMerge(args) => sweep::merge(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

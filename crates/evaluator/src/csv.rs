@@ -176,7 +176,7 @@ mod tests {
         let merged = merge_csv(&[b.clone(), a.clone()], Some(5)).expect("merge");
         assert_eq!(merged, file(&[0, 1, 2, 3, 4]));
         assert!(merge_csv(&[a.clone(), b.clone()], Some(6)).is_err());
-        assert!(merge_csv(&[a.clone()], None)
+        assert!(merge_csv(std::slice::from_ref(&a), None)
             .expect_err("gap")
             .to_string()
             .contains("row 1 is missing"));

@@ -45,5 +45,6 @@ pub struct Results {
     /// False when the run was interrupted: `rows` holds those finished.
     pub complete: bool,
     pub rows: Vec<Row>,
-    pub summary: Summary,
+    /// Absent when the run was interrupted.
+    pub summary: Option<Summary>,
 }

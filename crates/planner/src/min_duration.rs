@@ -314,7 +314,8 @@ impl Stretch {
             return None;
         }
         let dist = |x: f64| self.eval(Side::Valley, x).d;
-        let (x_top, d_top) = crate::roots::golden_max(dist, 0.0, lo);
+        // The hump only brackets the two roots; they are then solved to machine precision.
+        let (x_top, d_top) = crate::roots::golden_max_tol(dist, 0.0, lo, 1e-6);
         if d_top <= d {
             return None;
         }
@@ -414,6 +415,11 @@ pub fn shortest_duration_at_least(
     let s = stretch(&mv, lim)?;
     if t_min <= s.t_opt {
         return Ok(Some(s.t_opt));
+    }
+    // Stopping fits and t_min is at least the stop-and-go time: a dwell at rest makes it.
+    let stop = s.eval(Side::Valley, s.tr.vs.min(s.tr.ve));
+    if stop.d <= s.tr.d && t_min >= stop.t {
+        return Ok(Some(t_min));
     }
     Ok(s.durations().at_least(t_min))
 }

@@ -4,56 +4,58 @@
 /// Root of an increasing `f` in `[lo, hi]` (`f(lo) <= 0 <= f(hi)`) by Newton's method with a
 /// bisection safeguard (a Newton step that leaves the bracket or does not halve the error is
 /// replaced by a bisection), to machine precision. `fdf` returns (f, f').
-pub fn newton_bracketed(
-    mut fdf: impl FnMut(f64) -> (f64, f64),
-    mut lo: f64,
-    mut hi: f64,
-    x0: f64,
-) -> f64 {
-    let mut x = if x0 > lo && x0 < hi {
-        x0
+///
+/// The iteration runs in `w = sqrt(x - lo)`: the planner's distance functions behave like
+/// `sqrt(x - lo)` next to the low end (a speed change that has just started), which would turn
+/// Newton in `x` into a slow bisection towards `lo`; in `w` they are smooth.
+pub fn newton_bracketed(mut fdf: impl FnMut(f64) -> (f64, f64), lo: f64, hi: f64, x0: f64) -> f64 {
+    let (f_lo, _) = fdf(lo);
+    if f_lo >= 0.0 {
+        // A root at the low end (e.g. an extreme speed exactly at its base) is common: take it.
+        return lo;
+    }
+    let span = hi - lo;
+    let to_x = |w: f64| (lo + w * w).min(hi);
+    let (mut a, mut b) = (0.0f64, span.sqrt());
+    let mut w = if x0 > lo && x0 < hi {
+        (x0 - lo).sqrt()
     } else {
-        0.5 * (lo + hi)
+        0.5 * b
     };
-    let mut dx_old = hi - lo;
-    let mut dx = dx_old;
-    let (mut f, mut df) = fdf(x);
+    let floor = f64::EPSILON * f64::EPSILON * b;
+    let mut dw_old = b - a;
+    let mut dw = dw_old;
     for _ in 0..200 {
+        let x = to_x(w);
+        let (f, dfx) = fdf(x);
         if f == 0.0 {
             return x;
         }
         if f < 0.0 {
-            lo = x;
+            a = w;
         } else {
-            hi = x;
+            b = w;
         }
+        let df = dfx * 2.0 * w;
         let newton_leaves = !df.is_finite()
             || df <= 0.0
-            || ((x - hi) * df - f) * ((x - lo) * df - f) > 0.0
-            || (2.0 * f).abs() > (dx_old * df).abs();
-        if newton_leaves {
-            dx_old = dx;
-            dx = 0.5 * (hi - lo);
-            let next = lo + dx;
-            if next == x || next == lo || next == hi {
-                return next;
-            }
-            x = next;
+            || ((w - b) * df - f) * ((w - a) * df - f) > 0.0
+            || (2.0 * f).abs() > (dw_old * df).abs();
+        dw_old = dw;
+        let next = if newton_leaves {
+            dw = 0.5 * (b - a);
+            a + dw
         } else {
-            dx_old = dx;
-            dx = f / df;
-            let next = x - dx;
-            if next == x {
-                return x;
-            }
-            x = next;
+            dw = f / df;
+            w - dw
+        };
+        let tol = (2.0 * f64::EPSILON * next.abs()).max(floor);
+        if next == w || dw.abs() <= tol || b - a <= tol {
+            return to_x(next);
         }
-        if dx.abs() <= 2.0 * f64::EPSILON * x.abs() || hi - lo <= 2.0 * f64::EPSILON * x.abs() {
-            return x;
-        }
-        (f, df) = fdf(x);
+        w = next;
     }
-    x
+    to_x(w)
 }
 
 /// Root of a continuous `f` on `[a, b]` with `f(a)` and `f(b)` of opposite signs (or zero), by
@@ -128,13 +130,24 @@ pub fn brent(mut f: impl FnMut(f64) -> f64, a: f64, b: f64) -> f64 {
 }
 
 /// Maximum of a unimodal `f` on `[a, b]` by golden-section search to relative width ~1e-12.
-pub fn golden_max(mut f: impl FnMut(f64) -> f64, mut a: f64, mut b: f64) -> (f64, f64) {
+pub fn golden_max(f: impl FnMut(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
+    golden_max_tol(f, a, b, 1e-13)
+}
+
+/// [`golden_max`] to a relative width `tol` of the interval (for brackets that a root finder
+/// refines afterwards).
+pub fn golden_max_tol(
+    mut f: impl FnMut(f64) -> f64,
+    mut a: f64,
+    mut b: f64,
+    tol: f64,
+) -> (f64, f64) {
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let mut x1 = b - g * (b - a);
     let mut x2 = a + g * (b - a);
     let (mut f1, mut f2) = (f(x1), f(x2));
     for _ in 0..200 {
-        if (b - a) <= 1e-13 * (a.abs() + b.abs()).max(1e-300) {
+        if (b - a) <= tol * (a.abs() + b.abs()).max(1e-300) {
             break;
         }
         if f1 < f2 {

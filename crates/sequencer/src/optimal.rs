@@ -12,9 +12,13 @@ use arcsim_planner::{max_end_speed, max_start_speed, Limits};
 use crate::scan::ArcProblem;
 
 /// Points per layer in each grid.
-const GRID: usize = 17;
+const GRID: usize = 13;
 /// Refinements around the best path.
-const REFINEMENTS: usize = 4;
+const REFINEMENTS: usize = 3;
+/// Layers within this many of one whose ELST-free bound differs from the scan get a full grid;
+/// elsewhere the grid is the two scan solutions (with and without ELST), where the optimum sits
+/// when no energy switch constrains the neighbourhood.
+const REACH: usize = 6;
 
 /// Best path through per-layer speed grids; `None` if no path is feasible.
 fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, Vec<f64>)> {
@@ -46,9 +50,11 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
             .collect();
         let mut next = vec![f64::INFINITY; to.len()];
         let mut arg = vec![usize::MAX; to.len()];
+        let elst = p.elst[k + 1];
         for (i, &ve) in to.iter().enumerate() {
             for (j, &vs) in from.iter().enumerate() {
-                if !best[j].is_finite() {
+                // Every transition lasts at least its ELST: skip pairs that cannot improve.
+                if !best[j].is_finite() || best[j] + elst >= next[i] {
                     continue;
                 }
                 let fits = if ve >= vs {
@@ -109,12 +115,28 @@ pub(crate) fn optimal(
     if n <= 2 {
         return (seed.to_vec(), 0.0);
     }
+    let affected: Vec<bool> = (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(REACH), (k + REACH).min(n - 1));
+            (a..=b).any(|i| {
+                seed[i] < upper[i] * (1.0 - 1e-9)
+                    || p.elst[i] > 0.0
+                        && i > 0
+                        && p.cost(i - 1, upper[i - 1], upper[i], lim).is_none()
+            })
+        })
+        .collect();
+    let full = |k: usize| affected[k] && upper[k] > 0.0;
     let mut grids: Vec<Vec<f64>> = (0..n)
         .map(|k| {
             if upper[k] <= 0.0 {
                 vec![0.0]
-            } else {
+            } else if full(k) {
                 grid_around(0.5 * upper[k], 0.5 * upper[k], upper[k], &[0.0, seed[k]])
+            } else {
+                let mut g = vec![seed[k], upper[k]];
+                g.dedup();
+                g
             }
         })
         .collect();

@@ -44,13 +44,36 @@ pub fn log_delivery(
 ) -> Result<(), ViewerError> {
     let timeline = delivery.timeline.as_ref().ok_or(ViewerError::NoTimeline)?;
     let samples = sample(timeline, opts.sample_dt_s)?;
-    log_styles(rec, delivery)?;
+    log_styles(rec)?;
     log_motion(rec, delivery, &samples)?;
     log_energy(rec, delivery, timeline)?;
     log_phases(rec, delivery, timeline)?;
     log_layer_text(rec, delivery, timeline)?;
     log_gantry_2d(rec, delivery, &samples)?;
     Ok(())
+}
+
+/// The delivery's timeline, if it has one and `opts` can sample it.
+pub(crate) fn check<'a>(
+    delivery: &'a Delivery,
+    opts: &ViewerOptions,
+) -> Result<&'a Timeline, ViewerError> {
+    let timeline = delivery.timeline.as_ref().ok_or(ViewerError::NoTimeline)?;
+    let dt = opts.sample_dt_s;
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(ViewerError::InvalidSampleDt(dt));
+    }
+    let total = timeline.duration_s();
+    let count = total / dt + 2.0 * timeline.pieces.len() as f64;
+    if count > MAX_SAMPLES as f64 {
+        return Err(ViewerError::TooManySamples {
+            dt_s: dt,
+            total_s: total,
+            samples: count.ceil(),
+            max: MAX_SAMPLES,
+        });
+    }
+    Ok(timeline)
 }
 
 /// One logged gantry state; `beam` is the layer being irradiated, if any.
@@ -140,39 +163,17 @@ fn index_columns(times: &[f64], angles: impl IntoIterator<Item = f64>) -> [TimeC
     ]
 }
 
-/// Static series styling: names, colours and widths of every series.
-fn log_styles(rec: &RecordingStream, d: &Delivery) -> Result<(), ViewerError> {
-    let series = |names: &[&str], colors: &[Color]| {
-        let widths = (0..names.len()).map(|i| if i == 0 { 2.0_f32 } else { 1.0 });
-        rerun::SeriesLines::new()
-            .with_names(names.iter().copied())
-            .with_colors(colors.iter().copied())
-            .with_widths(widths)
-    };
-    rec.log_static(paths::ANGLE, &series(&["gantry angle (°)"], &[PURPLE]))?;
-    rec.log_static(
-        paths::SPEED,
-        &series(&["speed (°/s)", "+V", "−V"], &[BLUE, LIMIT, LIMIT]),
-    )?;
-    let accel = if decel_differs(d) {
-        series(
-            &["acceleration (°/s²)", "+A", "−A", "+D", "−D"],
-            &[ORANGE, LIMIT, LIMIT, LIMIT_DECEL, LIMIT_DECEL],
-        )
-    } else {
-        series(
-            &["acceleration (°/s²)", "+A", "−A"],
-            &[ORANGE, LIMIT, LIMIT],
-        )
-    };
-    rec.log_static(paths::ACCEL, &accel)?;
-    rec.log_static(
-        paths::JERK,
-        &series(&["jerk (°/s³)", "+J", "−J"], &[GREEN, LIMIT, LIMIT]),
-    )?;
+/// A series line: legend name, colour, width.
+type Style = (&'static str, Color, f32);
+
+/// A limit line: its style and constant value.
+type Limit = (Style, f64);
+
+/// Static styling of the energy and phase entities (the motion series style themselves).
+fn log_styles(rec: &RecordingStream) -> Result<(), ViewerError> {
     rec.log_static(
         paths::ENERGY,
-        &series(&["nominal energy (MeV)"], &[BLUE])
+        &series_lines(&[("nominal energy (MeV)", BLUE, 2.0)])
             .with_interpolation_mode(InterpolationMode::StepAfter),
     )?;
     rec.log_static(
@@ -185,32 +186,87 @@ fn log_styles(rec: &RecordingStream, d: &Delivery) -> Result<(), ViewerError> {
     Ok(())
 }
 
-fn decel_differs(d: &Delivery) -> bool {
-    d.limits.max_decel_deg_per_s2 != d.limits.max_accel_deg_per_s2
+fn series_lines(styles: &[Style]) -> rerun::SeriesLines {
+    rerun::SeriesLines::new()
+        .with_names(styles.iter().map(|s| s.0))
+        .with_colors(styles.iter().map(|s| s.1))
+        .with_widths(styles.iter().map(|s| s.2))
+}
+
+/// The limit lines of speed and acceleration for the directions the gantry actually turns
+/// (CW positive): moving CW the bounds are +V, +A (speeding up) and −D (braking); CCW mirrors them.
+fn speed_accel_limits(d: &Delivery, samples: &[Sample]) -> (Vec<Limit>, Vec<Limit>) {
+    let l = &d.limits;
+    let (v, a, dec) = (
+        l.max_speed_deg_per_s,
+        l.max_accel_deg_per_s2,
+        l.max_decel_deg_per_s2,
+    );
+    let ccw = samples.iter().any(|s| s.state.speed_deg_per_s < -1e-9);
+    let cw = !ccw || samples.iter().any(|s| s.state.speed_deg_per_s > 1e-9);
+    let mut speed = vec![];
+    let mut accel: Vec<Limit> = vec![];
+    if cw {
+        speed.push((("+V", LIMIT, 1.0), v));
+        accel.push((("+A", LIMIT, 1.0), a));
+        accel.push((("−D", LIMIT_DECEL, 1.0), -dec));
+    }
+    if ccw {
+        speed.push((("−V", LIMIT, 1.0), -v));
+        accel.push((("−A", LIMIT, 1.0), -a));
+        accel.push((("+D", LIMIT_DECEL, 1.0), dec));
+    }
+    if a == dec {
+        // One pair of lines, named ±A.
+        accel.retain(|(style, _)| !style.0.ends_with('D'));
+        if cw && !ccw {
+            accel.push((("−A", LIMIT, 1.0), -a));
+        } else if ccw && !cw {
+            accel.push((("+A", LIMIT, 1.0), a));
+        }
+    }
+    (speed, accel)
 }
 
 /// Angle, speed, acceleration and jerk, each with its limits as extra series of the same entity.
 fn log_motion(rec: &RecordingStream, d: &Delivery, samples: &[Sample]) -> Result<(), ViewerError> {
     let times: Vec<f64> = samples.iter().map(|s| s.t).collect();
     let angles = || samples.iter().map(|s| s.state.angle_deg);
-    let l = &d.limits;
-    let (v, a, dec, j) = (
-        l.max_speed_deg_per_s,
-        l.max_accel_deg_per_s2,
-        l.max_decel_deg_per_s2,
-        l.max_jerk_deg_per_s3,
-    );
-    let mut accel_limits = vec![a, -a];
-    if decel_differs(d) {
-        accel_limits.extend([dec, -dec]);
-    }
-    let series: [(&str, fn(&GantryState) -> f64, Vec<f64>); 4] = [
-        (paths::ANGLE, |s| s.angle_deg, vec![]),
-        (paths::SPEED, |s| s.speed_deg_per_s, vec![v, -v]),
-        (paths::ACCEL, |s| s.accel_deg_per_s2, accel_limits),
-        (paths::JERK, |s| s.jerk_deg_per_s3, vec![j, -j]),
+    let j = d.limits.max_jerk_deg_per_s3;
+    let (speed_limits, accel_limits) = speed_accel_limits(d, samples);
+    let jerk_limits = vec![(("+J", LIMIT, 1.0), j), (("−J", LIMIT, 1.0), -j)];
+    type Value = fn(&GantryState) -> f64;
+    let series: [(&str, Style, Value, Vec<Limit>); 4] = [
+        (
+            paths::ANGLE,
+            ("gantry angle (°)", PURPLE, 2.0),
+            |s| s.angle_deg,
+            vec![],
+        ),
+        (
+            paths::SPEED,
+            ("speed (°/s)", BLUE, 2.0),
+            |s| s.speed_deg_per_s,
+            speed_limits,
+        ),
+        (
+            paths::ACCEL,
+            ("acceleration (°/s²)", ORANGE, 2.0),
+            |s| s.accel_deg_per_s2,
+            accel_limits,
+        ),
+        (
+            paths::JERK,
+            ("jerk (°/s³)", GREEN, 1.5),
+            |s| s.jerk_deg_per_s3,
+            jerk_limits,
+        ),
     ];
-    for (path, value, limits) in series {
+    for (path, style, value, limits) in series {
+        let mut styles = vec![style];
+        styles.extend(limits.iter().map(|l| l.0));
+        rec.log_static(path, &series_lines(&styles))?;
+        let limits: Vec<f64> = limits.iter().map(|l| l.1).collect();
         let width = 1 + limits.len();
         let mut flat = Vec::with_capacity(samples.len() * width);
         for s in samples {

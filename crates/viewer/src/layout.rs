@@ -1,42 +1,248 @@
 //! The default viewer layout (blueprint) of a delivery.
+//!
+//! Written with the blueprint archetypes rather than `rerun::blueprint::Blueprint`: the 0.36
+//! Rust builder cannot set a time series view's `TimeAxis`, and without it the viewer opens every
+//! plot on a 60 s window around the time cursor instead of the whole delivery.
 
-use rerun::blueprint::{
-    Blueprint, ContainerLike, Horizontal, Spatial2DView, StateTimelineView, Tabs, TextLogView,
-    TimePanel, TimeSeriesView, Vertical,
+use rerun::blueprint::components::{
+    ColumnShare, ContainerKind, IncludedContent, PanelState, PlayState, QueryExpression,
+    RootContainer, RowShare, TimelineName, ViewClass,
 };
+use rerun::components::Name;
+use rerun::datatypes::{Float32, TimeRange, TimeRangeBoundary};
+use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg};
+use rerun::external::re_sdk_types::blueprint::archetypes::{
+    ContainerBlueprint, PanelBlueprint, TimeAxis, TimePanelBlueprint, ViewBlueprint, ViewContents,
+    ViewportBlueprint,
+};
+use rerun::{ApplicationId, RecordingStream, RecordingStreamBuilder};
 
-use crate::paths;
 use crate::timelines::TIME;
+use crate::{paths, ViewerError};
 
-fn series(name: &str, path: &str) -> ContainerLike {
-    TimeSeriesView::new(name)
-        .with_origin(path)
-        .with_contents([format!("$origin/**")])
-        .into()
+/// A view or a container of the layout.
+enum Node {
+    View {
+        class: &'static str,
+        name: String,
+        origin: String,
+    },
+    Container {
+        kind: ContainerKind,
+        shares: Vec<f32>,
+        children: Vec<Node>,
+    },
 }
 
-/// Time series stacked on the left (speed, acceleration, jerk with their limits; phases;
-/// energy and angle as tabs); the gantry and the layer log on the right; `time` selected.
-pub fn delivery_blueprint() -> Blueprint {
-    let left = Vertical::new([
-        series("Speed (°/s)", paths::SPEED),
-        series("Acceleration (°/s²)", paths::ACCEL),
-        series("Jerk (°/s³)", paths::JERK),
-        Tabs::new([
-            series("Energy (MeV)", paths::ENERGY),
-            series("Angle (°)", paths::ANGLE),
-        ])
-        .into(),
-        StateTimelineView::new("Phases")
-            .with_origin(paths::PHASE)
-            .into(),
-    ])
-    .with_row_shares([3.0, 3.0, 3.0, 2.5, 1.5]);
-    let right = Vertical::new([
-        Spatial2DView::new("Gantry").with_origin("gantry").into(),
-        TextLogView::new("Layers").with_origin(paths::LAYERS).into(),
-    ])
-    .with_row_shares([3.0, 2.0]);
-    Blueprint::new(Horizontal::new([left.into(), right.into()]).with_column_shares([3.0, 2.0]))
-        .with_time_panel(TimePanel::new().with_timeline(TIME))
+fn view(class: &'static str, name: &str, origin: &str) -> Node {
+    Node::View {
+        class,
+        name: name.to_owned(),
+        origin: origin.to_owned(),
+    }
+}
+
+fn series(name: &str, origin: &str) -> Node {
+    view("TimeSeries", name, origin)
+}
+
+fn container(kind: ContainerKind, shares: &[f32], children: Vec<Node>) -> Node {
+    Node::Container {
+        kind,
+        shares: shares.to_vec(),
+        children,
+    }
+}
+
+/// Time series stacked on the left (speed, acceleration, jerk with their limits; energy and
+/// angle as tabs; the phases), the gantry and the layer log on the right.
+fn delivery_layout() -> Node {
+    let left = container(
+        ContainerKind::Vertical,
+        &[3.0, 3.0, 3.0, 2.5, 1.5],
+        vec![
+            series("Speed (°/s)", paths::SPEED),
+            series("Acceleration (°/s²)", paths::ACCEL),
+            series("Jerk (°/s³)", paths::JERK),
+            container(
+                ContainerKind::Tabs,
+                &[],
+                vec![
+                    series("Energy (MeV)", paths::ENERGY),
+                    series("Angle (°)", paths::ANGLE),
+                ],
+            ),
+            view("StateTimeline", "Phases", paths::PHASE),
+        ],
+    );
+    let right = container(
+        ContainerKind::Vertical,
+        &[3.0, 2.0],
+        vec![
+            view("2D", "Gantry", "gantry"),
+            view("TextLog", "Layers", paths::LAYERS),
+        ],
+    );
+    container(ContainerKind::Horizontal, &[3.0, 2.0], vec![left, right])
+}
+
+/// Deterministic view/container ids (unique within one blueprint), as hyphenated UUIDs.
+fn node_id(n: u8) -> [u8; 16] {
+    [
+        b'a', b'r', b'c', b's', b'i', b'm', 0x40, 0, 0x80, 0, 0, 0, 0, 0, 0, n,
+    ]
+}
+
+fn uuid_string(b: &[u8; 16]) -> String {
+    let hex: String = b.iter().map(|x| format!("{x:02x}")).collect();
+    format!(
+        "{}-{}-{}-{}-{}",
+        &hex[0..8],
+        &hex[8..12],
+        &hex[12..16],
+        &hex[16..20],
+        &hex[20..32]
+    )
+}
+
+/// Logs `node` and its children; returns its blueprint entity path.
+fn log_node(bp: &RecordingStream, node: &Node, next_id: &mut u8) -> Result<String, ViewerError> {
+    *next_id += 1;
+    let id = node_id(*next_id);
+    match node {
+        Node::View {
+            class,
+            name,
+            origin,
+        } => {
+            let path = format!("view/{}", uuid_string(&id));
+            bp.log(
+                format!("{path}/ViewContents"),
+                &ViewContents::new([QueryExpression("$origin/**".into())]),
+            )?;
+            bp.log(
+                path.as_str(),
+                &ViewBlueprint::new(ViewClass((*class).into()))
+                    .with_display_name(Name(name.as_str().into()))
+                    .with_space_origin(origin.as_str()),
+            )?;
+            if *class == "TimeSeries" {
+                let everything = TimeRange {
+                    start: TimeRangeBoundary::Infinite,
+                    end: TimeRangeBoundary::Infinite,
+                };
+                bp.log(
+                    format!("{path}/TimeAxis"),
+                    &TimeAxis::new().with_view_range(everything),
+                )?;
+            }
+            Ok(path)
+        }
+        Node::Container {
+            kind,
+            shares,
+            children,
+        } => {
+            let mut contents = Vec::with_capacity(children.len());
+            for child in children {
+                contents.push(IncludedContent(log_node(bp, child, next_id)?.into()));
+            }
+            let path = format!("container/{}", uuid_string(&id));
+            let mut arch = ContainerBlueprint::new(*kind).with_contents(contents);
+            let shares = shares.iter().map(|&s| Float32(s));
+            arch = match kind {
+                ContainerKind::Horizontal => arch.with_col_shares(shares.map(ColumnShare)),
+                ContainerKind::Vertical => arch.with_row_shares(shares.map(RowShare)),
+                _ => arch,
+            };
+            bp.log(path.as_str(), &arch)?;
+            Ok(path)
+        }
+    }
+}
+
+/// The blueprint messages of layout `root` for application `app_id`: panels collapsed
+/// (more room for the views), `timeline` selected and paused.
+fn blueprint_msgs(
+    app_id: ApplicationId,
+    root: &Node,
+    timeline: &str,
+) -> Result<Vec<LogMsg>, ViewerError> {
+    let (bp, storage) = RecordingStreamBuilder::new(app_id)
+        .send_properties(false)
+        .blueprint()
+        .memory()?;
+    bp.set_time_sequence("blueprint", 0);
+    let mut next_id = 0;
+    log_node(&bp, root, &mut next_id)?;
+    let root_id = node_id(1);
+    bp.log(
+        "viewport",
+        &ViewportBlueprint::new().with_root_container(RootContainer(root_id.into())),
+    )?;
+    bp.log(
+        "blueprint_panel",
+        &PanelBlueprint::new().with_state(PanelState::Collapsed),
+    )?;
+    bp.log(
+        "selection_panel",
+        &PanelBlueprint::new().with_state(PanelState::Collapsed),
+    )?;
+    bp.log(
+        "time_panel",
+        &TimePanelBlueprint::new()
+            .with_state(PanelState::Collapsed)
+            .with_timeline(TimelineName(timeline.into()))
+            .with_play_state(PlayState::Paused),
+    )?;
+    Ok(storage.take())
+}
+
+/// Sends the default delivery layout into `rec` and makes it the active one; call it before
+/// logging so a file starts with its layout.
+pub fn send_delivery_blueprint(rec: &RecordingStream) -> Result<(), ViewerError> {
+    send_blueprint(rec, &delivery_layout(), TIME)
+}
+
+/// Sends layout `root` into `rec` as the active blueprint.
+fn send_blueprint(rec: &RecordingStream, root: &Node, timeline: &str) -> Result<(), ViewerError> {
+    let app_id = rec.store_info().map_or_else(
+        || ApplicationId::from(crate::DELIVERY_APP_ID),
+        |i| i.application_id().clone(),
+    );
+    let msgs = blueprint_msgs(app_id, root, timeline)?;
+    if let Some(blueprint_id) = msgs.first().map(|m| m.store_id().clone()) {
+        rec.send_blueprint(
+            msgs,
+            BlueprintActivationCommand {
+                blueprint_id,
+                make_active: true,
+                make_default: true,
+            },
+        );
+    }
+    Ok(())
+}
+
+/// A sweep's layout: one plot per (plan, schedule) origin above the row log, on `timeline`.
+pub(crate) fn send_sweep_blueprint(
+    rec: &RecordingStream,
+    plots: &[(String, String)],
+    log_origin: &str,
+    timeline: &str,
+) -> Result<(), ViewerError> {
+    let views: Vec<Node> = plots
+        .iter()
+        .map(|(name, origin)| series(name, origin))
+        .collect();
+    let n = views.len().max(1) as f32;
+    let root = container(
+        ContainerKind::Vertical,
+        &[3.0 * n, 1.0 + n / 2.0],
+        vec![
+            container(ContainerKind::Vertical, &[], views),
+            view("TextLog", "Combinations", log_origin),
+        ],
+    );
+    send_blueprint(rec, &root, timeline)
 }

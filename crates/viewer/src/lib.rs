@@ -5,6 +5,7 @@
 //! with a default layout (blueprint). Output goes to an `.rrd` file ([`save_delivery`]), to a
 //! newly spawned viewer ([`spawn_delivery`], needs the `rerun` binary on `PATH`) or to a running
 //! viewer over gRPC ([`connect_delivery`]); [`log_delivery`] logs into any recording stream.
+//! [`save_sweep`] writes the rows of an `arcsim-evaluator` sweep (total time per combination).
 //!
 //! Every entity is logged on two timelines: `time` (a duration timeline, seconds from the start
 //! of delivery) and `angle_cdeg` (a sequence timeline holding the signed gantry angle in
@@ -15,11 +16,13 @@ mod delivery;
 mod error;
 mod layout;
 mod output;
+mod sweep;
 
 pub use delivery::log_delivery;
 pub use error::ViewerError;
-pub use layout::delivery_blueprint;
+pub use layout::send_delivery_blueprint;
 pub use output::{connect_delivery, save_delivery, spawn_delivery, DELIVERY_APP_ID};
+pub use sweep::{save_sweep, COMBINATION, SWEEP_APP_ID, SWEEP_ROWS};
 
 /// The Rerun SDK this crate logs with (re-exported so callers need no direct dependency).
 pub use rerun;
@@ -36,9 +39,10 @@ pub mod timelines {
 pub mod paths {
     /// `Scalars` [gantry angle] (deg, signed, CW positive).
     pub const ANGLE: &str = "angle";
-    /// `Scalars` [speed, +V, −V] (deg/s).
+    /// `Scalars` [speed, limits] (deg/s): +V when the gantry turns CW, −V when it turns CCW.
     pub const SPEED: &str = "speed";
-    /// `Scalars` [acceleration, +A, −A] and, when the deceleration limit differs, [+D, −D] (deg/s²).
+    /// `Scalars` [acceleration, limits] (deg/s²): +A and −D for CW motion, −A and +D for CCW
+    /// (named ±A when the deceleration limit D equals A).
     pub const ACCEL: &str = "accel";
     /// `Scalars` [jerk, +J, −J] (deg/s³).
     pub const JERK: &str = "jerk";

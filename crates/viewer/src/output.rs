@@ -6,7 +6,8 @@ use std::time::Duration;
 use arcsim_sequencer::Delivery;
 use rerun::{RecordingStream, RecordingStreamBuilder, RecordingStreamError};
 
-use crate::{delivery_blueprint, log_delivery, ViewerError, ViewerOptions};
+use crate::delivery::check;
+use crate::{log_delivery, send_delivery_blueprint, ViewerError, ViewerOptions};
 
 /// Application id of delivery recordings (the viewer keeps one layout per application).
 pub const DELIVERY_APP_ID: &str = "arcsim-delivery";
@@ -19,7 +20,6 @@ fn builder(title: &str) -> RecordingStreamBuilder {
     RecordingStreamBuilder::new(DELIVERY_APP_ID)
         .enabled(true)
         .recording_name(title)
-        .with_blueprint(delivery_blueprint())
 }
 
 /// Logs, waits until everything reached the sink, then closes the stream (which finishes a file).
@@ -29,6 +29,7 @@ fn finish(
     opts: &ViewerOptions,
     target: &str,
 ) -> Result<(), ViewerError> {
+    send_delivery_blueprint(&rec)?;
     log_delivery(&rec, delivery, opts)?;
     rec.flush_with_timeout(SEND_TIMEOUT)
         .map_err(|source| ViewerError::Flush {
@@ -46,6 +47,7 @@ pub fn save_delivery(
     delivery: &Delivery,
     opts: &ViewerOptions,
 ) -> Result<(), ViewerError> {
+    check(delivery, opts)?;
     let rec = builder(title)
         .save(path)
         .map_err(|source| ViewerError::Save {
@@ -62,6 +64,7 @@ pub fn spawn_delivery(
     delivery: &Delivery,
     opts: &ViewerOptions,
 ) -> Result<(), ViewerError> {
+    check(delivery, opts)?;
     let rec = builder(title).spawn().map_err(|e| match e {
         RecordingStreamError::SpawnViewer(e) => ViewerError::Spawn(e),
         e => ViewerError::Log(e),
@@ -77,6 +80,7 @@ pub fn connect_delivery(
     delivery: &Delivery,
     opts: &ViewerOptions,
 ) -> Result<(), ViewerError> {
+    check(delivery, opts)?;
     let rec = builder(title)
         .connect_grpc_opts(url)
         .map_err(|source| ViewerError::Url {

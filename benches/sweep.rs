@@ -1,0 +1,70 @@
+//! Evaluator benchmark: evaluations per second of 180-layer plans with the `scan` schedule
+//! (every 10th combination of the 1000-setting sweep `scenarios/sweep-atom-1000.json` over the three
+//! ATOM article cases),
+//! on 1 and on 2 threads; the ratio of the two throughputs is the parallel speed-up.
+//! `cargo bench --bench sweep` (Criterion reports "thrpt" in evaluations/s).
+//! Without ../shared/reference, the bundled 180-layer plans/prostate.json stands in.
+
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Instant;
+
+use arcsim_evaluator::{Evaluator, Sweep};
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+
+const FALLBACK: &str = r#"{
+  "format": "arcsim-sweep/1", "name": "prostate-1000",
+  "plans": ["../plans/prostate.json"], "machine": "machine-atom.json",
+  "axes": {
+    "jerk_deg_per_s3": { "from": 0.125, "to": 4, "steps": 10, "scale": "log" },
+    "accel_deg_per_s2": { "from": 0.125, "to": 2, "steps": 10, "scale": "log" },
+    "speed_deg_per_s": { "from": 2, "to": 8, "steps": 10, "scale": "log" }
+  },
+  "schedules": ["scan"]
+}"#;
+
+fn sweep() -> Sweep {
+    let scenarios = arcsim_suite::repo_root().join("scenarios");
+    if arcsim_suite::atom_cases_path().is_some() {
+        return Sweep::load(&scenarios.join("sweep-atom-1000.json")).expect("sweep-atom-1000.json");
+    }
+    eprintln!("NOTICE: ../shared/reference/atom-article-cases.json not found; benchmarking plans/prostate.json");
+    Sweep::from_text(FALLBACK, "fallback sweep", &scenarios, &|p: &Path| {
+        arcsim_plan::load_plan(p).map_err(|e| e.to_string())
+    })
+    .expect("fallback sweep")
+}
+
+fn bench(c: &mut Criterion) {
+    let ev = Evaluator::new(sweep()).expect("prepare");
+    // Every 10th combination: a representative mix of settings and plans, 300 evaluations.
+    let all: Vec<usize> = (0..ev.len()).step_by(10).collect();
+    let mut group = c.benchmark_group("sweep scan 180 layers");
+    group.throughput(Throughput::Elements(all.len() as u64));
+    group.sample_size(10);
+    let mut rates = Vec::new();
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        group.bench_function(
+            format!("{threads} thread(s), {} evaluations", all.len()),
+            |b| b.iter(|| black_box(pool.install(|| ev.run_collect(black_box(&all))).len())),
+        );
+        // A plain measurement too, so the speed-up is printed as one number.
+        let started = Instant::now();
+        let n = pool.install(|| ev.run_collect(&all)).len();
+        rates.push(n as f64 / started.elapsed().as_secs_f64());
+    }
+    group.finish();
+    println!(
+        "evaluations/s: 1 thread {:.0}, 2 threads {:.0}; speed-up {:.2}x",
+        rates[0],
+        rates[1],
+        rates[1] / rates[0]
+    );
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

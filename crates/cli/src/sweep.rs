@@ -1,0 +1,245 @@
+//! `arcsim sweep SWEEP.json`: evaluate plans × machine variants × schedules in parallel, write the
+//! rows (CSV as they complete, in order; JSON at the end) and print the summary tables.
+//! `arcsim sweep-merge A.csv B.csv .. --out all.csv`: join shard outputs into the single-run table.
+
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use arcsim_evaluator::{
+    merge_csv, write_csv_header, write_csv_row, EvalError, Evaluator, Results, Row, Shard, Sweep,
+    RESULTS_FORMAT,
+};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::CliError;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Sweep file (arcsim-sweep/1 JSON, see scenarios/README.md).
+    sweep: PathBuf,
+    /// Write the rows as CSV here, each as soon as it and all before it are done.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the rows and the summary as JSON here when the run ends.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Worker threads (default: one per core).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Run only shard K of N (the combinations whose index mod N is K-1), e.g. --shard 2/3.
+    #[arg(long)]
+    shard: Option<String>,
+    /// Write the sweep for the Rerun viewer (.rrd).
+    #[arg(long)]
+    rrd: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+pub struct MergeArgs {
+    /// Shard outputs (CSV written by `arcsim sweep --shard K/N --out ..`), in any order.
+    #[arg(required = true)]
+    inputs: Vec<PathBuf>,
+    /// The merged table: byte-identical to the CSV of an unsharded run.
+    #[arg(long)]
+    out: PathBuf,
+    /// The sweep file, to check that no combination is missing.
+    #[arg(long)]
+    sweep: Option<PathBuf>,
+}
+
+/// Set by Ctrl-C: the run stops after the rows in progress and writes what it has.
+static CANCEL: AtomicBool = AtomicBool::new(false);
+
+fn failed(e: EvalError) -> CliError {
+    CliError::failed(e.to_string())
+}
+
+fn load(path: &Path) -> Result<Sweep, CliError> {
+    Sweep::load_with(path, &|p: &Path| {
+        crate::input::load_plan(p).map_err(|e| e.to_string())
+    })
+    .map_err(failed)
+}
+
+fn create(path: &Path) -> Result<BufWriter<File>, CliError> {
+    File::create(path)
+        .map(BufWriter::new)
+        .map_err(|e| CliError::failed(format!("{}: cannot create: {e}", path.display())))
+}
+
+fn write_err(path: &Path) -> impl Fn(std::io::Error) -> EvalError + '_ {
+    move |e| {
+        EvalError::Io(std::io::Error::new(
+            e.kind(),
+            format!("{}: {e}", path.display()),
+        ))
+    }
+}
+
+pub fn run(args: Args) -> Result<(), CliError> {
+    let shard = match &args.shard {
+        Some(s) => s
+            .parse::<Shard>()
+            .map_err(|e| CliError::usage(format!("--shard: {e}")))?,
+        None => Shard::ALL,
+    };
+    if args.rrd.is_some() {
+        return Err(CliError::usage(
+            "--rrd: not available yet: the arcsim-viewer crate does not export sweeps (arcsim_viewer::save_sweep) yet; run without --rrd",
+        ));
+    }
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = args.threads {
+        if n == 0 {
+            return Err(CliError::usage("--threads: expected at least 1"));
+        }
+        pool = pool.num_threads(n);
+    }
+    let pool = pool
+        .build()
+        .map_err(|e| CliError::failed(format!("cannot start worker threads: {e}")))?;
+
+    let sweep = load(&args.sweep)?;
+    let ev = pool.install(|| Evaluator::new(sweep)).map_err(failed)?;
+    let indices = shard.indices(ev.len());
+    let part = if shard == Shard::ALL {
+        String::new()
+    } else {
+        format!(", shard {shard}: {} of them", indices.len())
+    };
+    eprintln!(
+        "sweep \"{}\": {} plans, {} combinations{part}, {} threads",
+        ev.sweep().name,
+        ev.sweep().plans.len(),
+        ev.len(),
+        pool.current_num_threads()
+    );
+
+    if let Err(e) = ctrlc::set_handler(|| {
+        if CANCEL.swap(true, Ordering::SeqCst) {
+            eprintln!("\naborted");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing the rows in progress (Ctrl-C again to abort)");
+    }) {
+        eprintln!("warning: Ctrl-C will not save partial results: {e}");
+    }
+
+    let bar = if std::io::stderr().is_terminal() {
+        let style = ProgressStyle::with_template(
+            "{elapsed_precise} [{wide_bar}] {human_pos}/{human_len} {per_sec} ETA {eta}",
+        )
+        .map_err(|e| CliError::failed(format!("progress bar: {e}")))?;
+        ProgressBar::new(indices.len() as u64).with_style(style)
+    } else {
+        ProgressBar::hidden()
+    };
+
+    let mut csv = match &args.out {
+        Some(path) => {
+            let mut w = create(path)?;
+            write_csv_header(&mut w)
+                .and_then(|()| w.flush())
+                .map_err(write_err(path))
+                .map_err(failed)?;
+            Some((w, path.as_path()))
+        }
+        None => None,
+    };
+    let mut rows: Vec<Row> = Vec::with_capacity(indices.len());
+    let started = Instant::now();
+    let done = pool
+        .install(|| {
+            ev.run(&indices, &CANCEL, |chunk| {
+                if let Some((w, path)) = csv.as_mut() {
+                    chunk
+                        .iter()
+                        .try_for_each(|r| write_csv_row(w, r))
+                        .and_then(|()| w.flush())
+                        .map_err(write_err(path))?;
+                }
+                rows.extend_from_slice(chunk);
+                bar.inc(chunk.len() as u64);
+                Ok(())
+            })
+        })
+        .map_err(failed)?;
+    bar.finish_and_clear();
+    let seconds = started.elapsed().as_secs_f64();
+    let complete = done == indices.len();
+    eprintln!(
+        "evaluated {done} combinations in {seconds:.2} s ({:.0} per second)",
+        done as f64 / seconds.max(1e-9)
+    );
+
+    let summary = complete.then(|| pool.install(|| ev.summarize(&rows)));
+    if let Some(path) = &args.json {
+        let results = Results {
+            format: RESULTS_FORMAT,
+            sweep: ev.sweep().name.clone(),
+            combinations: ev.len(),
+            shard: (shard != Shard::ALL).then(|| shard.to_string()),
+            complete,
+            rows,
+            summary: summary.clone(),
+        };
+        let mut w = create(path)?;
+        serde_json::to_writer_pretty(&mut w, &results)
+            .map_err(std::io::Error::from)
+            .and_then(|()| w.write_all(b"\n"))
+            .and_then(|()| w.flush())
+            .map_err(write_err(path))
+            .map_err(failed)?;
+    }
+    match summary {
+        Some(s) => {
+            print!("{}", s.to_table());
+            Ok(())
+        }
+        None => {
+            let saved: Vec<String> = [&args.out, &args.json]
+                .into_iter()
+                .flatten()
+                .map(|p| p.display().to_string())
+                .collect();
+            let saved = if saved.is_empty() {
+                String::new()
+            } else {
+                format!("; {} hold them", saved.join(" and "))
+            };
+            Err(CliError::failed(format!(
+                "interrupted after {done} of {} combinations{saved}",
+                indices.len()
+            )))
+        }
+    }
+}
+
+pub fn merge(args: MergeArgs) -> Result<(), CliError> {
+    let inputs = args
+        .inputs
+        .iter()
+        .map(|p| {
+            std::fs::read_to_string(p)
+                .map(|t| (p.display().to_string(), t))
+                .map_err(|e| CliError::failed(format!("{}: cannot read: {e}", p.display())))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let expected = match &args.sweep {
+        Some(path) => Some(load(path)?.combinations()),
+        None => None,
+    };
+    let merged = merge_csv(&inputs, expected).map_err(failed)?;
+    std::fs::write(&args.out, &merged)
+        .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", args.out.display())))?;
+    eprintln!(
+        "merged {} files: {} rows -> {}",
+        inputs.len(),
+        merged.lines().count().saturating_sub(1),
+        args.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,294 @@
+//! Acceptance tests of the evaluator: determinism across thread counts, shards that merge into
+//! the single-run table byte for byte, located errors for bad sweep files, empty sweeps refused,
+//! infeasible combinations reported as rows.
+
+use std::path::{Path, PathBuf};
+
+use arcsim_evaluator::{
+    merge_csv, write_csv_header, write_csv_row, EvalError, Evaluator, Row, Shard, Status, Sweep,
+};
+
+fn scenarios() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios")
+}
+
+fn have_atom_reference() -> bool {
+    let ok = scenarios()
+        .join("../../shared/reference/atom-article-cases.json")
+        .exists();
+    if !ok {
+        eprintln!("NOTICE: ../shared/reference/atom-article-cases.json not found; ATOM sweep tests skipped");
+    }
+    ok
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
+}
+
+fn csv(rows: &[Row]) -> String {
+    let mut out = Vec::new();
+    write_csv_header(&mut out).expect("write");
+    for r in rows {
+        write_csv_row(&mut out, r).expect("write");
+    }
+    String::from_utf8(out).expect("utf-8")
+}
+
+fn from_text(text: &str) -> Result<Sweep, EvalError> {
+    Sweep::from_text(text, "test-sweep.json", &scenarios(), &|p: &Path| {
+        arcsim_plan::load_plan(p).map_err(|e| e.to_string())
+    })
+}
+
+#[test]
+fn atom_1000_settings_same_with_1_and_2_threads_and_shards_merge_byte_identical() {
+    if !have_atom_reference() {
+        return;
+    }
+    let sweep = Sweep::load(&scenarios().join("sweep-atom-1000.json")).expect("sweep loads");
+    assert_eq!(sweep.combinations(), 3000);
+    let ev = pool(2).install(|| Evaluator::new(sweep)).expect("prepare");
+    let all: Vec<usize> = (0..ev.len()).collect();
+    let one = pool(1).install(|| ev.run_collect(&all));
+    let two = pool(2).install(|| ev.run_collect(&all));
+    assert_eq!(one.len(), 3000);
+    assert_eq!(one, two);
+    let single = csv(&one);
+    assert_eq!(single, csv(&two));
+    let ok = one.iter().filter(|r| r.status == Status::Ok).count();
+    println!("{ok} of 3000 combinations feasible");
+    assert!(ok > 2900, "only {ok} feasible");
+    assert!(one.iter().enumerate().all(|(i, r)| r.index == i));
+
+    // Shards 1/3, 2/3, 3/3, merged in any order, equal the single run byte for byte.
+    let shards: Vec<(String, String)> = (1..=3)
+        .rev()
+        .map(|k| {
+            let shard = Shard::new(k, 3).expect("shard");
+            let rows = pool(2).install(|| ev.run_collect(&shard.indices(ev.len())));
+            (format!("shard-{k}.csv"), csv(&rows))
+        })
+        .collect();
+    let merged = merge_csv(&shards, Some(ev.len())).expect("merge");
+    assert_eq!(merged.as_bytes(), single.as_bytes());
+    assert!(
+        merge_csv(&shards[..2], None).is_err(),
+        "a missing shard is an error"
+    );
+
+    // The summary covers every plan; a faster machine never takes longer than the base one.
+    let summary = pool(2).install(|| ev.summarize(&one));
+    print!("{}", summary.to_table());
+    assert_eq!(summary.entries.len(), 3);
+    for e in &summary.entries {
+        assert_eq!(e.rows, 1000);
+        let base = e.base_total_s.expect("base feasible");
+        let fastest = e.fastest.expect("fastest");
+        assert!(fastest.total_s <= base);
+        for s in &e.sensitivity {
+            assert!(
+                s.s_per_10_percent.expect("finite difference") <= 1e-9,
+                "{s:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn run_stops_on_cancel_after_whole_rows() {
+    if !have_atom_reference() {
+        return;
+    }
+    let sweep = Sweep::load(&scenarios().join("sweep-atom-1000.json")).expect("sweep loads");
+    let ev = Evaluator::new(sweep).expect("prepare");
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let mut got: Vec<Row> = Vec::new();
+    let all: Vec<usize> = (0..ev.len()).collect();
+    let n = pool(2)
+        .install(|| {
+            ev.run(&all, &cancel, |rows| {
+                got.extend_from_slice(rows);
+                if got.len() >= 10 {
+                    cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+                Ok(())
+            })
+        })
+        .expect("run");
+    assert_eq!(n, got.len());
+    assert!(n >= 10 && n < ev.len());
+    assert!(
+        got.iter().enumerate().all(|(i, r)| r.index == i),
+        "rows in order, no gap"
+    );
+}
+
+const GOOD: &str = r#"{
+  "format": "arcsim-sweep/1", "name": "t",
+  "plans": ["../plans/prostate.json"],
+  "machine": "machine-atom.json",
+  "axes": {"jerk_deg_per_s3": [0.5, 1]},
+  "schedules": ["scan"]
+}"#;
+
+fn error_of(text: &str) -> String {
+    match from_text(text) {
+        Ok(_) => panic!("expected an error for {text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_sweep_files_get_located_errors() {
+    assert!(from_text(GOOD).is_ok());
+    let cases: [(&str, &str, &str); 9] = [
+        (
+            "\"plans\": [\"../plans/prostate.json\"]",
+            "\"plans\": [\"../plans/nothing-*.json\"]",
+            "test-sweep.json: plans[0]: \"../plans/nothing-*.json\" matches no file",
+        ),
+        (
+            "\"machine-atom.json\"",
+            "\"machine-missing.json\"",
+            "test-sweep.json: machine: ",
+        ),
+        (
+            "[0.5, 1]",
+            "[0.5, -1]",
+            "test-sweep.json: axes.jerk_deg_per_s3[1]: expected a value finite and > 0, got -1",
+        ),
+        (
+            "[0.5, 1]",
+            "[0.5, 0.5]",
+            "test-sweep.json: axes.jerk_deg_per_s3: value 0.5 appears twice",
+        ),
+        (
+            "[0.5, 1]",
+            "{\"from\": 1, \"to\": 2}",
+            "test-sweep.json: axes.jerk_deg_per_s3: expected {\"values\": [..]} or all three",
+        ),
+        (
+            "\"jerk_deg_per_s3\"",
+            "\"jerk\"",
+            "test-sweep.json: axes.jerk: unknown field `jerk`",
+        ),
+        (
+            "\"scan\"",
+            "\"scam\"",
+            "test-sweep.json: schedules[0]: unknown schedule 'scam'",
+        ),
+        (
+            "\"name\": \"t\",",
+            "\"name\": \"t\", \"extra\": 1,",
+            "test-sweep.json: extra: unknown field `extra`",
+        ),
+        (
+            "\"machine-atom.json\",",
+            "\"machine-fast.json\", \"axes\": {\"elst_up_s\": [1, 2]},",
+            "test-sweep.json: axes.elst_up_s: machine \"fast\" has a polynomial ELST model",
+        ),
+    ];
+    for (from, to, expected) in cases {
+        let text = GOOD.replacen(from, to, 1);
+        let text = if to.contains("elst_up_s") {
+            text.replacen("\"axes\": {\"jerk_deg_per_s3\": [0.5, 1]},", "", 1)
+        } else {
+            text
+        };
+        let e = error_of(&text);
+        assert!(e.starts_with(expected), "expected «{expected}», got «{e}»");
+    }
+    let e = error_of(&GOOD.replace("\"../plans/prostate.json\"", "{\"atom_case\": \"kidney\", \"reference\": \"../../shared/reference/atom-article-cases.json\"}"));
+    if have_atom_reference() {
+        assert!(
+            e.starts_with("test-sweep.json: plans[0].atom_case:") && e.contains("kidney"),
+            "{e}"
+        );
+    } else {
+        assert!(
+            e.starts_with("test-sweep.json: plans[0].reference: cannot read"),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn empty_sweeps_are_errors() {
+    for (from, to, field) in [
+        ("[\"../plans/prostate.json\"]", "[]", "plans"),
+        ("[\"scan\"]", "[]", "schedules"),
+        ("[0.5, 1]", "[]", "axes.jerk_deg_per_s3"),
+        ("[0.5, 1]", "{\"values\": []}", "axes.jerk_deg_per_s3"),
+        (
+            "[0.5, 1]",
+            "{\"from\": 1, \"to\": 2, \"steps\": 0}",
+            "axes.jerk_deg_per_s3.steps",
+        ),
+    ] {
+        let e = error_of(&GOOD.replace(from, to));
+        assert!(
+            e.starts_with(&format!("test-sweep.json: {field}: expected at least")),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn infeasible_combinations_are_rows() {
+    // A 3 deg window does not fit prostate's 2 deg spacing: those rows are `invalid`, with the reason.
+    let text = GOOD.replace("\"axes\": {", "\"axes\": {\"window_deg\": [1, 3], ");
+    let sweep = from_text(&text).expect("sweep");
+    let ev = Evaluator::new(sweep).expect("prepare");
+    assert_eq!(ev.len(), 4);
+    let rows = ev.run_collect(&[0, 1, 2, 3]);
+    assert_eq!(
+        rows.iter().map(|r| r.status).collect::<Vec<_>>(),
+        [Status::Ok, Status::Ok, Status::Invalid, Status::Invalid]
+    );
+    assert!(rows[2].message.contains("window"), "{}", rows[2].message);
+    assert!(rows[2].outcome.is_none());
+    let o = rows[1].outcome.expect("ok row");
+    let b = o.breakdown;
+    assert!((b.beam_on_s + b.energy_switching_s + b.lost_s - o.total_s).abs() < 1e-6 * o.total_s);
+    let c = o.limiter_counts;
+    assert_eq!(c.elst + c.speed + c.accel + c.jerk + c.none, 179);
+    let text = csv(&rows);
+    assert_eq!(text.lines().count(), 5);
+    assert!(text.lines().nth(3).is_some_and(|l| l.contains(",invalid,")));
+}
+
+#[test]
+fn summary_finds_the_cheapest_change() {
+    let text = GOOD.replace("[0.5, 1]", "[0.25, 0.5, 1, 2, 4]").replace(
+        "\"schedules\"",
+        "\"target\": {\"saving_percent\": 1}, \"schedules\"",
+    );
+    let ev = Evaluator::new(from_text(&text).expect("sweep")).expect("prepare");
+    let rows = ev.run_collect(&(0..ev.len()).collect::<Vec<_>>());
+    let s = ev.summarize(&rows);
+    print!("{}", s.to_table());
+    let e = &s.entries[0];
+    let base = e.base_total_s.expect("base");
+    assert_eq!(
+        rows[1].outcome.map(|o| o.total_s),
+        Some(base),
+        "grid point J = 0.5 is the base machine"
+    );
+    assert_eq!(rows[1].outcome.and_then(|o| o.speedup), Some(1.0));
+    let c = e.cheapest.as_ref().expect("some J reaches a 1 % saving");
+    assert!(c.total_s <= 0.99 * base && c.steps.len() == 1);
+    // No cheaper grid point reaches the target: every J closer to 0.5 (in ratio) misses it.
+    for r in &rows {
+        let Some(o) = r.outcome else { continue };
+        let ratio = (r.setting.jerk_deg_per_s3 / 0.5_f64).ln().abs();
+        if ratio < c.cost - 1e-12 {
+            assert!(o.total_s > 0.99 * base);
+        }
+    }
+    assert_eq!(e.profiles.len(), 1);
+    assert_eq!(e.profiles[0].points.len(), 5);
+}

@@ -1,0 +1,218 @@
+//! Property tests on generated plans: every schedule's timeline meets every constraint when
+//! checked independently of the sequencer's own verification; `optimal` <= `scan` and
+//! <= `step-and-shoot`; the breakdown adds up to the total.
+
+use arcsim_plan::generate::{generate, PlanKind};
+use arcsim_plan::{parse_machine, ArcPlan, Machine};
+use arcsim_sequencer::{simulate, Delivery, Options, PieceKind, Schedule};
+
+fn machine(name: &str) -> Machine {
+    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
+    parse_machine(
+        &std::fs::read_to_string(&path).expect("machine file"),
+        &path,
+    )
+    .expect("machine")
+}
+
+/// Independent checks by sampling and integrating the timeline.
+fn check(d: &Delivery, m: &Machine, what: &str) {
+    let tl = d.timeline.as_ref().expect("timeline");
+    let g = &m.gantry;
+    let (v_max, a_max, j_max) = (
+        g.max_speed_deg_per_s,
+        g.max_accel_deg_per_s2
+            .max(g.max_decel_deg_per_s2.unwrap_or(0.0)),
+        g.max_jerk_deg_per_s3,
+    );
+    // Breakdown and totals.
+    let b = d.breakdown;
+    assert!(
+        (b.beam_on_s + b.energy_switching_s + b.lost_s - d.total_s).abs() <= 1e-9 * d.total_s,
+        "{what}: breakdown"
+    );
+    let sum: f64 = d.layers.iter().map(|l| l.irradiation_s).sum::<f64>()
+        + d.transitions.iter().map(|t| t.duration_s).sum::<f64>();
+    assert!(
+        (sum - d.total_s).abs() <= 1e-9 * d.total_s,
+        "{what}: rows sum {sum} vs {}",
+        d.total_s
+    );
+    assert!(
+        (tl.duration_s() - d.total_s).abs() <= 1e-9 * d.total_s,
+        "{what}: timeline length"
+    );
+    for tr in &d.transitions {
+        assert!(
+            tr.duration_s >= tr.elst_s * (1.0 - 1e-9),
+            "{what}: transition {} shorter than its ELST",
+            tr.index
+        );
+    }
+    // Sampled limits, windows, and the angle re-derived by integrating the sampled speed.
+    let dt = 0.01;
+    let samples = tl.samples(dt);
+    let mut angle = samples[0].1.angle_deg;
+    for w in samples.windows(2) {
+        let ((t0, s0), (t1, s1)) = (w[0], w[1]);
+        assert!(
+            s1.speed_deg_per_s.abs() <= v_max * (1.0 + 1e-9),
+            "{what}: speed {} at {t1}",
+            s1.speed_deg_per_s
+        );
+        assert!(
+            s1.accel_deg_per_s2.abs() <= a_max * (1.0 + 1e-9),
+            "{what}: accel at {t1}"
+        );
+        assert!(
+            s1.jerk_deg_per_s3.abs() <= j_max * (1.0 + 1e-9),
+            "{what}: jerk at {t1}"
+        );
+        // Simpson on the speed over [t0, t1] with the midpoint.
+        let mid = tl.state_at(0.5 * (t0 + t1)).speed_deg_per_s;
+        angle += (t1 - t0) / 6.0 * (s0.speed_deg_per_s + 4.0 * mid + s1.speed_deg_per_s);
+        assert!(
+            (angle - s1.angle_deg).abs() <= 1e-6,
+            "{what}: integrated angle {angle} vs {} at {t1}",
+            s1.angle_deg
+        );
+    }
+    for p in &tl.pieces {
+        if let PieceKind::Beam { layer } = p.kind {
+            let l = &d.layers[layer];
+            for x in [0.0, p.duration_s] {
+                let a = p.state_after(x).angle_deg;
+                assert!(
+                    (a - l.angle_deg).abs() <= 0.5 * l.window_deg + 1e-9,
+                    "{what}: layer {layer} beam at {a} outside window"
+                );
+            }
+        }
+    }
+    // Arcs start and end at rest.
+    for (k, l) in d.layers.iter().enumerate() {
+        let first = k == 0 || d.layers[k - 1].arc != l.arc;
+        let last = k + 1 == d.layers.len() || d.layers[k + 1].arc != l.arc;
+        if first || last {
+            assert_eq!(
+                l.speed_deg_per_s, 0.0,
+                "{what}: layer {k} at an arc end is not at rest"
+            );
+        }
+    }
+}
+
+fn run_all(plan: &ArcPlan, m: &Machine, label: &str) {
+    let get = |s: Schedule| {
+        let d = simulate(plan, m, &Options::new(s))
+            .unwrap_or_else(|e| panic!("{label} {}: {e}", s.name()));
+        check(&d, m, &format!("{label} {}", s.name()));
+        d
+    };
+    let (scan, opt, sas, pre) = (
+        get(Schedule::Scan),
+        get(Schedule::Optimal),
+        get(Schedule::StepAndShoot),
+        get(Schedule::Prescribed),
+    );
+    assert!(
+        opt.total_s <= scan.total_s * (1.0 + 1e-12),
+        "{label}: optimal {} > scan {}",
+        opt.total_s,
+        scan.total_s
+    );
+    assert!(
+        opt.total_s <= sas.total_s * (1.0 + 1e-12),
+        "{label}: optimal {} > step-and-shoot {}",
+        opt.total_s,
+        sas.total_s
+    );
+    assert!(
+        scan.total_s <= sas.total_s * (1.0 + 1e-12),
+        "{label}: scan {} > step-and-shoot {}",
+        scan.total_s,
+        sas.total_s
+    );
+    assert!(
+        pre.total_s >= opt.total_s * (1.0 - 1e-12),
+        "{label}: prescribed beats optimal"
+    );
+    for l in &sas.layers {
+        assert_eq!(l.speed_deg_per_s, 0.0);
+    }
+}
+
+#[test]
+fn generated_plans_meet_every_constraint() {
+    for (kind, seeds) in [
+        (PlanKind::Prostate, 1..4u64),
+        (PlanKind::Lung, 1..4),
+        (PlanKind::TwoArc, 1..3),
+    ] {
+        for seed in seeds {
+            let plan = generate(kind, seed);
+            for m in [
+                "machine-atom.json",
+                "machine-fast.json",
+                "machine-opentps.json",
+            ] {
+                run_all(&plan, &machine(m), &format!("{kind:?} seed {seed} on {m}"));
+            }
+        }
+    }
+}
+
+/// Prescribed speeds: feasible ones are used as given; infeasible ones are reported at their
+/// control point with a reason and corrected.
+#[test]
+fn prescribed_speeds_are_checked_and_corrected() {
+    let m = machine("machine-atom.json");
+    let mut plan = generate(PlanKind::Prostate, 1);
+    let n = plan.arcs[0].control_points.len();
+    for (k, cp) in plan.arcs[0].control_points.iter_mut().enumerate() {
+        cp.required_speed_deg_per_s = Some(if k == 0 || k + 1 == n { 0.0 } else { 0.3 });
+    }
+    // The longest layer away from the ends: a speed below V that still overflows its 1° window.
+    let arcs = arcsim_plan::resolve(&plan, &m).expect("resolve");
+    let (slow, t_slow) = arcs[0].layers[10..n - 10]
+        .iter()
+        .map(|l| (l.control_point, l.irradiation_s))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("layers");
+    let overflow = 0.5 * (1.0 / t_slow + 5.0);
+    assert!(overflow * t_slow > 1.0 && overflow < 5.0);
+    plan.arcs[0].control_points[slow].required_speed_deg_per_s = Some(overflow);
+    let fast = if slow == 90 { 91 } else { 90 };
+    plan.arcs[0].control_points[fast].required_speed_deg_per_s = Some(6.0); // above V
+    let d = simulate(&plan, &m, &Options::new(Schedule::Prescribed)).expect("simulate");
+    check(&d, &m, "prescribed");
+    let reasons = |cp: usize| {
+        d.violations
+            .iter()
+            .filter(|v| v.control_point == cp)
+            .map(|v| v.reason.clone())
+            .collect::<Vec<_>>()
+    };
+    assert!(
+        reasons(slow).iter().any(|r| r.contains("window")),
+        "{:?}",
+        reasons(slow)
+    );
+    assert!(d.layers[slow].window_used_deg <= d.layers[slow].window_deg * (1.0 + 1e-12));
+    assert!(
+        reasons(fast).iter().any(|r| r.contains("speed limit")),
+        "{:?}",
+        reasons(fast)
+    );
+    // Every reported violation names its control point and a corrected speed that was delivered.
+    for v in &d.violations {
+        assert!((d.layers[v.layer].speed_deg_per_s - v.corrected_deg_per_s).abs() < 1e-12);
+    }
+    // Feasible prescribed speeds are delivered as given wherever nothing forced a change.
+    let kept = d
+        .layers
+        .iter()
+        .filter(|l| (l.speed_deg_per_s - 0.3).abs() < 1e-12)
+        .count();
+    assert!(kept > 100, "only {kept} layers kept 0.3 deg/s");
+}
