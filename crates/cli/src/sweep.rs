@@ -111,11 +111,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
         format!(", shard {shard}: {} of them", indices.len())
     };
     eprintln!(
-        "sweep \"{}\": {} plans, {} combinations{part}, {} threads",
+        "sweep \"{}\": {} plans, {} combinations{part}, {} thread{}",
         ev.sweep().name,
         ev.sweep().plans.len(),
         ev.len(),
-        pool.current_num_threads()
+        pool.current_num_threads(),
+        if pool.current_num_threads() == 1 {
+            ""
+        } else {
+            "s"
+        }
     );
 
     if let Err(e) = ctrlc::set_handler(|| {

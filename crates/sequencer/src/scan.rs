@@ -160,7 +160,8 @@ pub(crate) fn scan(
                 changed = true;
                 continue;
             }
-            let needs_fix = !fits || (with_elst && p.elst[k + 1] > 0.0 && p.cost(k, v[k], v[k + 1], lim).is_none());
+            let needs_fix = !fits
+                || (with_elst && p.elst[k + 1] > 0.0 && p.cost(k, v[k], v[k + 1], lim).is_none());
             if needs_fix {
                 // Largest common factor that makes the transition feasible (rest always is).
                 let (mut lo, mut hi) = (0.0f64, 1.0f64);

@@ -37,6 +37,7 @@ fn slug(label: &str) -> String {
 /// per (plan, schedule) `sweep/<plan>/<schedule>/times` = Scalars [total, beam on, energy
 /// switching, gantry] (s) and `sweep/<plan>/<schedule>/limits` = Scalars [J, A, V] of the
 /// setting; feasible rows only. `rows` (a text log) has one entry per row, with its status.
+/// The layout plots the times of each (plan, schedule) above the row log.
 pub fn save_sweep(path: &Path, title: &str, rows: &[Row]) -> Result<(), ViewerError> {
     let rec = RecordingStreamBuilder::new(SWEEP_APP_ID)
         .enabled(true)
@@ -61,7 +62,7 @@ pub fn save_sweep(path: &Path, title: &str, rows: &[Row]) -> Result<(), ViewerEr
         .map(|(origin, g)| {
             (
                 format!("{} · {} (s)", g[0].plan, g[0].schedule.name()),
-                origin.clone(),
+                format!("{origin}/times"),
             )
         })
         .collect();

@@ -1,0 +1,253 @@
+//! End-to-end tests of the `arcsim` binary, run as a user would: exit codes, located messages,
+//! outputs with units, and the DICOM round trip.
+
+#[path = "../../dicom/tests/fixtures/mod.rs"]
+mod fixtures;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn arcsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_arcsim"))
+        .args(args)
+        .current_dir(repo())
+        .output()
+        .expect("run arcsim")
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn text(o: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+fn total_of(stdout: &str) -> f64 {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("total delivery time"))
+        .expect("total line");
+    line.split_whitespace()
+        .nth(3)
+        .expect("value")
+        .parse()
+        .expect("number")
+}
+
+#[test]
+fn simulate_bundled_plan_prints_summary_and_writes_outputs() {
+    let dir = fixtures::temp_dir();
+    let json = dir.join("r.json");
+    let csv = dir.join("t.csv");
+    let o = arcsim(&[
+        "simulate",
+        "plans/prostate.json",
+        "--schedule",
+        "scan",
+        "--json",
+        json.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+        "--dt",
+        "0.5",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    for needle in [
+        "total delivery time",
+        "beam on",
+        "energy switching",
+        "lost (gantry)",
+        "tightest margins",
+        "5 most costly transitions",
+    ] {
+        assert!(out.contains(needle), "missing '{needle}' in:\n{out}");
+    }
+    let total = total_of(&out);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("valid json");
+    assert!((v["total_s"].as_f64().expect("total_s") - total).abs() < 0.01);
+    assert_eq!(v["layers"].as_array().expect("layers").len(), 180);
+    assert!(v["transitions"][0]["elst_s"].is_number() && v["layers"][0]["angle_deg"].is_number());
+    let csv_text = std::fs::read_to_string(&csv).expect("csv");
+    assert!(csv_text.starts_with(
+        "t_s,angle_deg,speed_deg_per_s,accel_deg_per_s2,jerk_deg_per_s3,beam_layer,energy_mev"
+    ));
+    let last_t: f64 = csv_text
+        .lines()
+        .last()
+        .expect("rows")
+        .split(',')
+        .next()
+        .expect("t")
+        .parse()
+        .expect("number");
+    assert!((last_t - v["total_s"].as_f64().expect("total")).abs() < 1e-3);
+}
+
+#[test]
+fn bad_plan_gets_located_errors_and_exit_1() {
+    let dir = fixtures::temp_dir();
+    let bad = dir.join("bad.json");
+    let mut plan: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("plans/lung.json")).expect("plan"),
+    )
+    .expect("json");
+    plan["arcs"][0]["control_points"][3]["layers"][0]["energy_mev"] = serde_json::json!(900.0);
+    plan["arcs"][0]["control_points"][5]["angle_deg"] =
+        plan["arcs"][0]["control_points"][4]["angle_deg"].clone();
+    std::fs::write(&bad, serde_json::to_string(&plan).expect("json")).expect("write");
+    for cmd in ["validate", "simulate"] {
+        let o = arcsim(&[cmd, bad.to_str().unwrap()]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{cmd}: {err}");
+        assert!(
+            err.contains("control point 3") && err.contains("energy_mev"),
+            "{cmd}: {err}"
+        );
+        assert!(
+            err.contains("control point 5"),
+            "{cmd}: all problems at once: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let malformed = dir.join("malformed.json");
+    std::fs::write(&malformed, "{\"format\": \"arcsim-plan/1\",\n \"name\": }").expect("write");
+    let o = arcsim(&["simulate", malformed.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        err.contains("malformed.json:2:10") && err.contains("name"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_arguments_exit_2() {
+    for args in [
+        vec!["simulate", "plans/prostate.json", "--schedule", "fastest"],
+        vec!["profile", "--distance", "x"],
+        vec![
+            "profile",
+            "--distance",
+            "1",
+            "--v-start",
+            "0",
+            "--v-end",
+            "0",
+            "--jerk",
+            "-1",
+            "--accel",
+            "1",
+            "--vel",
+            "1",
+        ],
+        vec!["simulate", "plans/prostate.json", "--dt", "0"],
+    ] {
+        let o = arcsim(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o).1);
+    }
+}
+
+#[test]
+fn profile_single_and_batch() {
+    let o = arcsim(&[
+        "profile",
+        "--distance",
+        "0.033",
+        "--v-start",
+        "0",
+        "--v-end",
+        "0.03",
+        "--jerk",
+        "1000",
+        "--accel",
+        "20",
+        "--vel",
+        "1.2",
+        "--json",
+    ]);
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert!(
+        (v["extreme_speed_deg_per_s"].as_f64().expect("v_m") - 0.6333).abs() < 5e-5,
+        "{v}"
+    );
+    let dir = fixtures::temp_dir();
+    let input = dir.join("moves.csv");
+    let output = dir.join("results.csv");
+    std::fs::write(&input, "distance,v_start,v_end,jerk,accel,vel,min_duration,reverse\n2,1.5,1.5,0.5,0.5,5,5,\n1.6,0.3,0.3,0.5,0.5,5,5,\nabc,0,0,1,1,1,,\n0,0,0.4,2000,20,1.2,,allow\n").expect("write");
+    let o = arcsim(&[
+        "profile",
+        "--batch",
+        input.to_str().unwrap(),
+        "--out",
+        output.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let rows: Vec<String> = std::fs::read_to_string(&output)
+        .expect("out")
+        .lines()
+        .map(String::from)
+        .collect();
+    assert_eq!(rows[0], "line,status,duration_s,peak_speed,message");
+    assert!(
+        rows[1].starts_with("2,infeasible,") && rows[1].contains("feasible durations"),
+        "{}",
+        rows[1]
+    );
+    assert!(rows[2].starts_with("3,ok,5,"), "{}", rows[2]);
+    assert!(
+        rows[3].starts_with("4,error,") && rows[3].contains("distance"),
+        "{}",
+        rows[3]
+    );
+    assert!(rows[4].starts_with("5,ok,"), "{}", rows[4]);
+}
+
+/// DICOM → native JSON → simulate gives the same total as simulating the DICOM directly.
+#[test]
+fn dicom_round_trip_gives_the_same_total() {
+    for (name, spec) in [
+        ("arc180.dcm", fixtures::dynamic_arc_plan()),
+        ("two-arc.dcm", fixtures::two_arc_plan()),
+        ("static.dcm", fixtures::static_arc_plan()),
+    ] {
+        let dcm = spec.write(name);
+        let json = dcm.with_extension("json");
+        let o = arcsim(&[
+            "import",
+            dcm.to_str().unwrap(),
+            "-o",
+            json.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{name}: {}", text(&o).1);
+        let direct = arcsim(&["simulate", dcm.to_str().unwrap(), "--schedule", "optimal"]);
+        let via_json = arcsim(&["simulate", json.to_str().unwrap(), "--schedule", "optimal"]);
+        assert!(
+            direct.status.success() && via_json.status.success(),
+            "{name}: {} {}",
+            text(&direct).1,
+            text(&via_json).1
+        );
+        let (a, b) = (total_of(&text(&direct).0), total_of(&text(&via_json).0));
+        assert!(a > 0.0 && a == b, "{name}: {a} vs {b}");
+        // Detected by content: the same file under another extension.
+        let renamed = dcm.with_extension("bin");
+        std::fs::copy(&dcm, &renamed).expect("copy");
+        let o = arcsim(&["validate", renamed.to_str().unwrap()]);
+        assert!(o.status.success(), "{name}: {}", text(&o).1);
+    }
+    let photon = fixtures::photon_plan().write("photon.dcm");
+    let o = arcsim(&["simulate", photon.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o).1.to_lowercase().contains("photon") || text(&o).1.contains("RT Plan"),
+        "{}",
+        text(&o).1
+    );
+}
