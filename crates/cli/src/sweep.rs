@@ -32,7 +32,7 @@ pub struct Args {
     /// Run only shard K of N (the combinations whose index mod N is K-1), e.g. --shard 2/3.
     #[arg(long)]
     shard: Option<String>,
-    /// Write the sweep for the Rerun viewer (.rrd).
+    /// Write the rows for the Rerun viewer (.rrd) when the run ends (also after Ctrl-C).
     #[arg(long)]
     rrd: Option<PathBuf>,
 }
@@ -86,11 +86,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
             .map_err(|e| CliError::usage(format!("--shard: {e}")))?,
         None => Shard::ALL,
     };
-    if args.rrd.is_some() {
-        return Err(CliError::usage(
-            "--rrd: not available yet: the arcsim-viewer crate does not export sweeps (arcsim_viewer::save_sweep) yet; run without --rrd",
-        ));
-    }
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
         if n == 0 {
@@ -135,9 +130,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
 
     let bar = if std::io::stderr().is_terminal() {
         let style = ProgressStyle::with_template(
-            "{elapsed_precise} [{wide_bar}] {human_pos}/{human_len} {per_sec} ETA {eta}",
+            "{elapsed_precise} [{wide_bar}] {human_pos}/{human_len} {rate} ETA {eta}",
         )
-        .map_err(|e| CliError::failed(format!("progress bar: {e}")))?;
+        .map_err(|e| CliError::failed(format!("progress bar: {e}")))?
+        .with_key(
+            "rate",
+            |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                let _ = write!(w, "{:.0}/s", s.per_sec());
+            },
+        );
         ProgressBar::new(indices.len() as u64).with_style(style)
     } else {
         ProgressBar::hidden()
@@ -188,7 +189,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             combinations: ev.len(),
             shard: (shard != Shard::ALL).then(|| shard.to_string()),
             complete,
-            rows,
+            rows: rows.clone(),
             summary: summary.clone(),
         };
         let mut w = create(path)?;
@@ -199,13 +200,21 @@ pub fn run(args: Args) -> Result<(), CliError> {
             .map_err(write_err(path))
             .map_err(failed)?;
     }
+    if let Some(path) = &args.rrd {
+        let title = match shard {
+            Shard::ALL => format!("sweep {}", ev.sweep().name),
+            _ => format!("sweep {} (shard {shard})", ev.sweep().name),
+        };
+        arcsim_viewer::save_sweep(path, &title, &rows)
+            .map_err(|e| CliError::failed(format!("--rrd: {e}")))?;
+    }
     match summary {
         Some(s) => {
             print!("{}", s.to_table());
             Ok(())
         }
         None => {
-            let saved: Vec<String> = [&args.out, &args.json]
+            let saved: Vec<String> = [&args.out, &args.json, &args.rrd]
                 .into_iter()
                 .flatten()
                 .map(|p| p.display().to_string())

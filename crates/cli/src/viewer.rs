@@ -1,8 +1,9 @@
-//! Rerun outputs of `simulate` (kept apart so the rest of the CLI does not touch rerun's API).
+//! Rerun outputs of `simulate` (kept apart so the rest of the CLI does not touch the viewer crate).
 
 use std::path::Path;
 
 use arcsim_sequencer::Delivery;
+use arcsim_viewer::ViewerOptions;
 
 use crate::CliError;
 
@@ -15,11 +16,18 @@ pub fn output(
     spawn: bool,
     connect: Option<&str>,
 ) -> Result<(), CliError> {
-    let _ = (d, title, dt);
-    if rrd.is_some() || spawn || connect.is_some() {
-        return Err(CliError::failed(
-            "Rerun output is not available in this build yet",
-        ));
+    let opts = ViewerOptions { sample_dt_s: dt };
+    if let Some(path) = rrd {
+        arcsim_viewer::save_delivery(path, title, d, &opts)
+            .map_err(|e| CliError::failed(format!("--rrd: {e}")))?;
+    }
+    if spawn {
+        arcsim_viewer::spawn_delivery(title, d, &opts)
+            .map_err(|e| CliError::failed(format!("--spawn: {e}")))?;
+    }
+    if let Some(url) = connect {
+        arcsim_viewer::connect_delivery(url, title, d, &opts)
+            .map_err(|e| CliError::failed(format!("--connect: {e}")))?;
     }
     Ok(())
 }

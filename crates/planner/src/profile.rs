@@ -201,7 +201,7 @@ impl Profile {
             let t = i as f64 * dt;
             out.push((t, self.state_at(t)));
         }
-        if out.last().map_or(true, |(t, _)| *t < total) {
+        if out.last().is_none_or(|(t, _)| *t < total) {
             out.push((total, self.state_at(total)));
         }
         out

@@ -50,7 +50,8 @@ fn paper_table3_case1_with_half_jerk() {
 #[test]
 fn table3_true_optimum_under_stated_limits() {
     // (name, J, A, V, d, vs, ve, v_peak, duration)
-    let rows: [(&str, f64, f64, f64, f64, f64, f64, f64, f64); 7] = [
+    type Row = (&'static str, f64, f64, f64, f64, f64, f64, f64, f64);
+    let rows: [Row; 7] = [
         ("Ex1", 2000.0, 20.0, 1.2, 0.033, 0.0, 0.0, 0.7185, 0.091854),
         ("Ex2", 2000.0, 20.0, 1.2, 0.033, 0.0, 0.03, 0.7170, 0.090198),
         (

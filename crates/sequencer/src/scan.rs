@@ -164,8 +164,17 @@ pub(crate) fn scan(
                 || (with_elst && p.elst[k + 1] > 0.0 && p.cost(k, v[k], v[k + 1], lim).is_none());
             if needs_fix {
                 // Largest common factor that makes the transition feasible (rest always is).
-                let (mut lo, mut hi) = (0.0f64, 1.0f64);
-                for _ in 0..16 {
+                // Below the factor at which stopping fits in the gap every duration is possible,
+                // so the expensive feasibility test only runs above it.
+                let (mut lo, mut hi) = (
+                    if with_elst {
+                        stop_fits_scale(p, k, v[k], v[k + 1], lim)
+                    } else {
+                        0.0
+                    },
+                    1.0f64,
+                );
+                for _ in 0..12 {
                     let mid = 0.5 * (lo + hi);
                     let ok = if with_elst {
                         p.cost(k, mid * v[k], mid * v[k + 1], lim).is_some()
@@ -202,4 +211,27 @@ pub(crate) fn scan(
         }
     }
     (v, bound)
+}
+
+/// Largest factor `s` in [0, 1] such that the gantry can brake from `s·vs` to rest and start
+/// again to `s·ve` within the gap of transition `k` (then any duration, hence any ELST, fits).
+fn stop_fits_scale(p: &ArcProblem, k: usize, vs: f64, ve: f64, lim: &Limits) -> f64 {
+    use arcsim_planner::speed_change::distance;
+    let gap = p.gap(k);
+    let excess = |s: f64| {
+        let (a, b) = (s * vs, s * ve);
+        distance(a, 0.0, lim.max_jerk, lim.max_accel, lim.max_decel)
+            + distance(0.0, b, lim.max_jerk, lim.max_accel, lim.max_decel)
+            - gap.at(a, b)
+    };
+    if excess(1.0) <= 0.0 {
+        return 1.0;
+    }
+    // excess(0) = -distance <= 0; the root is where stopping just fits (nudged to the safe side).
+    let s = arcsim_planner::roots::brent(excess, 0.0, 1.0);
+    if excess(s) <= 0.0 {
+        s
+    } else {
+        (s * (1.0 - 1e-12)).max(0.0)
+    }
 }
