@@ -120,11 +120,16 @@ pub(crate) fn scan(
     if n < 2 {
         return (v, bound);
     }
-    for _round in 0..200 {
+    // Speeds only ever come down; each check is skipped while the pair it last passed with is
+    // unchanged (most transitions settle in the first round).
+    let mut braked_ok: Vec<Option<(f64, f64)>> = vec![None; n - 1];
+    let mut sped_ok: Vec<Option<(f64, f64)>> = vec![None; n - 1];
+    let mut move_ok: Vec<Option<(f64, f64)>> = vec![None; n - 1];
+    for round in 0..200 {
         let mut changed = false;
         for k in (0..n - 1).rev() {
             // Braking branch (v_k >= v_k+1): the highest start speed that still reaches v_k+1.
-            if v[k] > v[k + 1] {
+            if v[k] > v[k + 1] && braked_ok[k] != Some((v[k], v[k + 1])) {
                 let b = max_start_speed(v[k + 1], &p.gap(k), lim)
                     .ok()
                     .flatten()
@@ -134,11 +139,12 @@ pub(crate) fn scan(
                     bound[k] = SpeedBound::Gap;
                     changed = true;
                 }
+                braked_ok[k] = Some((v[k], v[k + 1]));
             }
         }
         for k in 1..n {
             // Speed-up branch (v_k > v_k-1): the highest end speed reachable from v_k-1.
-            if v[k] > v[k - 1] {
+            if v[k] > v[k - 1] && sped_ok[k - 1] != Some((v[k - 1], v[k])) {
                 let b = max_end_speed(v[k - 1], &p.gap(k - 1), lim)
                     .ok()
                     .flatten()
@@ -148,21 +154,22 @@ pub(crate) fn scan(
                     bound[k] = SpeedBound::Gap;
                     changed = true;
                 }
+                sped_ok[k - 1] = Some((v[k - 1], v[k]));
             }
         }
         for k in 0..n - 1 {
+            if move_ok[k] == Some((v[k], v[k + 1])) {
+                continue;
+            }
             // A move that does not fit its gap is the passes' job (next round); here only the
             // transitions whose move fits but cannot last the ELST, or that the passes could not
             // settle after many rounds.
-            let fits =
-                min_time_shape(p.transition_move(k, v[k], v[k + 1]), lim, Reversal::Forbid).is_ok();
-            if !fits && _round < 100 {
+            let check = transition_check(p, k, v[k], v[k + 1], lim, with_elst);
+            if check == Check::DoesNotFit && round < 100 {
                 changed = true;
                 continue;
             }
-            let needs_fix = !fits
-                || (with_elst && p.elst[k + 1] > 0.0 && p.cost(k, v[k], v[k + 1], lim).is_none());
-            if needs_fix {
+            if check != Check::Ok {
                 // Largest common factor that makes the transition feasible (rest always is).
                 // Below the factor at which stopping fits in the gap every duration is possible,
                 // so the expensive feasibility test only runs above it.
@@ -176,17 +183,9 @@ pub(crate) fn scan(
                 );
                 for _ in 0..12 {
                     let mid = 0.5 * (lo + hi);
-                    let ok = if with_elst {
-                        p.cost(k, mid * v[k], mid * v[k + 1], lim).is_some()
-                    } else {
-                        min_time_shape(
-                            p.transition_move(k, mid * v[k], mid * v[k + 1]),
-                            lim,
-                            Reversal::Forbid,
-                        )
-                        .is_ok()
-                    };
-                    if ok {
+                    if transition_check(p, k, mid * v[k], mid * v[k + 1], lim, with_elst)
+                        == Check::Ok
+                    {
                         lo = mid;
                     } else {
                         hi = mid;
@@ -205,6 +204,7 @@ pub(crate) fn scan(
                 }
                 changed = true;
             }
+            move_ok[k] = Some((v[k], v[k + 1]));
         }
         if !changed {
             break;
@@ -233,5 +233,48 @@ fn stop_fits_scale(p: &ArcProblem, k: usize, vs: f64, ve: f64, lim: &Limits) -> 
         s
     } else {
         (s * (1.0 - 1e-12)).max(0.0)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Check {
+    Ok,
+    DoesNotFit,
+    TooShortForElst,
+}
+
+/// Whether transition `k` at `vs`, `ve` is feasible: a forward move fits its gap and (with
+/// `with_elst`) some such move lasts at least the ELST. Cheap tests first: the minimum time
+/// already lasting the ELST, or stopping fitting in the gap (then every longer duration does).
+fn transition_check(
+    p: &ArcProblem,
+    k: usize,
+    vs: f64,
+    ve: f64,
+    lim: &Limits,
+    with_elst: bool,
+) -> Check {
+    use arcsim_planner::speed_change::distance;
+    let gap = p.gap(k);
+    let d = gap.at(vs, ve);
+    if d < -1e-12 * (1.0 + p.s[k + 1]) {
+        return Check::DoesNotFit;
+    }
+    let mv = p.transition_move(k, vs, ve);
+    let Ok(shape) = min_time_shape(mv, lim, Reversal::Forbid) else {
+        return Check::DoesNotFit;
+    };
+    let e = p.elst[k + 1];
+    if !with_elst || e <= shape.duration() {
+        return Check::Ok;
+    }
+    let stop = distance(vs, 0.0, lim.max_jerk, lim.max_accel, lim.max_decel)
+        + distance(0.0, ve, lim.max_jerk, lim.max_accel, lim.max_decel);
+    if stop <= mv.distance {
+        return Check::Ok;
+    }
+    match shortest_duration_at_least(mv, lim, e) {
+        Ok(Some(_)) => Check::Ok,
+        _ => Check::TooShortForElst,
     }
 }
