@@ -235,12 +235,11 @@ pub(crate) fn send_sweep_blueprint(
         .iter()
         .map(|(name, origin)| series(name, origin))
         .collect();
-    let n = views.len().max(1) as f32;
     let root = container(
         ContainerKind::Vertical,
-        &[3.0 * n, 1.0 + n / 2.0],
+        &[4.0, 1.0],
         vec![
-            container(ContainerKind::Vertical, &[], views),
+            container(ContainerKind::Grid, &[], views),
             view("TextLog", "Combinations", log_origin),
         ],
     );

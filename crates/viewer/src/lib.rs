@@ -22,7 +22,9 @@ pub use delivery::log_delivery;
 pub use error::ViewerError;
 pub use layout::send_delivery_blueprint;
 pub use output::{connect_delivery, save_delivery, spawn_delivery, DELIVERY_APP_ID};
-pub use sweep::{save_sweep, COMBINATION, SWEEP_APP_ID, SWEEP_ROWS};
+pub use sweep::{
+    save_sweep, COMBINATION, SWEEP_ACCEL, SWEEP_APP_ID, SWEEP_JERK, SWEEP_ROWS, SWEEP_SPEED,
+};
 
 /// The Rerun SDK this crate logs with (re-exported so callers need no direct dependency).
 pub use rerun;

@@ -442,6 +442,8 @@ fn sweep_round_trip() {
     assert!(rrd.blueprint_chunks > 0);
 
     let combination = TimelineName::from_static_str(arcsim_viewer::COMBINATION);
+    let jerk = TimelineName::from_static_str(arcsim_viewer::SWEEP_JERK);
+    let speed = TimelineName::from_static_str(arcsim_viewer::SWEEP_SPEED);
     let scalars = rerun::Scalars::descriptor_scalars().component;
     let mut logged = vec![];
     for chunk in rrd
@@ -449,24 +451,26 @@ fn sweep_round_trip() {
         .iter()
         .filter(|c| !c.is_static())
     {
-        let index = chunk
-            .timelines()
-            .get(&combination)
-            .expect("combination timeline");
-        for (&i, v) in index
-            .times_raw()
-            .iter()
-            .zip(chunk.iter_slices::<f64>(scalars))
-        {
-            logged.push((i, v.to_vec()));
+        let times = |name: &TimelineName| {
+            chunk
+                .timelines()
+                .get(name)
+                .unwrap_or_else(|| panic!("{name} timeline"))
+                .times_raw()
+                .to_vec()
+        };
+        let (index, j, v) = (times(&combination), times(&jerk), times(&speed));
+        for (k, values) in chunk.iter_slices::<f64>(scalars).enumerate() {
+            logged.push((index[k], j[k], v[k], values.to_vec()));
         }
     }
     logged.sort_by_key(|r| r.0);
+    // Infeasible row 1 is left out; J and V are on their own timelines in thousandths.
     assert_eq!(
         logged,
         vec![
-            (0, vec![300.0, 30.0, 130.0, 140.0]),
-            (2, vec![250.0, 30.0, 130.0, 90.0])
+            (0, 250, 5000, vec![300.0, 30.0, 130.0, 140.0]),
+            (2, 1000, 5000, vec![250.0, 30.0, 130.0, 90.0])
         ]
     );
 
