@@ -89,7 +89,7 @@ fn bench(c: &mut Criterion) {
     let lim = Limits::new(0.5, 0.5, 5.0).expect("limits");
     let p = min_time(
         Move {
-            distance: 2.0,
+            distance: 4.0,
             v_start: 1.0,
             v_end: 1.5,
         },
