@@ -271,6 +271,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     }
     print!("{}", summary(&delivery, &plan.name, &machine.name));
+    if let Some(ts) = machine.servo_period_s {
+        eprintln!(
+            "note: the machine's servo_period_s ({ts} s) is not applied: transitions are timed in \
+             continuous time (`arcsim profile --period` re-times a single move)"
+        );
+    }
     if let Some(path) = &args.json {
         let out = JsonOut {
             format: "arcsim-result/1",

@@ -73,9 +73,23 @@ impl fmt::Display for PlannerError {
                 write!(
                     f,
                     "end speed {v_end} is not reachable from {v_start} within distance {distance} \
-                     without reversing: the highest reachable end speed is {max_end_speed:.6}, \
-                     the highest start speed that still reaches {v_end} is {max_start_speed:.6}"
-                )
+                     without reversing: "
+                )?;
+                if v_end.abs() < v_start.abs() {
+                    // Braking: the start speed is what is too high for the gap.
+                    write!(
+                        f,
+                        "the gap is too short to slow down; the highest start speed that still \
+                         reaches {v_end} is {max_start_speed:.6} (the highest end speed reachable \
+                         from {v_start} is {max_end_speed:.6})"
+                    )
+                } else {
+                    write!(
+                        f,
+                        "the highest reachable end speed is {max_end_speed:.6}, the highest start \
+                         speed that still reaches {v_end} is {max_start_speed:.6}"
+                    )
+                }
             }
             PlannerError::DurationInfeasible {
                 requested,
