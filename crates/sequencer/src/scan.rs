@@ -86,10 +86,16 @@ impl ArcProblem {
         }
     }
 
+    /// Whether the gap of transition `k` is not negative at speeds `vs`, `ve` (the two layers'
+    /// swept windows do not overlap), to rounding.
+    fn gap_open(&self, k: usize, vs: f64, ve: f64) -> bool {
+        self.gap(k).at(vs, ve) >= -1e-12 * (1.0 + self.s[k + 1])
+    }
+
     /// Duration of transition `k` at speeds `vs`, `ve`: the shortest feasible duration of at least
     /// max(minimum time, ELST), or `None` when no forward move fits the gap or none lasts the ELST.
     pub fn cost(&self, k: usize, vs: f64, ve: f64, lim: &Limits) -> Option<f64> {
-        if self.gap(k).at(vs, ve) < -1e-12 * (1.0 + self.s[k + 1]) {
+        if !self.gap_open(k, vs, ve) {
             return None;
         }
         let mv = self.transition_move(k, vs, ve);
@@ -214,16 +220,11 @@ pub(crate) fn scan(
 }
 
 /// Largest factor `s` in [0, 1] such that the gantry can brake from `s·vs` to rest and start
-/// again to `s·ve` within the gap of transition `k` (then any duration, hence any ELST, fits).
+/// again to `s·ve` within the gap of transition `k` (then a dwell at rest makes the transition
+/// last as long as any ELST).
 fn stop_fits_scale(p: &ArcProblem, k: usize, vs: f64, ve: f64, lim: &Limits) -> f64 {
-    use arcsim_planner::speed_change::distance;
     let gap = p.gap(k);
-    let excess = |s: f64| {
-        let (a, b) = (s * vs, s * ve);
-        distance(a, 0.0, lim.max_jerk, lim.max_accel, lim.max_decel)
-            + distance(0.0, b, lim.max_jerk, lim.max_accel, lim.max_decel)
-            - gap.at(a, b)
-    };
+    let excess = |s: f64| stop_and_go(s * vs, s * ve, lim) - gap.at(s * vs, s * ve);
     if excess(1.0) <= 0.0 {
         return 1.0;
     }
@@ -236,6 +237,13 @@ fn stop_fits_scale(p: &ArcProblem, k: usize, vs: f64, ve: f64, lim: &Limits) -> 
     }
 }
 
+/// Shortest distance in which the gantry brakes from `vs` to rest and speeds up again to `ve`.
+fn stop_and_go(vs: f64, ve: f64, lim: &Limits) -> f64 {
+    use arcsim_planner::speed_change::distance;
+    distance(vs, 0.0, lim.max_jerk, lim.max_accel, lim.max_decel)
+        + distance(0.0, ve, lim.max_jerk, lim.max_accel, lim.max_decel)
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Check {
     Ok,
@@ -245,7 +253,7 @@ enum Check {
 
 /// Whether transition `k` at `vs`, `ve` is feasible: a forward move fits its gap and (with
 /// `with_elst`) some such move lasts at least the ELST. Cheap tests first: the minimum time
-/// already lasting the ELST, or stopping fitting in the gap (then every longer duration does).
+/// already lasting the ELST, or stopping fitting in the gap (then a dwell at rest lasts it).
 fn transition_check(
     p: &ArcProblem,
     k: usize,
@@ -254,10 +262,7 @@ fn transition_check(
     lim: &Limits,
     with_elst: bool,
 ) -> Check {
-    use arcsim_planner::speed_change::distance;
-    let gap = p.gap(k);
-    let d = gap.at(vs, ve);
-    if d < -1e-12 * (1.0 + p.s[k + 1]) {
+    if !p.gap_open(k, vs, ve) {
         return Check::DoesNotFit;
     }
     let mv = p.transition_move(k, vs, ve);
@@ -268,9 +273,7 @@ fn transition_check(
     if !with_elst || e <= shape.duration() {
         return Check::Ok;
     }
-    let stop = distance(vs, 0.0, lim.max_jerk, lim.max_accel, lim.max_decel)
-        + distance(0.0, ve, lim.max_jerk, lim.max_accel, lim.max_decel);
-    if stop <= mv.distance {
+    if stop_and_go(vs, ve, lim) <= mv.distance {
         return Check::Ok;
     }
     match shortest_duration_at_least(mv, lim, e) {
