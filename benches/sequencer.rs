@@ -32,6 +32,7 @@ fn bench(c: &mut Criterion) {
         let opts = Options {
             schedule,
             build_timeline: timeline,
+            servo_period_s: None,
         };
         let name = format!(
             "{} prostate 180 layers ({})",

@@ -43,6 +43,10 @@ pub struct Args {
     /// How layer speeds are chosen.
     #[arg(long, value_enum, default_value_t = ScheduleArg::Scan)]
     schedule: ScheduleArg,
+    /// Servo period (s): every transition phase lasts a whole number of periods (overrides the
+    /// machine's `servo_period_s`).
+    #[arg(long, value_name = "TS")]
+    period: Option<f64>,
     /// Write the full result (summary, per-layer and per-transition rows, margins) as JSON.
     #[arg(long, value_name = "OUT")]
     json: Option<PathBuf>,
@@ -134,6 +138,13 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
         b.lost_s,
         pct(b.lost_s)
     );
+    if let Some(ts) = d.servo_period_s {
+        let _ = writeln!(
+            s,
+            "transition phases on a {:.3} ms servo period (whole periods, limits kept)",
+            1e3 * ts
+        );
+    }
     let c = d.limiter_counts;
     let _ = writeln!(
         s,
@@ -259,7 +270,17 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     let plan = load_plan(&args.plan)?;
     let machine = load_machine(args.machine.as_deref())?;
-    let opts = Options::new(args.schedule.into());
+    if let Some(ts) = args.period {
+        if !(ts.is_finite() && ts > 0.0) {
+            return Err(CliError::usage(format!(
+                "--period {ts}: expected a finite number > 0 (s)"
+            )));
+        }
+    }
+    let opts = Options {
+        servo_period_s: args.period,
+        ..Options::new(args.schedule.into())
+    };
     let delivery = simulate(&plan, &machine, &opts)
         .map_err(|e| CliError::failed(format!("{}: {e}", args.plan.display())))?;
     if let Some(tl) = &delivery.timeline {
@@ -271,12 +292,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     }
     print!("{}", summary(&delivery, &plan.name, &machine.name));
-    if let Some(ts) = machine.servo_period_s {
-        eprintln!(
-            "note: the machine's servo_period_s ({ts} s) is not applied: transitions are timed in \
-             continuous time (`arcsim profile --period` re-times a single move)"
-        );
-    }
+
     if let Some(path) = &args.json {
         let out = JsonOut {
             format: "arcsim-result/1",

@@ -147,6 +147,8 @@ fn bad_arguments_exit_2() {
             "1",
         ],
         vec!["simulate", "plans/prostate.json", "--dt", "0"],
+        vec!["simulate", "plans/prostate.json", "--period", "0"],
+        vec!["simulate", "plans/prostate.json", "--period", "NaN"],
     ] {
         let o = arcsim(&args);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o).1);
@@ -250,4 +252,34 @@ fn dicom_round_trip_gives_the_same_total() {
         "{}",
         text(&o).1
     );
+}
+
+/// `--period` times every transition on the servo grid: said in the summary, recorded in the
+/// JSON, every transition a whole number of periods, never faster than continuous time.
+#[test]
+fn simulate_on_a_servo_period() {
+    let out = std::env::temp_dir().join(format!("arcsim-servo-{}.json", std::process::id()));
+    let cont = arcsim(&["simulate", "plans/lung.json"]);
+    let o = arcsim(&[
+        "simulate",
+        "plans/lung.json",
+        "--period",
+        "0.004",
+        "--json",
+        out.to_str().expect("path"),
+    ]);
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stdout.contains("4.000 ms servo period"), "{stdout}");
+    assert!(total_of(&stdout) >= total_of(&text(&cont).0));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).expect("json")).expect("valid json");
+    assert_eq!(json["servo_period_s"].as_f64(), Some(0.004));
+    let transitions = json["transitions"].as_array().expect("transitions");
+    assert!(!transitions.is_empty());
+    for t in transitions {
+        let n = t["duration_s"].as_f64().expect("duration") / 0.004;
+        assert!((n - n.round()).abs() <= 1e-6, "{t}");
+    }
+    let _ = std::fs::remove_file(out);
 }

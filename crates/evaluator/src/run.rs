@@ -311,6 +311,7 @@ impl Evaluator {
         let opts = Options {
             schedule,
             build_timeline: self.sweep.margins,
+            servo_period_s: self.sweep.machine.servo_period_s,
         };
         let limits = self.limits(s);
         let result = catch_unwind(AssertUnwindSafe(|| simulate_resolved(arcs, &limits, &opts)));

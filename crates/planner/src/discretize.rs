@@ -1,10 +1,12 @@
 //! Phase durations on a servo period (after the seed repository's idea, without its defect).
 //!
-//! A servo runs at a fixed period Ts, so each phase must last a whole number of periods. Every
-//! phase of the seven-phase profile is rounded *up*; with the durations fixed, the distance is
-//! linear in the extreme speed `c` (eq. 4 summed over the phases), so `c` and then each jerk are
-//! re-solved exactly. Longer phases need less jerk and acceleration, so the limits hold; rounding
-//! *down* (as the seed repository does) would need more and exceed them.
+//! A servo runs at a fixed period Ts, so each phase must last a whole number of periods. With
+//! the durations fixed, the distance is linear in the extreme speed `c` (eq. 4 summed over the
+//! phases), so `c` and then each jerk are re-solved exactly. Phases are rounded up, which needs
+//! less jerk and acceleration; where that alone cannot keep a limit (a move on a reachability
+//! bound, a phase of zero length that the new `c` needs), neighbouring whole counts are searched
+//! and the shortest that keeps every limit wins. Rounding down regardless of the limits (as the
+//! seed repository does) would exceed them.
 
 use crate::profile::{Profile, Segment, TwoStep};
 use crate::{Limits, PlannerError};
@@ -26,7 +28,8 @@ fn round_up(t: f64, period: f64) -> f64 {
 }
 
 /// Re-times `profile` so every phase is a whole multiple of `period`, keeping its start and end
-/// state and every limit in `lim`. Works on seven-phase (peak/valley, cruise) profiles.
+/// state and every limit in `lim`, and lasting at least as long. Works on seven-phase
+/// (peak/valley, cruise) profiles.
 pub fn discretize(
     profile: &Profile,
     period: f64,
@@ -55,99 +58,44 @@ pub fn discretize(
         ..
     } = shape;
     let start = profile.start_state();
-    let distance = dir * (profile.end_state().position - start.position);
-    let (mut t1, mut t2, t3, mut t4, mut t5) = (
-        round_up(shape.t1, period),
-        round_up(shape.t2, period),
-        round_up(shape.t3, period),
-        round_up(shape.t4, period),
-        round_up(shape.t5, period),
-    );
-    let scale = lim.max_vel.max(vs.abs()).max(ve.abs());
-    let mut c = shape.v_peak;
-    for _ in 0..3 {
-        let tau1 = 2.0 * t1 + t2;
-        let tau2 = 2.0 * t4 + t5;
-        let weight = 0.5 * tau1 + t3 + 0.5 * tau2;
-        if weight <= 0.0 {
-            if distance.abs() > 1e-12 * scale || (vs - ve).abs() > 1e-12 * scale {
-                // A zero-length profile that must still change speed or move: give it a period.
-                t1 = period;
-                continue;
-            }
-            return Ok(Discretized {
-                profile: profile.clone(),
-                added_time: 0.0,
-            });
-        }
-        c = (distance - 0.5 * vs * tau1 - 0.5 * ve * tau2) / weight;
-        let mut again = false;
-        if t1 == 0.0 && (c - vs).abs() > 1e-12 * scale {
-            t1 = period;
-            again = true;
-        }
-        if t4 == 0.0 && (c - ve).abs() > 1e-12 * scale {
-            t4 = period;
-            again = true;
-        }
-        if !again {
-            break;
-        }
-    }
-    if t1 == 0.0 {
-        t2 = 0.0;
-    }
-    if t4 == 0.0 {
-        t5 = 0.0;
-    }
-    // Jerks that give exactly the speed changes c - vs and ve - c (Δv = j·t1·(t1 + t2)).
-    let j1 = if t1 > 0.0 {
-        (c - vs) / (t1 * (t1 + t2))
-    } else {
-        0.0
-    };
-    let j2 = if t4 > 0.0 {
-        (ve - c) / (t4 * (t4 + t5))
-    } else {
-        0.0
-    };
-    let tol = 1e-12;
-    let acc_bound = |j: f64| {
-        if j >= 0.0 {
-            lim.max_accel
-        } else {
-            lim.max_decel
-        }
-    };
-    let checks = [
-        ("|jerk| of the first speed change", j1.abs(), lim.max_jerk),
-        ("|jerk| of the second speed change", j2.abs(), lim.max_jerk),
-        (
-            "acceleration of the first speed change",
-            (j1 * t1).abs(),
-            acc_bound(j1),
-        ),
-        (
-            "acceleration of the second speed change",
-            (j2 * t4).abs(),
-            acc_bound(j2),
-        ),
-        ("extreme speed", c.abs(), lim.max_vel),
-    ];
-    for (what, got, limit) in checks {
-        if got > limit * (1.0 + tol) {
-            return Err(PlannerError::PeriodTooCoarse {
-                period,
-                detail: format!("{what} would be {got:.6e}, above the limit {limit:.6e}"),
-            });
-        }
-    }
-    if shape.v_peak >= 0.0 && c < -tol * scale && vs >= 0.0 && ve >= 0.0 {
-        return Err(PlannerError::PeriodTooCoarse {
-            period,
-            detail: format!("the re-timed profile would reverse (extreme speed {c:.6e})"),
+    if profile.duration() <= 0.0 {
+        return Ok(Discretized {
+            profile: profile.clone(),
+            added_time: 0.0,
         });
     }
+    let distance = dir * (profile.end_state().position - start.position);
+    let scale = lim.max_vel.max(vs.abs()).max(ve.abs());
+    let forbid_reversal = shape.v_peak >= 0.0 && vs >= 0.0 && ve >= 0.0;
+    // Never shorter than the profile given: it may have been stretched on purpose (an ELST).
+    let min_total = profile.duration() * (1.0 - 1e-12);
+    let Some(best) = search_grid(
+        &shape,
+        distance,
+        period,
+        lim,
+        scale,
+        forbid_reversal,
+        min_total,
+    ) else {
+        return Err(PlannerError::PeriodTooCoarse {
+            period,
+            detail: format!(
+                "no phase durations within {SEARCH_BELOW} period below to {SEARCH_ABOVE} above the \
+                 continuous ones reach the end state within the limits"
+            ),
+        });
+    };
+    let GridPhases {
+        t1,
+        t2,
+        t3,
+        t4,
+        t5,
+        c,
+        j1,
+        j2,
+    } = best;
     let segs = [
         Segment {
             duration: t1,
@@ -189,12 +137,11 @@ pub fn discretize(
         t4,
         t5,
     });
-    let forbid = vs >= 0.0 && ve >= 0.0 && shape.v_peak >= 0.0;
     new.verify(
         profile.end_state().position,
         profile.end_state().velocity,
         lim,
-        forbid,
+        forbid_reversal,
         1e-9,
     )?;
     let added_time = new.duration() - profile.duration();
@@ -202,4 +149,126 @@ pub fn discretize(
         profile: new,
         added_time,
     })
+}
+
+/// Periods a phase may lose (rounding down is fine while the limits hold) or gain in the search.
+const SEARCH_BELOW: usize = 1;
+const SEARCH_ABOVE: usize = 2;
+
+/// Phase durations on the grid, the extreme speed they imply and the jerks of the two changes.
+#[derive(Clone, Copy, Debug)]
+struct GridPhases {
+    t1: f64,
+    t2: f64,
+    t3: f64,
+    t4: f64,
+    t5: f64,
+    c: f64,
+    j1: f64,
+    j2: f64,
+}
+
+/// The shortest whole-period phase durations near the continuous ones, lasting at least
+/// `min_total`, that keep every limit.
+///
+/// With the durations fixed, the distance is linear in the extreme speed `c` (eq. 4 summed over
+/// the phases), so `c` and then the jerks `Δv / (t_a (t_a + t_b))` follow exactly. Rounding every
+/// phase up alone is not enough: a move on a reachability bound (its only duration) or a zero
+/// phase that the new `c` needs cannot be kept that way, so neighbouring counts are searched too.
+fn search_grid(
+    shape: &TwoStep,
+    distance: f64,
+    period: f64,
+    lim: &Limits,
+    scale: f64,
+    forbid_reversal: bool,
+    min_total: f64,
+) -> Option<GridPhases> {
+    let (vs, ve) = (shape.v_start, shape.v_end);
+    let tol = 1e-12;
+    let counts = |t: f64| {
+        let up = round_up(t, period) / period;
+        let up = up.round() as usize;
+        let lo = if t <= 0.0 {
+            0
+        } else {
+            up.saturating_sub(SEARCH_BELOW)
+        };
+        (lo..=up + SEARCH_ABOVE)
+            .map(|n| n as f64 * period)
+            .collect::<Vec<f64>>()
+    };
+    let acc_bound = |j: f64| {
+        if j >= 0.0 {
+            lim.max_accel
+        } else {
+            lim.max_decel
+        }
+    };
+    // The jerk of a speed change by `dv` over (t_a, t_b, t_a), if it keeps J and the acceleration.
+    let change = |dv: f64, t_a: f64, t_b: f64| -> Option<f64> {
+        if t_a <= 0.0 {
+            return (dv.abs() <= tol * scale && t_b <= 0.0).then_some(0.0);
+        }
+        let j = dv / (t_a * (t_a + t_b));
+        (j.abs() <= lim.max_jerk * (1.0 + tol) && (j * t_a).abs() <= acc_bound(j) * (1.0 + tol))
+            .then_some(j)
+    };
+    let (c1, c2, c3, c4, c5) = (
+        counts(shape.t1),
+        counts(shape.t2),
+        counts(shape.t3),
+        counts(shape.t4),
+        counts(shape.t5),
+    );
+    let mut best: Option<(f64, GridPhases)> = None;
+    for &t1 in &c1 {
+        for &t2 in &c2 {
+            if t1 <= 0.0 && t2 > 0.0 {
+                continue;
+            }
+            for &t3 in &c3 {
+                for &t4 in &c4 {
+                    for &t5 in &c5 {
+                        if t4 <= 0.0 && t5 > 0.0 {
+                            continue;
+                        }
+                        let total = 2.0 * t1 + t2 + t3 + 2.0 * t4 + t5;
+                        if total < min_total || best.is_some_and(|(b, _)| total >= b) {
+                            continue;
+                        }
+                        let (tau1, tau2) = (2.0 * t1 + t2, 2.0 * t4 + t5);
+                        let weight = 0.5 * tau1 + t3 + 0.5 * tau2;
+                        if weight <= 0.0 {
+                            continue;
+                        }
+                        let c = (distance - 0.5 * vs * tau1 - 0.5 * ve * tau2) / weight;
+                        if c.abs() > lim.max_vel * (1.0 + tol)
+                            || (forbid_reversal && c < -tol * scale)
+                        {
+                            continue;
+                        }
+                        let (Some(j1), Some(j2)) = (change(c - vs, t1, t2), change(ve - c, t4, t5))
+                        else {
+                            continue;
+                        };
+                        best = Some((
+                            total,
+                            GridPhases {
+                                t1,
+                                t2,
+                                t3,
+                                t4,
+                                t5,
+                                c,
+                                j1,
+                                j2,
+                            },
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    best.map(|(_, g)| g)
 }

@@ -187,7 +187,9 @@ fn servo_discretisation_keeps_limits_and_end_state() {
         }
     }
     println!("discretised {ok}, too coarse {coarse}");
-    assert!(ok > 20_000, "ok {ok}, coarse {coarse}");
+    // Rounding every phase up alone re-times 20,225 of these; searching neighbouring whole
+    // counts 20,917.
+    assert!(ok > 20_800, "ok {ok}, coarse {coarse}");
 }
 
 /// Seed-repository defect check: rounding phases down would need more jerk than J; rounding up

@@ -8,6 +8,7 @@ use arcsim_planner::{
 
 use crate::optimal::optimal;
 use crate::scan::{scan, ArcProblem};
+use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
 use crate::{
@@ -27,7 +28,8 @@ pub fn machine_limits(machine: &Machine) -> Result<Limits, SequenceError> {
     .map_err(SequenceError::Limits)
 }
 
-/// Simulates the delivery of `plan` on `machine`.
+/// Simulates the delivery of `plan` on `machine` (on the machine's servo period, if it has one
+/// and `opts` sets none).
 pub fn simulate(
     plan: &ArcPlan,
     machine: &Machine,
@@ -35,7 +37,20 @@ pub fn simulate(
 ) -> Result<Delivery, SequenceError> {
     let arcs = arcsim_plan::resolve(plan, machine)?;
     let limits = machine_limits(machine)?;
-    simulate_resolved(&arcs, &limits, opts)
+    let opts = Options {
+        servo_period_s: opts.servo_period_s.or(machine.servo_period_s),
+        ..opts.clone()
+    };
+    simulate_resolved(&arcs, &limits, &opts)
+}
+
+fn check_period(opts: &Options) -> Result<(), SequenceError> {
+    match opts.servo_period_s {
+        Some(ts) if !(ts.is_finite() && ts > 0.0) => Err(SequenceError::Input(format!(
+            "servo period {ts} s: expected a finite number > 0"
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// Simulates already-resolved arcs (sweeps resolve once and vary the limits).
@@ -45,18 +60,20 @@ pub fn simulate_resolved(
     opts: &Options,
 ) -> Result<Delivery, SequenceError> {
     limits.validate().map_err(SequenceError::Limits)?;
+    check_period(opts)?;
     let problems: Vec<ArcProblem> = arcs.iter().map(|a| ArcProblem::new(a, limits)).collect();
     let mut speeds = Vec::with_capacity(arcs.len());
     let mut bounds = Vec::with_capacity(arcs.len());
     let mut violations = Vec::new();
     let mut first_layer = 0;
+    let period = opts.servo_period_s;
     for (arc, p) in arcs.iter().zip(&problems) {
         let (v, b) = match opts.schedule {
             Schedule::StepAndShoot => (vec![0.0; p.len()], vec![SpeedBound::StepAndShoot; p.len()]),
-            Schedule::Scan => scan(p, limits, &p.cap, &p.cap_bound, true),
+            Schedule::Scan => scan(p, limits, &p.cap, &p.cap_bound, true, period),
             Schedule::Optimal => {
-                let (upper, _) = scan(p, limits, &p.cap, &p.cap_bound, false);
-                let (seed, seed_bounds) = scan(p, limits, &p.cap, &p.cap_bound, true);
+                let (upper, _) = scan(p, limits, &p.cap, &p.cap_bound, false, None);
+                let (seed, seed_bounds) = scan(p, limits, &p.cap, &p.cap_bound, true, None);
                 let (best, _tol) = optimal(p, limits, &upper, &seed);
                 let b = best
                     .iter()
@@ -71,12 +88,17 @@ pub fn simulate_resolved(
                             SpeedBound::Optimised
                         }
                     })
-                    .collect();
-                (best, b)
+                    .collect::<Vec<_>>();
+                match period {
+                    // The optimum is found in continuous time; the scan then lowers any speeds
+                    // whose transitions cannot be put on the servo grid.
+                    Some(_) => scan(p, limits, &best, &b, true, period),
+                    None => (best, b),
+                }
             }
             Schedule::Prescribed => {
                 let (caps, caps_bound, mut found) = prescribed_caps(arc, p, limits, first_layer);
-                let (v, b) = scan(p, limits, &caps, &caps_bound, true);
+                let (v, b) = scan(p, limits, &caps, &caps_bound, true, period);
                 for viol in &mut found {
                     viol.corrected_deg_per_s = v[viol.layer - first_layer];
                 }
@@ -186,6 +208,7 @@ pub fn simulate_with_speeds(
     opts: &Options,
 ) -> Result<Delivery, SequenceError> {
     limits.validate().map_err(SequenceError::Limits)?;
+    check_period(opts)?;
     let total: usize = arcs.iter().map(|a| a.layers.len()).sum();
     if speeds_deg_per_s.len() != total {
         return Err(SequenceError::Input(format!(
@@ -257,10 +280,12 @@ fn limiter_of(shape: &TwoStep, lim: &Limits) -> Limiter {
 }
 
 /// Solves one forward move of `mv` lasting at least `elst`.
+#[allow(clippy::too_many_arguments)]
 fn solve_move(
     mv: Move,
     elst: f64,
     lim: &Limits,
+    period: Option<f64>,
     with_profile: bool,
     arc: usize,
     layer: usize,
@@ -287,6 +312,16 @@ fn solve_move(
             })?
     } else {
         min_time
+    };
+    let duration = match period {
+        Some(ts) => {
+            grid_duration(mv, lim, duration, ts).ok_or_else(|| SequenceError::Infeasible {
+                arc,
+                layer,
+                message: format!("the move cannot last a whole number of {ts} s servo periods"),
+            })?
+        }
+        None => duration,
     };
     let profile = if with_profile {
         Some(exact_duration(mv, lim, duration).map_err(infeasible)?)
@@ -338,6 +373,7 @@ fn assemble(
     violations: Vec<Violation>,
 ) -> Result<Delivery, SequenceError> {
     let build = opts.build_timeline;
+    let period = opts.servo_period_s;
     let mut layers = Vec::new();
     let mut transitions: Vec<TransitionRow> = Vec::new();
     let mut pieces = Vec::new();
@@ -360,7 +396,7 @@ fn assemble(
                             v_start: 0.0,
                             v_end: 0.0,
                         };
-                        let s = solve_move(mv, p.elst[0], lim, build, arc.arc_index, 0)?;
+                        let s = solve_move(mv, p.elst[0], lim, period, build, arc.arc_index, 0)?;
                         if let Some(prof) = &s.profile {
                             push_profile(&mut pieces, prof, t, angle, dir, transitions.len());
                         }
@@ -385,7 +421,7 @@ fn assemble(
                 }
             } else {
                 let mv = p.transition_move(k - 1, v[k - 1], v[k]);
-                let s = solve_move(mv, p.elst[k], lim, build, arc.arc_index, k)?;
+                let s = solve_move(mv, p.elst[k], lim, period, build, arc.arc_index, k)?;
                 if let Some(prof) = &s.profile {
                     let angle0 = p.angle[k - 1] + p.dir * 0.5 * v[k - 1] * p.t[k - 1];
                     push_profile(&mut pieces, prof, t, angle0, p.dir, transitions.len());
@@ -473,6 +509,7 @@ fn assemble(
             lost_s,
         },
         limits: (*lim).into(),
+        servo_period_s: period,
         layers,
         transitions,
         limiter_counts: counts,

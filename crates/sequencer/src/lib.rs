@@ -13,6 +13,7 @@ mod build;
 mod error;
 mod optimal;
 mod scan;
+mod servo;
 mod timeline;
 mod types;
 mod verify;

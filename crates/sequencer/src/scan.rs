@@ -5,6 +5,7 @@
 //! `s_{k+1} - s_k - (v_k·t_k + v_{k+1}·t_{k+1})/2` from `v_k` to `v_{k+1}` without reversing and
 //! lasts at least the ELST of layer k+1.
 
+use crate::servo::grid_duration;
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::{
     max_end_speed, max_start_speed, min_time_shape, shortest_duration_at_least, Limits, LinearGap,
@@ -119,6 +120,7 @@ pub(crate) fn scan(
     caps: &[f64],
     bounds: &[SpeedBound],
     with_elst: bool,
+    period: Option<f64>,
 ) -> (Vec<f64>, Vec<SpeedBound>) {
     let n = p.len();
     let mut v = caps.to_vec();
@@ -170,7 +172,7 @@ pub(crate) fn scan(
             // A move that does not fit its gap is the passes' job (next round); here only the
             // transitions whose move fits but cannot last the ELST, or that the passes could not
             // settle after many rounds.
-            let check = transition_check(p, k, v[k], v[k + 1], lim, with_elst);
+            let check = transition_check(p, k, v[k], v[k + 1], lim, with_elst, period);
             if check == Check::DoesNotFit && round < 100 {
                 changed = true;
                 continue;
@@ -180,7 +182,7 @@ pub(crate) fn scan(
                 // Below the factor at which stopping fits in the gap every duration is possible,
                 // so the expensive feasibility test only runs above it.
                 let (mut lo, mut hi) = (
-                    if with_elst {
+                    if with_elst && period.is_none() {
                         stop_fits_scale(p, k, v[k], v[k + 1], lim)
                     } else {
                         0.0
@@ -189,7 +191,7 @@ pub(crate) fn scan(
                 );
                 for _ in 0..12 {
                     let mid = 0.5 * (lo + hi);
-                    if transition_check(p, k, mid * v[k], mid * v[k + 1], lim, with_elst)
+                    if transition_check(p, k, mid * v[k], mid * v[k + 1], lim, with_elst, period)
                         == Check::Ok
                     {
                         lo = mid;
@@ -197,7 +199,9 @@ pub(crate) fn scan(
                         hi = mid;
                     }
                 }
-                let why = if with_elst {
+                let why = if check == Check::OffServoGrid {
+                    SpeedBound::Servo
+                } else if with_elst {
                     SpeedBound::Elst
                 } else {
                     SpeedBound::Gap
@@ -249,6 +253,8 @@ enum Check {
     Ok,
     DoesNotFit,
     TooShortForElst,
+    /// Feasible in continuous time, but not once its phases are put on the servo grid.
+    OffServoGrid,
 }
 
 /// Whether transition `k` at `vs`, `ve` is feasible: a forward move fits its gap and (with
@@ -261,6 +267,7 @@ fn transition_check(
     ve: f64,
     lim: &Limits,
     with_elst: bool,
+    period: Option<f64>,
 ) -> Check {
     if !p.gap_open(k, vs, ve) {
         return Check::DoesNotFit;
@@ -269,15 +276,23 @@ fn transition_check(
     let Ok(shape) = min_time_shape(mv, lim, Reversal::Forbid) else {
         return Check::DoesNotFit;
     };
-    let e = p.elst[k + 1];
-    if !with_elst || e <= shape.duration() {
+    let e = if with_elst { p.elst[k + 1] } else { 0.0 };
+    let duration = if e <= shape.duration() {
+        shape.duration()
+    } else {
+        if period.is_none() && stop_and_go(vs, ve, lim) <= mv.distance {
+            return Check::Ok;
+        }
+        match shortest_duration_at_least(mv, lim, e) {
+            Ok(Some(t)) => t,
+            _ => return Check::TooShortForElst,
+        }
+    };
+    let Some(ts) = period else {
         return Check::Ok;
-    }
-    if stop_and_go(vs, ve, lim) <= mv.distance {
-        return Check::Ok;
-    }
-    match shortest_duration_at_least(mv, lim, e) {
-        Ok(Some(_)) => Check::Ok,
-        _ => Check::TooShortForElst,
+    };
+    match grid_duration(mv, lim, duration, ts) {
+        Some(_) => Check::Ok,
+        None => Check::OffServoGrid,
     }
 }

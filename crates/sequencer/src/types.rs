@@ -57,6 +57,10 @@ pub struct Options {
     pub schedule: Schedule,
     /// Build the sampled-ready timeline and its margins (off for fast sweeps: totals only).
     pub build_timeline: bool,
+    /// Servo period (s): every transition phase lasts a whole number of periods (limits kept,
+    /// never shorter). `None`: continuous time.
+    #[serde(default)]
+    pub servo_period_s: Option<f64>,
 }
 
 impl Default for Options {
@@ -64,6 +68,7 @@ impl Default for Options {
         Options {
             schedule: Schedule::Scan,
             build_timeline: true,
+            servo_period_s: None,
         }
     }
 }
@@ -97,6 +102,8 @@ pub enum SpeedBound {
     StepAndShoot,
     /// Chosen by the optimiser below every cap (trading speed for transition time).
     Optimised,
+    /// Lowered so a neighbouring transition can be timed on the servo period.
+    Servo,
 }
 
 /// What set a transition's duration.
@@ -229,6 +236,8 @@ pub struct Delivery {
     pub total_s: f64,
     pub breakdown: Breakdown,
     pub limits: LimitsOut,
+    /// Servo period the transitions were timed on (s); `None`: continuous time.
+    pub servo_period_s: Option<f64>,
     pub layers: Vec<LayerRow>,
     pub transitions: Vec<TransitionRow>,
     pub limiter_counts: LimiterCounts,

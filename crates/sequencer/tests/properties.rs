@@ -216,3 +216,55 @@ fn prescribed_speeds_are_checked_and_corrected() {
         .count();
     assert!(kept > 100, "only {kept} layers kept 0.3 deg/s");
 }
+
+/// On a servo period every transition lasts a whole number of periods (at least its ELST), the
+/// timeline still meets every constraint, nothing gets shorter than in continuous time, and
+/// step-and-shoot (speeds fixed at rest) only rounds: at most one period per transition.
+#[test]
+fn servo_period_transitions_last_whole_periods() {
+    for (kind, seed, m) in [
+        (PlanKind::Prostate, 2u64, "machine-atom.json"),
+        (PlanKind::TwoArc, 1, "machine-fast.json"),
+        (PlanKind::Lung, 3, "machine-opentps.json"),
+    ] {
+        let plan = generate(kind, seed);
+        let mut m = machine(m);
+        for ts in [0.001, 0.004, 0.02] {
+            for s in [Schedule::Scan, Schedule::Optimal, Schedule::StepAndShoot] {
+                let label = format!("{kind:?} seed {seed}, {} s servo, {}", ts, s.name());
+                m.servo_period_s = None;
+                let cont = simulate(&plan, &m, &Options::new(s)).expect("continuous");
+                m.servo_period_s = Some(ts);
+                let d = simulate(&plan, &m, &Options::new(s))
+                    .unwrap_or_else(|e| panic!("{label}: {e}"));
+                check(&d, &m, &label);
+                assert_eq!(d.servo_period_s, Some(ts), "{label}");
+                for tr in &d.transitions {
+                    let n = tr.duration_s / ts;
+                    assert!(
+                        (n - n.round()).abs() <= 1e-6,
+                        "{label}: transition {} lasts {} s",
+                        tr.index,
+                        tr.duration_s
+                    );
+                }
+                assert!(
+                    d.total_s >= cont.total_s * (1.0 - 1e-12),
+                    "{label}: {} < continuous {}",
+                    d.total_s,
+                    cont.total_s
+                );
+                if s == Schedule::StepAndShoot {
+                    let bound = cont.total_s + ts * d.transitions.len() as f64;
+                    assert!(d.total_s <= bound * (1.0 + 1e-12), "{label}: {}", d.total_s);
+                }
+            }
+        }
+        // Options override the machine; a bad period is an error, not a NaN.
+        let bad = Options {
+            servo_period_s: Some(0.0),
+            ..Options::new(Schedule::Scan)
+        };
+        assert!(simulate(&plan, &m, &bad).is_err());
+    }
+}

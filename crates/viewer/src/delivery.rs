@@ -330,6 +330,7 @@ fn bound_name(b: SpeedBound) -> &'static str {
         SpeedBound::Prescribed => "prescribed",
         SpeedBound::StepAndShoot => "step-and-shoot",
         SpeedBound::Optimised => "optimised",
+        SpeedBound::Servo => "servo period",
     }
 }
 
