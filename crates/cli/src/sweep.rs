@@ -222,9 +222,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
             let saved = if saved.is_empty() {
                 String::new()
             } else {
-                format!("; {} hold them", saved.join(" and "))
+                let verb = if saved.len() == 1 { "holds" } else { "hold" };
+                format!("; {} {verb} them", saved.join(" and "))
             };
-            Err(CliError::failed(format!(
+            Err(CliError::interrupted(format!(
                 "interrupted after {done} of {} combinations{saved}",
                 indices.len()
             )))
