@@ -45,7 +45,8 @@ pub struct MergeArgs {
     /// The merged table: byte-identical to the CSV of an unsharded run.
     #[arg(long)]
     out: PathBuf,
-    /// The sweep file, to check that no combination is missing.
+    /// The sweep file: checks that no combination is missing, then prints the summary table of
+    /// the whole sweep (as an unsharded run does).
     #[arg(long)]
     sweep: Option<PathBuf>,
 }
@@ -243,11 +244,11 @@ pub fn merge(args: MergeArgs) -> Result<(), CliError> {
                 .map_err(|e| CliError::failed(format!("{}: cannot read: {e}", p.display())))
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let expected = match &args.sweep {
-        Some(path) => Some(load(path)?.combinations()),
+    let sweep = match &args.sweep {
+        Some(path) => Some(load(path)?),
         None => None,
     };
-    let merged = merge_csv(&inputs, expected).map_err(failed)?;
+    let merged = merge_csv(&inputs, sweep.as_ref().map(|s| s.combinations())).map_err(failed)?;
     std::fs::write(&args.out, &merged)
         .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", args.out.display())))?;
     eprintln!(
@@ -256,5 +257,13 @@ pub fn merge(args: MergeArgs) -> Result<(), CliError> {
         merged.lines().count().saturating_sub(1),
         args.out.display()
     );
+    // With the sweep file, the summary of the whole run, as a single machine would print it.
+    if let Some(sweep) = sweep {
+        let ev = Evaluator::new(sweep).map_err(failed)?;
+        let rows = ev
+            .rows_from_csv(&args.out.display().to_string(), &merged)
+            .map_err(failed)?;
+        print!("{}", ev.summarize(&rows).to_table());
+    }
     Ok(())
 }

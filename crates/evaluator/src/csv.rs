@@ -4,7 +4,9 @@
 
 use std::io::Write;
 
-use crate::run::Row;
+use arcsim_sequencer::{Breakdown, LimiterCounts};
+
+use crate::run::{Evaluator, Outcome, Row, Status};
 use crate::EvalError;
 
 /// The CSV header line (without the newline).
@@ -155,6 +157,147 @@ pub fn merge_csv(
         out.push('\n');
     }
     Ok(out)
+}
+
+/// The fields of one CSV line as [`write_csv_row`] writes them (quoted text fields unquoted).
+fn split_line(line: &str) -> Vec<String> {
+    let mut fields = vec![String::new()];
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        let field = fields.last_mut().expect("one field at least");
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                chars.next();
+                field.push('"');
+            }
+            ('"', true) => quoted = false,
+            ('"', false) if field.is_empty() => quoted = true,
+            (',', false) => fields.push(String::new()),
+            (c, _) => field.push(c),
+        }
+    }
+    fields
+}
+
+impl Evaluator {
+    /// Reads back the rows of a results table of this sweep (e.g. merged shards) to summarise
+    /// them. Each line must match the combination its index names (plan, schedule, J, A, V);
+    /// margins are not read back (summaries do not use them).
+    pub fn rows_from_csv(&self, name: &str, text: &str) -> Result<Vec<Row>, EvalError> {
+        let merr = |line: usize, message: String| EvalError::Merge {
+            file: name.to_string(),
+            message: format!("line {line}: {message}"),
+        };
+        let mut lines = text.lines();
+        if lines.next() != Some(CSV_HEADER) {
+            return Err(merr(1, "expected the arcsim sweep CSV header".into()));
+        }
+        let mut rows = Vec::new();
+        for (n, line) in lines.enumerate() {
+            let ln = n + 2;
+            let f = split_line(line);
+            if f.len() != CSV_HEADER.split(',').count() {
+                return Err(merr(ln, format!("{} fields; expected 27", f.len())));
+            }
+            let num = |i: usize| -> Result<f64, EvalError> {
+                f[i].parse::<f64>().map_err(|_| {
+                    merr(
+                        ln,
+                        format!("column {}: expected a number, found {:?}", i + 1, f[i]),
+                    )
+                })
+            };
+            let opt = |i: usize| -> Result<Option<f64>, EvalError> {
+                if f[i].is_empty() {
+                    Ok(None)
+                } else {
+                    num(i).map(Some)
+                }
+            };
+            let count = |i: usize| -> Result<usize, EvalError> {
+                f[i].parse::<usize>().map_err(|_| {
+                    merr(
+                        ln,
+                        format!("column {}: expected a count, found {:?}", i + 1, f[i]),
+                    )
+                })
+            };
+            let index = count(0)?;
+            if index >= self.len() {
+                return Err(merr(
+                    ln,
+                    format!("row {index}: the sweep has {} combinations", self.len()),
+                ));
+            }
+            let (plan, run, setting) = self.combination(index);
+            let schedule = self.sweep().runs[run].schedule;
+            let label = &self.sweep().plans[plan].label;
+            let same = f[1] == *label
+                && f[2] == schedule.name()
+                && num(3)? == setting.jerk_deg_per_s3
+                && num(4)? == setting.accel_deg_per_s2
+                && num(5)? == setting.speed_deg_per_s
+                && opt(6)? == setting.elst_up_s
+                && opt(7)? == setting.elst_down_s
+                && opt(8)? == setting.window_deg;
+            if !same {
+                return Err(merr(
+                    ln,
+                    format!(
+                        "row {index} is {} {} J {} A {} V {} in this sweep; the file has another \
+                         combination (a different sweep file?)",
+                        label,
+                        schedule.name(),
+                        setting.jerk_deg_per_s3,
+                        setting.accel_deg_per_s2,
+                        setting.speed_deg_per_s
+                    ),
+                ));
+            }
+            let status = [
+                Status::Ok,
+                Status::Infeasible,
+                Status::Invalid,
+                Status::Error,
+            ]
+            .into_iter()
+            .find(|s| s.name() == f[9])
+            .ok_or_else(|| merr(ln, format!("unknown status {:?}", f[9])))?;
+            let outcome = if status == Status::Ok {
+                Some(Outcome {
+                    total_s: num(10)?,
+                    breakdown: Breakdown {
+                        beam_on_s: num(11)?,
+                        energy_switching_s: num(12)?,
+                        lost_s: num(13)?,
+                    },
+                    speedup: opt(14)?,
+                    limiter_counts: LimiterCounts {
+                        elst: count(15)?,
+                        speed: count(16)?,
+                        accel: count(17)?,
+                        jerk: count(18)?,
+                        none: count(19)?,
+                    },
+                    violations: count(20)?,
+                    margins: None,
+                })
+            } else {
+                None
+            };
+            rows.push(Row {
+                index,
+                plan: label.clone(),
+                schedule,
+                setting,
+                status,
+                outcome,
+                message: f[26].clone(),
+            });
+        }
+        Ok(rows)
+    }
 }
 
 #[cfg(test)]

@@ -292,3 +292,59 @@ fn summary_finds_the_cheapest_change() {
     assert_eq!(e.profiles.len(), 1);
     assert_eq!(e.profiles[0].points.len(), 5);
 }
+
+/// Merged shards read back with the sweep file summarise exactly as the single run does; a
+/// table from another sweep, or a damaged line, is a located error.
+#[test]
+fn merged_shards_summarise_like_a_single_run() {
+    let text = GOOD
+        .replace("[0.5, 1]", "[0.25, 0.5, 1]")
+        .replace("\"schedules\": [\"scan\"]", "\"axes\": {\"jerk_deg_per_s3\": [0.25, 0.5, 1], \"speed_deg_per_s\": [3, 5]}, \"schedules\": [\"scan\", \"step-and-shoot\"]")
+        .replace("\"axes\": {\"jerk_deg_per_s3\": [0.25, 0.5, 1]},", "");
+    let ev = Evaluator::new(from_text(&text).expect("sweep")).expect("prepare");
+    assert_eq!(ev.len(), 12);
+    let rows = ev.run_collect(&(0..ev.len()).collect::<Vec<_>>());
+    let shards: Vec<(String, String)> = (1..=2)
+        .map(|k| {
+            let shard = Shard::new(k, 2).expect("shard");
+            (
+                format!("shard-{k}.csv"),
+                csv(&ev.run_collect(&shard.indices(ev.len()))),
+            )
+        })
+        .collect();
+    let merged = merge_csv(&shards, Some(ev.len())).expect("merge");
+    let back = ev.rows_from_csv("merged.csv", &merged).expect("read back");
+    assert_eq!(back.len(), rows.len());
+    for (a, b) in back.iter().zip(&rows) {
+        assert_eq!(
+            (a.index, a.status, a.setting),
+            (b.index, b.status, b.setting)
+        );
+        assert_eq!(
+            a.outcome
+                .map(|o| (o.total_s, o.speedup, o.breakdown, o.limiter_counts)),
+            b.outcome
+                .map(|o| (o.total_s, o.speedup, o.breakdown, o.limiter_counts))
+        );
+    }
+    assert_eq!(
+        ev.summarize(&back).to_table(),
+        ev.summarize(&rows).to_table()
+    );
+
+    // Another sweep's table: its row 0 is at V 5, this sweep's at V 3.
+    let other = Evaluator::new(from_text(GOOD).expect("sweep")).expect("prepare");
+    let other_rows = other.run_collect(&[0, 1]);
+    let err = ev
+        .rows_from_csv("other.csv", &csv(&other_rows))
+        .expect_err("a different sweep");
+    assert!(
+        err.to_string().contains("other.csv: line 2: row 0"),
+        "{err}"
+    );
+    // A damaged number.
+    let damaged = merged.replacen(",ok,", ",ok,x", 1);
+    let err = ev.rows_from_csv("bad.csv", &damaged).expect_err("damaged");
+    assert!(err.to_string().contains("expected a number"), "{err}");
+}
