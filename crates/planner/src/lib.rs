@@ -32,8 +32,8 @@ pub use discretize::{discretize, Discretized};
 pub use error::PlannerError;
 pub use limits::Limits;
 pub use min_duration::{
-    at_least_duration, duration_feasible, exact_duration, feasible_durations, max_duration,
-    shortest_duration_at_least, DurationSet,
+    at_least_duration, can_last_at_least, duration_feasible, exact_duration, feasible_durations,
+    max_duration, shortest_duration_at_least, DurationSet,
 };
 pub use min_time::{min_time, min_time_shape, Move, Reversal};
 pub use profile::{Extrema, Profile, Segment, State, TwoStep};

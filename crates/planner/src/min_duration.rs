@@ -424,6 +424,39 @@ pub fn shortest_duration_at_least(
     Ok(s.durations().at_least(t_min))
 }
 
+/// Whether `mv` can last `t_min` seconds or longer with speed in [0, V]: whether
+/// [`shortest_duration_at_least`] has an answer, decided with one root solve instead of the whole
+/// [`DurationSet`] (schedulers ask this many times). The shortest distance coverable in a time t
+/// is the cruise-free valley lasting t; it rises with t to a hump and falls to the stop-and-go
+/// distance, so a duration >= `t_min` exists iff stopping fits or the valley lasting `t_min`
+/// fits. Conservative by 1e-9 in time against [`DurationSet::at_least`].
+pub fn can_last_at_least(mv: Move, lim: &Limits, t_min: f64) -> Result<bool, PlannerError> {
+    let s = stretch(&mv, lim)?;
+    if t_min <= s.t_opt {
+        return Ok(true);
+    }
+    let lo = s.tr.vs.min(s.tr.ve);
+    if lo == 0.0 || s.tr.d < s.eval(Side::Valley, 0.0).d {
+        // As in `valley_ends`: one end at rest (dwell there), or the optimum is already a valley
+        // above rest; every duration is feasible.
+        return Ok(true);
+    }
+    let stop = s.eval(Side::Valley, lo);
+    if stop.d <= s.tr.d {
+        return Ok(true);
+    }
+    let t = t_min * (1.0 + 1e-9);
+    if t >= stop.t {
+        return Ok(false);
+    }
+    match s.x_limit(Side::Valley, lo, t) {
+        // The valley lasting exactly t (T(0) < t < T(lo), T increasing in the depth).
+        Some(x) => Ok(s.eval(Side::Valley, x).d <= s.tr.d),
+        // Even the shallowest valley lasts longer than t: inside the first interval.
+        None => Ok(true),
+    }
+}
+
 /// A profile lasting [`shortest_duration_at_least`]`(mv, t_min)`: what a transition that must not
 /// end before an energy switch is ready does.
 pub fn at_least_duration(mv: Move, lim: &Limits, t_min: f64) -> Result<Profile, PlannerError> {

@@ -120,11 +120,23 @@ pub(crate) fn max_end_speed_travel(vs: f64, gap: &LinearGap, lim: &Limits) -> Op
     // Either branch may reach higher: the direct speed-up, or braking to rest and starting again
     // (shorter when v_s is small against A²/J). Both distances increase with v_e.
     let direct = highest_fit(vs, gap, lim, false);
+    // Via rest can only reach higher if its distance at the direct branch's speed still fits.
+    if let Some(d) = direct {
+        if via_rest_distance(vs, d, lim) > gap.at(vs, d) {
+            return direct;
+        }
+    }
     let via_rest = highest_fit(vs, gap, lim, true);
     match (direct, via_rest) {
         (Some(a), Some(b)) => Some(a.max(b)),
         (a, b) => a.or(b),
     }
+}
+
+/// Distance of braking from `vs` to rest and speeding up to `ve` (as [`highest_fit`] counts it).
+fn via_rest_distance(vs: f64, ve: f64, lim: &Limits) -> f64 {
+    let j = lim.max_jerk;
+    0.5 * vs * duration(vs, j, lim.max_decel) + 0.5 * ve * duration(ve, j, lim.max_accel)
 }
 
 /// Highest `v_e in [v_s, V]` whose speed-up (directly, or via rest) fits in the gap.
@@ -153,8 +165,20 @@ fn highest_fit(vs: f64, gap: &LinearGap, lim: &Limits, via_rest: bool) -> Option
     if f(lim.max_vel).0 <= 0.0 {
         return Some(lim.max_vel);
     }
+    // Start from the root of the acceleration-limited (trapezoid) form, where the distance is
+    // quadratic in v_e: v_e² + v_e·(A²/J + A·t_end) - from² + (A²/J)·from
+    // + 2A·(fixed - d) + A·v_s·t_start = 0 (exact when the change reaches A).
+    let a2j = a * a / j;
+    let b = a2j + a * gap.t_end;
+    let c = -from * from + a2j * from + 2.0 * a * (fixed - gap.distance) + a * vs * gap.t_start;
+    let disc = b * b - 4.0 * c;
+    let guess = if disc >= 0.0 {
+        0.5 * (-b + disc.sqrt())
+    } else {
+        vs
+    };
     // The root to machine precision, then nudged down to the feasible side by whole ulps.
-    let mut v = newton_bracketed(f, vs, lim.max_vel, vs);
+    let mut v = newton_bracketed(f, vs, lim.max_vel, guess);
     for _ in 0..64 {
         if f(v).0 <= 0.0 || v <= vs {
             break;

@@ -37,6 +37,12 @@ pub fn newton_bracketed(mut fdf: impl FnMut(f64) -> (f64, f64), lo: f64, hi: f64
             b = w;
         }
         let df = dfx * 2.0 * w;
+        // At the rounding floor of f a Newton step moves w by an ulp or two and f keeps its sign;
+        // without this exit the halving test below would throw the iterate back to the far end
+        // of a bracket that was never updated.
+        if df.is_finite() && df > 0.0 && (f / df).abs() <= 8.0 * f64::EPSILON * w.abs() {
+            return to_x((w - f / df).clamp(a, b));
+        }
         let newton_leaves = !df.is_finite()
             || df <= 0.0
             || ((w - b) * df - f) * ((w - a) * df - f) > 0.0

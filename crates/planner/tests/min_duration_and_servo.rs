@@ -3,8 +3,8 @@
 mod common;
 
 use arcsim_planner::{
-    discretize, exact_duration, feasible_durations, max_duration, min_time, Move, PlannerError,
-    Reversal,
+    can_last_at_least, discretize, exact_duration, feasible_durations, max_duration, min_time,
+    shortest_duration_at_least, Move, PlannerError, Reversal,
 };
 use common::*;
 
@@ -214,4 +214,42 @@ fn servo_rounding_up_adds_bounded_time() {
         dz.added_time
     );
     assert!(dz.profile.extrema().max_abs_jerk <= 0.5 * (1.0 + 1e-12));
+}
+
+/// The one-root test `can_last_at_least` agrees with the full duration analysis: whenever it says
+/// yes, a duration >= t exists and is built; it says no only where none exists or t is within
+/// 1e-8 of the longest duration.
+#[test]
+fn can_last_at_least_agrees_with_the_duration_set() {
+    let mut rng = Rng::new(2024);
+    let (mut yes, mut no) = (0, 0);
+    for case in 0..30_000 {
+        let lim = random_limits(&mut rng);
+        let mv = random_move(&mut rng, &lim, true);
+        let Ok(set) = feasible_durations(mv, &lim) else {
+            assert!(can_last_at_least(mv, &lim, 1.0).is_err(), "case {case}");
+            continue;
+        };
+        let t = if rng.chance(0.5) && set.max().is_finite() {
+            set.max() * (1.0 + rng.uniform(-0.5, 0.5))
+        } else {
+            set.min() * (1.0 + rng.log_uniform(-6.0, 1.3))
+        };
+        let fast = can_last_at_least(mv, &lim, t).expect("valid move");
+        let full = shortest_duration_at_least(mv, &lim, t).expect("valid move");
+        if fast {
+            yes += 1;
+            let d = full.unwrap_or_else(|| panic!("case {case}: {set:?} t {t}"));
+            let p = exact_duration(mv, &lim, d).expect("a profile that long");
+            assert!(p.duration() >= t * (1.0 - 1e-9), "case {case}");
+        } else {
+            no += 1;
+            assert!(
+                full.is_none() || (set.max() - t).abs() <= 1e-8 * t,
+                "case {case}: {set:?} t {t}"
+            );
+        }
+    }
+    println!("can last: {yes}, cannot: {no}");
+    assert!(yes > 1000 && no > 1000, "yes {yes}, no {no}");
 }

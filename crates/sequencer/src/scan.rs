@@ -7,9 +7,10 @@
 
 use crate::servo::grid_duration;
 use arcsim_plan::ResolvedArc;
+use arcsim_planner::speed_change::duration;
 use arcsim_planner::{
-    max_end_speed, max_start_speed, min_time_shape, shortest_duration_at_least, Limits, LinearGap,
-    Move, Reversal,
+    can_last_at_least, fits, max_end_speed, max_start_speed, min_time_shape,
+    shortest_duration_at_least, Limits, LinearGap, Move, Reversal,
 };
 
 use crate::SpeedBound;
@@ -178,9 +179,9 @@ pub(crate) fn scan(
                 continue;
             }
             if check != Check::Ok {
-                // Largest common factor that makes the transition feasible (rest always is).
-                // Below the factor at which stopping fits in the gap every duration is possible,
-                // so the expensive feasibility test only runs above it.
+                // Largest common factor that makes the transition feasible (rest always is), to
+                // 2^-12 of the range searched. Below the factor at which stopping fits in the
+                // gap, a stop and dwell lasts any ELST, so the search starts there.
                 let (mut lo, mut hi) = (
                     if with_elst && period.is_none() {
                         stop_fits_scale(p, k, v[k], v[k + 1], lim)
@@ -189,14 +190,21 @@ pub(crate) fn scan(
                     },
                     1.0f64,
                 );
-                for _ in 0..12 {
-                    let mid = 0.5 * (lo + hi);
-                    if transition_check(p, k, mid * v[k], mid * v[k + 1], lim, with_elst, period)
+                let ok = |s: f64| {
+                    transition_check(p, k, s * v[k], s * v[k + 1], lim, with_elst, period)
                         == Check::Ok
-                    {
-                        lo = mid;
-                    } else {
-                        hi = mid;
+                };
+                let resolution = (hi - lo) / 4096.0;
+                // Often nothing above the start is feasible: one test settles it.
+                if ok(lo + resolution) {
+                    lo += resolution;
+                    while hi - lo > resolution {
+                        let mid = 0.5 * (lo + hi);
+                        if ok(mid) {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
                     }
                 }
                 let why = if check == Check::OffServoGrid {
@@ -258,8 +266,8 @@ enum Check {
 }
 
 /// Whether transition `k` at `vs`, `ve` is feasible: a forward move fits its gap and (with
-/// `with_elst`) some such move lasts at least the ELST. Cheap tests first: the minimum time
-/// already lasting the ELST, or stopping fitting in the gap (then a dwell at rest lasts it).
+/// `with_elst`) some such move lasts at least the ELST, and (with a servo `period`) lasts a
+/// whole number of periods. Closed-form tests first; root solves only where they cannot decide.
 fn transition_check(
     p: &ArcProblem,
     k: usize,
@@ -273,23 +281,35 @@ fn transition_check(
         return Check::DoesNotFit;
     }
     let mv = p.transition_move(k, vs, ve);
+    // Closed form: the move fits iff its shortest forward distance does.
+    if !fits(vs, ve, &LinearGap::plain(mv.distance), lim) {
+        return Check::DoesNotFit;
+    }
+    let e = if with_elst { p.elst[k + 1] } else { 0.0 };
+    let Some(ts) = period else {
+        // Every move lasts at least its speed change and d / V: when that already covers the
+        // ELST, nothing need be solved; else only whether some duration lasts it matters.
+        let a = lim.max_accel.max(lim.max_decel);
+        let lower = duration((ve - vs).abs(), lim.max_jerk, a).max(mv.distance / lim.max_vel);
+        if e <= lower {
+            return Check::Ok;
+        }
+        return match can_last_at_least(mv, lim, e) {
+            Ok(true) => Check::Ok,
+            Ok(false) => Check::TooShortForElst,
+            Err(_) => Check::DoesNotFit,
+        };
+    };
     let Ok(shape) = min_time_shape(mv, lim, Reversal::Forbid) else {
         return Check::DoesNotFit;
     };
-    let e = if with_elst { p.elst[k + 1] } else { 0.0 };
     let duration = if e <= shape.duration() {
         shape.duration()
     } else {
-        if period.is_none() && stop_and_go(vs, ve, lim) <= mv.distance {
-            return Check::Ok;
-        }
         match shortest_duration_at_least(mv, lim, e) {
             Ok(Some(t)) => t,
             _ => return Check::TooShortForElst,
         }
-    };
-    let Some(ts) = period else {
-        return Check::Ok;
     };
     match grid_duration(mv, lim, duration, ts) {
         Some(_) => Check::Ok,
