@@ -43,7 +43,7 @@ pub struct Args {
     /// How layer speeds are chosen.
     #[arg(long, value_enum, default_value_t = ScheduleArg::Scan)]
     schedule: ScheduleArg,
-    /// Servo period (s): every transition phase lasts a whole number of periods (overrides the
+    /// Servo period (s): every transition lasts a whole number of periods (overrides the
     /// machine's `servo_period_s`).
     #[arg(long, value_name = "TS")]
     period: Option<f64>,
@@ -141,7 +141,7 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
     if let Some(ts) = d.servo_period_s {
         let _ = writeln!(
             s,
-            "transition phases on a {:.3} ms servo period (whole periods, limits kept)",
+            "transitions last whole numbers of a {:.3} ms servo period (limits kept)",
             1e3 * ts
         );
     }

@@ -270,7 +270,10 @@ fn simulate_on_a_servo_period() {
     ]);
     let (stdout, stderr) = text(&o);
     assert!(o.status.success(), "{stderr}");
-    assert!(stdout.contains("4.000 ms servo period"), "{stdout}");
+    assert!(
+        stdout.contains("whole numbers of a 4.000 ms servo period"),
+        "{stdout}"
+    );
     assert!(total_of(&stdout) >= total_of(&text(&cont).0));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&out).expect("json")).expect("valid json");

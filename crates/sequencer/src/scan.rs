@@ -261,7 +261,7 @@ enum Check {
     Ok,
     DoesNotFit,
     TooShortForElst,
-    /// Feasible in continuous time, but not once its phases are put on the servo grid.
+    /// Feasible in continuous time, but no duration of a whole number of servo periods is.
     OffServoGrid,
 }
 

@@ -57,8 +57,8 @@ pub struct Options {
     pub schedule: Schedule,
     /// Build the sampled-ready timeline and its margins (off for fast sweeps: totals only).
     pub build_timeline: bool,
-    /// Servo period (s): every transition phase lasts a whole number of periods (limits kept,
-    /// never shorter). `None`: continuous time.
+    /// Servo period (s): every transition lasts a whole number of periods (the shortest such
+    /// duration the move can last, never shorter than in continuous time). `None`: continuous.
     #[serde(default)]
     pub servo_period_s: Option<f64>,
 }
