@@ -190,8 +190,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
             combinations: ev.len(),
             shard: (shard != Shard::ALL).then(|| shard.to_string()),
             complete,
-            rows: rows.clone(),
-            summary: summary.clone(),
+            rows: &rows,
+            summary: summary.as_ref(),
         };
         let mut w = create(path)?;
         serde_json::to_writer_pretty(&mut w, &results)

@@ -193,12 +193,13 @@ impl Evaluator {
         if lines.next() != Some(CSV_HEADER) {
             return Err(merr(1, "expected the arcsim sweep CSV header".into()));
         }
+        let columns = CSV_HEADER.split(',').count();
         let mut rows = Vec::new();
         for (n, line) in lines.enumerate() {
             let ln = n + 2;
             let f = split_line(line);
-            if f.len() != CSV_HEADER.split(',').count() {
-                return Err(merr(ln, format!("{} fields; expected 27", f.len())));
+            if f.len() != columns {
+                return Err(merr(ln, format!("{} fields; expected {columns}", f.len())));
             }
             let num = |i: usize| -> Result<f64, EvalError> {
                 f[i].parse::<f64>().map_err(|_| {

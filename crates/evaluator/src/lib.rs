@@ -33,9 +33,9 @@ pub use sweep_file::{parse_sweep_file, Target, SWEEP_FORMAT};
 /// Format of the JSON results document ([`Results`]).
 pub const RESULTS_FORMAT: &str = "arcsim-sweep-results/1";
 
-/// The JSON results of a run: its rows and summary.
+/// The JSON results of a run: its rows and summary (borrowed: written once, at the end).
 #[derive(Debug, Clone, serde::Serialize)]
-pub struct Results {
+pub struct Results<'a> {
     pub format: &'static str,
     pub sweep: String,
     /// Combinations in the whole sweep.
@@ -44,7 +44,7 @@ pub struct Results {
     pub shard: Option<String>,
     /// False when the run was interrupted: `rows` holds those finished.
     pub complete: bool,
-    pub rows: Vec<Row>,
+    pub rows: &'a [Row],
     /// Absent when the run was interrupted.
-    pub summary: Option<Summary>,
+    pub summary: Option<&'a Summary>,
 }

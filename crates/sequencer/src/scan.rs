@@ -5,11 +5,11 @@
 //! `s_{k+1} - s_k - (v_k·t_k + v_{k+1}·t_{k+1})/2` from `v_k` to `v_{k+1}` without reversing and
 //! lasts at least the ELST of layer k+1.
 
-use crate::servo::grid_duration;
+use crate::servo::grid_duration_in;
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::speed_change::duration;
 use arcsim_planner::{
-    can_last_at_least, fits, max_end_speed, max_start_speed, min_time_shape,
+    can_last_at_least, feasible_durations, fits, max_end_speed, max_start_speed, min_time_shape,
     shortest_duration_at_least, Limits, LinearGap, Move, Reversal,
 };
 
@@ -300,18 +300,15 @@ fn transition_check(
             Err(_) => Check::DoesNotFit,
         };
     };
-    let Ok(shape) = min_time_shape(mv, lim, Reversal::Forbid) else {
+    // One duration analysis answers both: a duration >= the ELST (the set starts at the minimum
+    // time), and one on the grid.
+    let Ok(set) = feasible_durations(mv, lim) else {
         return Check::DoesNotFit;
     };
-    let duration = if e <= shape.duration() {
-        shape.duration()
-    } else {
-        match shortest_duration_at_least(mv, lim, e) {
-            Ok(Some(t)) => t,
-            _ => return Check::TooShortForElst,
-        }
-    };
-    match grid_duration(mv, lim, duration, ts) {
+    if set.at_least(e).is_none() {
+        return Check::TooShortForElst;
+    }
+    match grid_duration_in(&set, e, ts) {
         Some(_) => Check::Ok,
         None => Check::OffServoGrid,
     }

@@ -8,12 +8,16 @@
 //! such duration (a move on a reachability bound has exactly one) makes the scan lower its
 //! speeds a little ([`crate::SpeedBound::Servo`]).
 
-use arcsim_planner::{feasible_durations, Limits, Move};
+use arcsim_planner::{feasible_durations, DurationSet, Limits, Move};
 
 /// The shortest whole multiple of `period` that is at least `duration` and that `mv` can last
 /// with speed in [0, V]; `None` when there is none.
 pub(crate) fn grid_duration(mv: Move, lim: &Limits, duration: f64, period: f64) -> Option<f64> {
-    let set = feasible_durations(mv, lim).ok()?;
+    grid_duration_in(&feasible_durations(mv, lim).ok()?, duration, period)
+}
+
+/// [`grid_duration`] within an already computed set of feasible durations.
+pub(crate) fn grid_duration_in(set: &DurationSet, duration: f64, period: f64) -> Option<f64> {
     set.intervals
         .iter()
         .filter(|&&(_, hi)| hi * (1.0 + 1e-9) >= duration)
