@@ -44,6 +44,18 @@ pub fn simulate(
     simulate_resolved(&arcs, &limits, &opts)
 }
 
+/// Time of one arc at layer speeds `v` with every transition on the servo period (infinite when
+/// a transition has no such duration).
+fn arc_time_on_grid(p: &ArcProblem, v: &[f64], lim: &Limits, period: f64) -> f64 {
+    let moving: Option<f64> = (0..p.len().saturating_sub(1))
+        .map(|k| {
+            let d = p.cost(k, v[k], v[k + 1], lim)?;
+            grid_duration(p.transition_move(k, v[k], v[k + 1]), lim, d, period)
+        })
+        .sum();
+    moving.map_or(f64::INFINITY, |m| m + p.t.iter().sum::<f64>())
+}
+
 fn check_period(opts: &Options) -> Result<(), SequenceError> {
     match opts.servo_period_s {
         Some(ts) if !(ts.is_finite() && ts > 0.0) => Err(SequenceError::Input(format!(
@@ -91,8 +103,18 @@ pub fn simulate_resolved(
                     .collect::<Vec<_>>();
                 match period {
                     // The optimum is found in continuous time; the scan then lowers any speeds
-                    // whose transitions cannot be put on the servo grid.
-                    Some(_) => scan(p, limits, &best, &b, true, period),
+                    // whose transitions cannot be put on the servo grid. The servo-aware scan
+                    // from the caps can still do better: keep whichever is shorter.
+                    Some(ts) => {
+                        let repaired = scan(p, limits, &best, &b, true, period);
+                        let direct = scan(p, limits, &p.cap, &p.cap_bound, true, period);
+                        let time = |v: &[f64]| arc_time_on_grid(p, v, limits, ts);
+                        if time(&direct.0) < time(&repaired.0) {
+                            direct
+                        } else {
+                            repaired
+                        }
+                    }
                     None => (best, b),
                 }
             }

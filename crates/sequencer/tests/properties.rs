@@ -254,6 +254,16 @@ fn servo_period_transitions_last_whole_periods() {
                     d.total_s,
                     cont.total_s
                 );
+                if s == Schedule::Optimal {
+                    m.servo_period_s = Some(ts);
+                    let scan = simulate(&plan, &m, &Options::new(Schedule::Scan)).expect("scan");
+                    assert!(
+                        d.total_s <= scan.total_s * (1.0 + 1e-12),
+                        "{label}: optimal {} > scan {}",
+                        d.total_s,
+                        scan.total_s
+                    );
+                }
                 if s == Schedule::StepAndShoot {
                     let bound = cont.total_s + ts * d.transitions.len() as f64;
                     assert!(d.total_s <= bound * (1.0 + 1e-12), "{label}: {}", d.total_s);
