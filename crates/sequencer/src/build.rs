@@ -11,8 +11,9 @@ use crate::scan::{scan, ArcProblem};
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
+use crate::free;
 use crate::{
-    Breakdown, Delivery, LayerRow, Limiter, LimiterCounts, Options, Schedule, SequenceError,
+    ArcEnds, Breakdown, Delivery, Motion, LayerRow, Limiter, LimiterCounts, Options, Schedule, SequenceError,
     SpeedBound, TransitionRow, Violation,
 };
 
@@ -73,6 +74,7 @@ pub fn simulate_resolved(
 ) -> Result<Delivery, SequenceError> {
     limits.validate().map_err(SequenceError::Limits)?;
     check_period(opts)?;
+    check_motion(opts)?;
     let problems: Vec<ArcProblem> = arcs.iter().map(|a| ArcProblem::new(a, limits)).collect();
     let mut speeds = Vec::with_capacity(arcs.len());
     let mut bounds = Vec::with_capacity(arcs.len());
@@ -132,7 +134,110 @@ pub fn simulate_resolved(
         bounds.push(b);
         first_layer += p.len();
     }
-    assemble(arcs, &problems, &speeds, &bounds, limits, opts, violations)
+    let constant = assemble(arcs, &problems, &speeds, &bounds, limits, opts, violations)?;
+    match opts.motion {
+        Motion::Constant => Ok(constant),
+        Motion::Free => simulate_free(arcs, &problems, &speeds, limits, opts, constant),
+    }
+}
+
+/// Checks the motion options against the rest of the options.
+fn check_motion(opts: &Options) -> Result<(), SequenceError> {
+    match (opts.motion, opts.arc_ends) {
+        (Motion::Constant, ArcEnds::Free) => Err(SequenceError::Input(
+            "free arc ends need free motion (--motion free): a constant-speed arc starts and ends at rest".into(),
+        )),
+        (Motion::Free, _) if opts.servo_period_s.is_some() => Err(SequenceError::Input(
+            "free motion is continuous-time only: drop the servo period (--period or the machine's servo_period_s)".into(),
+        )),
+        (Motion::Free, _) if matches!(opts.schedule, Schedule::StepAndShoot | Schedule::Prescribed) => {
+            Err(SequenceError::Input(format!(
+                "free motion chooses its own speeds: use it with the optimal or scan schedule, not {}",
+                opts.schedule.name()
+            )))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Free motion: each arc solved from its constant-speed schedule (kept where nothing faster is
+/// found), assembled and verified by integration.
+fn simulate_free(
+    arcs: &[ResolvedArc],
+    problems: &[ArcProblem],
+    speeds: &[Vec<f64>],
+    limits: &Limits,
+    opts: &Options,
+    constant: Delivery,
+) -> Result<Delivery, SequenceError> {
+    let mut solved = Vec::with_capacity(arcs.len());
+    let mut constant_arcs = Vec::with_capacity(arcs.len());
+    for (ai, ((arc, p), v)) in arcs.iter().zip(problems).zip(speeds).enumerate() {
+        let base = free::from_constant(p, limits, v).ok_or_else(|| SequenceError::Infeasible {
+            arc: arc.arc_index,
+            layer: 0,
+            message: "the constant-speed schedule could not be rebuilt as free motion".into(),
+        })?;
+        let (start, end) = match opts.arc_ends {
+            ArcEnds::Rest => (free::Start::Rest, free::End::Rest),
+            ArcEnds::Free if ai + 1 == arcs.len() => (free::Start::RunUp, free::End::Free),
+            ArcEnds::Free => (free::Start::RunUp, free::End::Brake),
+        };
+        let best = match free::solve_arc(p, limits, start, end, v) {
+            Some(f) if f.total < base.total => f,
+            _ => base.clone(),
+        };
+        solved.push(best);
+        constant_arcs.push(base);
+    }
+    let mut a = free::assemble(arcs, problems, &solved, limits)?;
+    if a.total > constant.total_s {
+        // Between arcs the braking and run-up of free ends can cost more than they save.
+        a = free::assemble(arcs, problems, &constant_arcs, limits)?;
+    }
+    let beam_on_s: f64 = a.layers.iter().map(|l| l.irradiation_s).sum();
+    let energy_switching_s: f64 = a.transitions.iter().map(|tr| tr.elst_s).sum();
+    let lost_s: f64 = a.transitions.iter().map(|tr| tr.lost_s).sum::<f64>() + a.lead_s;
+    let counts = limiter_counts(&a.transitions);
+    let tl = free::timeline(&a);
+    verify_timeline(&tl, arcs, problems, &a.layers, &a.transitions, limits, true)?;
+    let margins = opts
+        .build_timeline
+        .then(|| margins(&tl, &a.layers, &a.transitions, limits));
+    Ok(Delivery {
+        schedule: opts.schedule,
+        motion: Motion::Free,
+        arc_ends: opts.arc_ends,
+        constant_speed_total_s: Some(constant.total_s),
+        total_s: a.total,
+        breakdown: Breakdown {
+            beam_on_s,
+            energy_switching_s,
+            lost_s,
+        },
+        limits: (*limits).into(),
+        servo_period_s: None,
+        layers: a.layers,
+        transitions: a.transitions,
+        limiter_counts: counts,
+        margins,
+        violations: constant.violations,
+        timeline: opts.build_timeline.then_some(tl),
+    })
+}
+
+fn limiter_counts(transitions: &[TransitionRow]) -> LimiterCounts {
+    let mut counts = LimiterCounts::default();
+    for tr in transitions {
+        match tr.limited_by {
+            Limiter::Elst => counts.elst += 1,
+            Limiter::Speed => counts.speed += 1,
+            Limiter::Accel => counts.accel += 1,
+            Limiter::Jerk => counts.jerk += 1,
+            Limiter::None => counts.none += 1,
+        }
+    }
+    counts
 }
 
 /// Per-layer caps from the plan's required speeds, and every point where they cannot be
@@ -487,6 +592,8 @@ fn assemble(
                 energy_mev: l.energy_mev,
                 irradiation_s: p.t[k],
                 speed_deg_per_s: v[k],
+                speed_on_deg_per_s: v[k],
+                speed_off_deg_per_s: v[k],
                 speed_bound: bounds[ai][k],
                 window_deg: p.window[k],
                 window_used_deg: v[k] * p.t[k],
@@ -504,19 +611,10 @@ fn assemble(
     let beam_on_s: f64 = layers.iter().map(|l| l.irradiation_s).sum();
     let energy_switching_s: f64 = transitions.iter().map(|tr| tr.elst_s).sum();
     let lost_s: f64 = transitions.iter().map(|tr| tr.lost_s).sum();
-    let mut counts = LimiterCounts::default();
-    for tr in &transitions {
-        match tr.limited_by {
-            Limiter::Elst => counts.elst += 1,
-            Limiter::Speed => counts.speed += 1,
-            Limiter::Accel => counts.accel += 1,
-            Limiter::Jerk => counts.jerk += 1,
-            Limiter::None => counts.none += 1,
-        }
-    }
+    let counts = limiter_counts(&transitions);
     let (timeline, margins) = if build {
         let tl = Timeline { pieces };
-        verify_timeline(&tl, arcs, problems, &layers, &transitions, lim)?;
+        verify_timeline(&tl, arcs, problems, &layers, &transitions, lim, false)?;
         let m = margins(&tl, &layers, &transitions, lim);
         (Some(tl), Some(m))
     } else {
@@ -524,6 +622,9 @@ fn assemble(
     };
     Ok(Delivery {
         schedule: opts.schedule,
+        motion: Motion::Constant,
+        arc_ends: ArcEnds::Rest,
+        constant_speed_total_s: None,
         total_s: t,
         breakdown: Breakdown {
             beam_on_s,

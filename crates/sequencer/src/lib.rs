@@ -11,6 +11,7 @@
 
 mod build;
 mod error;
+mod free;
 mod optimal;
 mod scan;
 mod servo;

@@ -5,10 +5,12 @@ use serde::{Deserialize, Serialize};
 /// What the gantry is doing during a piece.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum PieceKind {
-    /// Irradiating layer `layer` (delivery order) at constant speed.
+    /// Irradiating layer `layer` (delivery order); at constant speed unless the motion is free.
     Beam { layer: usize },
     /// Beam off, moving (or waiting) between layers: transition `transition`.
     Move { transition: usize },
+    /// Beam off, running up from rest before arc `arc`'s first beam (free arc ends).
+    RunUp { arc: usize },
 }
 
 /// One constant-jerk piece. Angles and speeds are signed gantry values (CW positive).
@@ -87,7 +89,7 @@ impl Timeline {
     pub fn beam_layer_at(&self, t: f64) -> Option<usize> {
         self.piece_at(t).and_then(|i| match self.pieces[i].kind {
             PieceKind::Beam { layer } => Some(layer),
-            PieceKind::Move { .. } => None,
+            PieceKind::Move { .. } | PieceKind::RunUp { .. } => None,
         })
     }
 

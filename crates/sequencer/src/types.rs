@@ -51,6 +51,74 @@ impl std::str::FromStr for Schedule {
     }
 }
 
+/// How the gantry moves while a layer is irradiated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Motion {
+    /// ATOM's rule: one constant speed per layer, its sweep centred on the layer's angle, zero
+    /// acceleration at every beam-on and beam-off.
+    #[default]
+    Constant,
+    /// The machine's own limits only: the gantry may speed up or slow down while the beam is on,
+    /// anywhere inside the layer's window (module `free`).
+    Free,
+}
+
+impl Motion {
+    pub const ALL: [Motion; 2] = [Motion::Constant, Motion::Free];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Motion::Constant => "constant",
+            Motion::Free => "free",
+        }
+    }
+}
+
+impl std::str::FromStr for Motion {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Motion::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown motion '{s}' (expected constant or free)"))
+    }
+}
+
+/// What the gantry does at the ends of an arc.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ArcEnds {
+    /// The first and last layers of an arc are irradiated at rest (ATOM's convention).
+    #[default]
+    Rest,
+    /// The gantry may already move at the first beam-on and still move at the last beam-off;
+    /// the run-up from rest before the first beam counts, braking after the last does not.
+    /// Only free motion can use it (a constant-speed arc starts and ends at rest).
+    Free,
+}
+
+impl ArcEnds {
+    pub const ALL: [ArcEnds; 2] = [ArcEnds::Rest, ArcEnds::Free];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ArcEnds::Rest => "rest",
+            ArcEnds::Free => "free",
+        }
+    }
+}
+
+impl std::str::FromStr for ArcEnds {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        ArcEnds::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown arc ends '{s}' (expected rest or free)"))
+    }
+}
+
 /// Options of one simulation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Options {
@@ -61,6 +129,12 @@ pub struct Options {
     /// duration the move can last, never shorter than in continuous time). `None`: continuous.
     #[serde(default)]
     pub servo_period_s: Option<f64>,
+    /// Constant speed per layer, or free motion (seeded by `schedule`'s constant speeds).
+    #[serde(default)]
+    pub motion: Motion,
+    /// Arc ends at rest, or free (free motion only).
+    #[serde(default)]
+    pub arc_ends: ArcEnds,
 }
 
 impl Default for Options {
@@ -69,6 +143,8 @@ impl Default for Options {
             schedule: Schedule::Scan,
             build_timeline: true,
             servo_period_s: None,
+            motion: Motion::Constant,
+            arc_ends: ArcEnds::Rest,
         }
     }
 }
@@ -104,6 +180,8 @@ pub enum SpeedBound {
     Optimised,
     /// Lowered so a neighbouring transition can be timed on the servo period.
     Servo,
+    /// Free motion: the speed changes while the beam is on (the row gives its mean).
+    Free,
 }
 
 /// What set a transition's duration.
@@ -143,8 +221,11 @@ pub struct LayerRow {
     pub angle_deg: f64,
     pub energy_mev: f64,
     pub irradiation_s: f64,
-    /// Gantry speed while irradiating (magnitude, deg/s).
+    /// Gantry speed while irradiating (magnitude, deg/s); with free motion, the mean speed.
     pub speed_deg_per_s: f64,
+    /// Speed at beam-on and at beam-off (deg/s; equal to the speed with constant motion).
+    pub speed_on_deg_per_s: f64,
+    pub speed_off_deg_per_s: f64,
     pub speed_bound: SpeedBound,
     pub window_deg: f64,
     /// Degrees swept while irradiating (speed × irradiation time).
@@ -168,7 +249,8 @@ pub struct TransitionRow {
     pub arc_change: bool,
     pub t_start_s: f64,
     pub duration_s: f64,
-    /// Minimum-time duration without the ELST (s).
+    /// Minimum-time duration without the ELST (s); with free motion, the transition's duration
+    /// (its motion is shaped together with the layers around it).
     pub min_time_s: f64,
     /// The energy-layer switching time this move must last (s).
     pub elst_s: f64,
@@ -232,6 +314,11 @@ pub struct Violation {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Delivery {
     pub schedule: Schedule,
+    pub motion: Motion,
+    pub arc_ends: ArcEnds,
+    /// Free motion: the total with constant speed per layer (same schedule), so the saving is
+    /// `constant_speed_total_s - total_s`.
+    pub constant_speed_total_s: Option<f64>,
     /// Total delivery time (s).
     pub total_s: f64,
     pub breakdown: Breakdown,

@@ -11,7 +11,7 @@ use crate::{LayerRow, Margin, Margins, SequenceError, TransitionRow};
 const TOL: f64 = 1e-9;
 
 /// Integrates the timeline piece by piece and checks: continuous time, angle, speed and
-/// acceleration; every layer at constant speed inside its window; every transition at least its
+/// acceleration; every layer inside its window (at constant speed unless `free_motion`); every transition at least its
 /// ELST; |speed| <= V, |acceleration| <= A (D when braking), |jerk| <= J; no reversal in an arc.
 pub(crate) fn verify_timeline(
     tl: &Timeline,
@@ -20,6 +20,7 @@ pub(crate) fn verify_timeline(
     layers: &[LayerRow],
     transitions: &[TransitionRow],
     lim: &Limits,
+    free_motion: bool,
 ) -> Result<(), SequenceError> {
     let fail = |msg: String| Err(SequenceError::Verification(msg));
     let a_max = lim.max_accel.max(lim.max_decel);
@@ -82,11 +83,14 @@ pub(crate) fn verify_timeline(
                         return fail(format!("layer {layer}: beam at {a:.9} deg outside its window [{lo:.6}, {hi:.6}]"));
                     }
                 }
-                if p.accel_deg_per_s2 != 0.0 || p.jerk_deg_per_s3 != 0.0 {
+                if !free_motion && (p.accel_deg_per_s2 != 0.0 || p.jerk_deg_per_s3 != 0.0) {
                     return fail(format!(
                         "layer {layer}: speed not constant while irradiating"
                     ));
                 }
+            }
+            PieceKind::RunUp { arc } => {
+                current_dir = problems.get(arc).map_or(0.0, |p| p.dir);
             }
             PieceKind::Move { transition } => {
                 let tr = &transitions[transition];

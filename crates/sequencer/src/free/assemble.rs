@@ -1,0 +1,375 @@
+//! Free-motion arcs into one delivery: pieces split at every beam-on and beam-off, layer and
+//! transition rows, stop-and-turn moves between arcs.
+
+use arcsim_plan::ResolvedArc;
+use arcsim_planner::{Limits, Segment};
+
+use super::mover::{FullMove, FullState, Mover};
+use super::solve::FreeArc;
+use crate::scan::ArcProblem;
+use crate::timeline::{Piece, PieceKind, Timeline};
+use crate::{LayerRow, Limiter, SequenceError, SpeedBound, TransitionRow};
+
+/// The constant-speed schedule `speeds` of one arc as a free-motion arc (so arcs where the
+/// search finds nothing better keep it).
+pub(crate) fn from_constant(p: &ArcProblem, lim: &Limits, speeds: &[f64]) -> Option<FreeArc> {
+    let n = p.len();
+    let mut moves = Vec::with_capacity(2 * n);
+    let mut beam_on = Vec::with_capacity(n);
+    let mut t = 0.0;
+    for k in 0..n {
+        let on = FullState {
+            pos: p.s[k] - 0.5 * speeds[k] * p.t[k],
+            vel: speeds[k],
+            acc: 0.0,
+        };
+        beam_on.push(t);
+        moves.push(FullMove {
+            start: on,
+            segments: vec![Segment {
+                duration: p.t[k],
+                jerk: 0.0,
+            }],
+        });
+        t += p.t[k];
+        if k + 1 < n {
+            let d = p.cost(k, speeds[k], speeds[k + 1], lim)?;
+            let prof = arcsim_planner::exact_duration(p.transition_move(k, speeds[k], speeds[k + 1]), lim, d).ok()?;
+            moves.push(FullMove {
+                start: FullState {
+                    pos: p.s[k] + 0.5 * speeds[k] * p.t[k],
+                    vel: speeds[k],
+                    acc: 0.0,
+                },
+                segments: prof.segments().to_vec(),
+            });
+            t += d;
+        }
+    }
+    Some(FreeArc {
+        run_up: None,
+        moves,
+        beam_on,
+        total: t,
+    })
+}
+
+/// Signed absolute state of travel state `s` on an arc (angle of its first layer, direction).
+fn absolute(s: FullState, angle0: f64, dir: f64) -> FullState {
+    FullState {
+        pos: angle0 + dir * s.pos,
+        vel: dir * s.vel,
+        acc: dir * s.acc,
+    }
+}
+
+/// One arc's moves laid end to end from its first beam-on, with their start times.
+struct Track<'a> {
+    moves: Vec<(f64, &'a FullMove)>,
+}
+
+impl<'a> Track<'a> {
+    fn new(fa: &'a FreeArc) -> Self {
+        let mut t = 0.0;
+        let moves = fa
+            .moves
+            .iter()
+            .map(|m| {
+                let start = t;
+                t += m.duration();
+                (start, m)
+            })
+            .collect();
+        Track { moves }
+    }
+
+    fn state_at(&self, t: f64) -> FullState {
+        let i = self
+            .moves
+            .partition_point(|(s, _)| *s <= t)
+            .saturating_sub(1);
+        let (s, m) = self.moves[i];
+        m.state_at(t - s)
+    }
+}
+
+/// Assembles arcs solved with free motion into rows and a timeline starting at `t = 0`.
+pub(crate) struct Assembled {
+    pub layers: Vec<LayerRow>,
+    pub transitions: Vec<TransitionRow>,
+    pub pieces: Vec<Piece>,
+    pub total: f64,
+    /// Run-up before the first arc's first beam (s); the rest of the lost time is in rows.
+    pub lead_s: f64,
+}
+
+pub(crate) fn assemble(
+    arcs: &[ResolvedArc],
+    problems: &[ArcProblem],
+    solved: &[FreeArc],
+    lim: &Limits,
+) -> Result<Assembled, SequenceError> {
+    let mut out = Assembled {
+        layers: Vec::new(),
+        transitions: Vec::new(),
+        pieces: Vec::new(),
+        total: 0.0,
+        lead_s: 0.0,
+    };
+    let mut turn = Mover::new(lim, true);
+    let mut t = 0.0;
+    // End of the previous arc: absolute state where its motion ends, its last layer, and the
+    // time of its last beam-off.
+    let mut prev: Option<(FullState, usize, f64)> = None;
+    for (ai, ((arc, p), fa)) in arcs.iter().zip(problems).zip(solved).enumerate() {
+        let (angle0, dir) = (p.angle.first().copied().unwrap_or(0.0), p.dir);
+        let first_layer = out.layers.len();
+        let run_up = fa.run_up.as_ref();
+        let lead = run_up.map_or(0.0, |r| r.duration());
+        let wait_at = match run_up {
+            Some(r) => r.start,
+            None => fa.moves.first().map_or(FullState::default(), |m| m.start),
+        };
+        // Stop-and-turn from the previous arc to where this one starts, at rest.
+        if let Some((from, from_layer, last_off)) = prev {
+            let to = FullState::rest(angle0 + dir * wait_at.pos);
+            let elst = p.elst[0];
+            let mv = turn
+                .solve(from, to, (elst - lead).max(0.0))
+                .ok_or_else(|| SequenceError::Infeasible {
+                    arc: arc.arc_index,
+                    layer: 0,
+                    message: "no stop-and-turn move reaches the arc's start".into(),
+                })?;
+            let index = out.transitions.len();
+            push_move(&mut out.pieces, &mv, t, 0.0, 1.0, PieceKind::Move { transition: index });
+            // From the last beam-off: braking (if any), the turn, the run-up.
+            let duration = t + mv.duration() + lead - last_off;
+            out.transitions.push(TransitionRow {
+                index,
+                from_layer,
+                to_layer: first_layer,
+                arc_change: true,
+                t_start_s: last_off,
+                duration_s: duration,
+                min_time_s: duration,
+                elst_s: elst,
+                gap_deg: (to.pos - from.pos).abs(),
+                v_start_deg_per_s: from.vel.abs(),
+                v_end_deg_per_s: 0.0,
+                limited_by: classify(&mv, duration, elst, lim),
+                lost_s: (duration - elst).max(0.0),
+            });
+            t += mv.duration();
+        }
+        if let Some(r) = run_up {
+            push_move(&mut out.pieces, r, t, angle0, dir, PieceKind::RunUp { arc: ai });
+            if prev.is_none() {
+                out.lead_s = lead;
+            }
+            t += lead;
+        }
+        let t_arc = t;
+        let track = Track::new(fa);
+        let n = p.len();
+        // Beam intervals (absolute) and transition indices of this arc.
+        let on: Vec<f64> = fa.beam_on.iter().map(|b| t_arc + b).collect();
+        let off: Vec<f64> = (0..n).map(|k| on[k] + p.t[k]).collect();
+        let tr0 = out.transitions.len();
+        for k in 0..n {
+            let s_on = track.state_at(on[k] - t_arc);
+            let s_off = track.state_at(off[k] - t_arc);
+            let (t_in, lim_in) = if k == 0 {
+                match out.transitions.last() {
+                    Some(tr) if prev.is_some() => (tr.duration_s, tr.limited_by),
+                    _ => (0.0, Limiter::None),
+                }
+            } else {
+                (on[k] - off[k - 1], Limiter::None)
+            };
+            let l = &arc.layers[k];
+            let used = s_off.pos - s_on.pos;
+            out.layers.push(LayerRow {
+                index: first_layer + k,
+                arc: arc.arc_index,
+                control_point: l.control_point,
+                layer: l.layer,
+                angle_deg: l.angle_deg,
+                energy_mev: l.energy_mev,
+                irradiation_s: p.t[k],
+                speed_deg_per_s: if p.t[k] > 0.0 { used / p.t[k] } else { s_on.vel },
+                speed_on_deg_per_s: s_on.vel,
+                speed_off_deg_per_s: s_off.vel,
+                speed_bound: SpeedBound::Free,
+                window_deg: p.window[k],
+                window_used_deg: used,
+                t_start_s: on[k],
+                t_end_s: off[k],
+                transition_in_s: t_in,
+                transition_limited_by: lim_in,
+            });
+            if k + 1 < n {
+                let s_next = track.state_at(on[k + 1] - t_arc);
+                let duration = on[k + 1] - off[k];
+                out.transitions.push(TransitionRow {
+                    index: tr0 + k,
+                    from_layer: first_layer + k,
+                    to_layer: first_layer + k + 1,
+                    arc_change: false,
+                    t_start_s: off[k],
+                    duration_s: duration,
+                    min_time_s: duration,
+                    elst_s: p.elst[k + 1],
+                    gap_deg: s_next.pos - s_off.pos,
+                    v_start_deg_per_s: s_off.vel,
+                    v_end_deg_per_s: s_next.vel,
+                    limited_by: Limiter::None,
+                    lost_s: (duration - p.elst[k + 1]).max(0.0),
+                });
+            }
+        }
+        // Pieces, split at every beam edge.
+        let mut edges: Vec<f64> = on.iter().chain(off.iter()).copied().collect();
+        edges.sort_by(f64::total_cmp);
+        // Motion after the arc's last beam belongs to the stop-and-turn that follows.
+        let after_last = tr0 + n - 1;
+        let kind_at = |tm: f64| -> PieceKind {
+            let k = on.partition_point(|&b| b <= tm).saturating_sub(1);
+            if tm >= off[n - 1] {
+                PieceKind::Move {
+                    transition: after_last,
+                }
+            } else if tm >= on[k] && tm < off[k] {
+                PieceKind::Beam {
+                    layer: first_layer + k,
+                }
+            } else {
+                PieceKind::Move {
+                    transition: tr0 + k.min(n.saturating_sub(2)),
+                }
+            }
+        };
+        for (start, mv) in &track.moves {
+            let mut s = absolute(mv.start, angle0, dir);
+            let mut tm = t_arc + start;
+            for seg in &mv.segments {
+                let end = tm + seg.duration;
+                let mut cuts: Vec<f64> = edges
+                    .iter()
+                    .copied()
+                    .filter(|&e| e > tm + 1e-12 && e < end - 1e-12)
+                    .collect();
+                cuts.push(end);
+                let mut a = tm;
+                for c in cuts {
+                    let d = c - a;
+                    if d > 0.0 {
+                        out.pieces.push(Piece {
+                            t_start_s: a,
+                            duration_s: d,
+                            angle_deg: s.pos,
+                            speed_deg_per_s: s.vel,
+                            accel_deg_per_s2: s.acc,
+                            jerk_deg_per_s3: dir * seg.jerk,
+                            kind: kind_at(0.5 * (a + c)),
+                        });
+                        s = s.after(d, dir * seg.jerk);
+                    }
+                    a = c;
+                }
+                tm = end;
+            }
+        }
+        // What limited each transition: the ELST, or the peak speed / acceleration reached.
+        for k in 0..n.saturating_sub(1) {
+            let tr = &mut out.transitions[tr0 + k];
+            tr.limited_by = classify_span(&out.pieces, tr.t_start_s, tr.t_start_s + tr.duration_s, tr.duration_s, tr.elst_s, lim);
+            out.layers[first_layer + k + 1].transition_limited_by = tr.limited_by;
+        }
+        t = t_arc + fa.total - lead;
+        // Where the arc's motion ends (at rest after braking, unless it is the plan's last).
+        let last = fa.moves.last().map_or(FullState::default(), FullMove::end);
+        prev = Some((absolute(last, angle0, dir), first_layer + n - 1, off[n - 1]));
+    }
+    out.total = t;
+    Ok(out)
+}
+
+fn push_move(pieces: &mut Vec<Piece>, mv: &FullMove, t0: f64, angle0: f64, dir: f64, kind: PieceKind) {
+    let mut s = absolute(mv.start, angle0, dir);
+    let mut t = t0;
+    for seg in &mv.segments {
+        if seg.duration <= 0.0 {
+            continue;
+        }
+        pieces.push(Piece {
+            t_start_s: t,
+            duration_s: seg.duration,
+            angle_deg: s.pos,
+            speed_deg_per_s: s.vel,
+            accel_deg_per_s2: s.acc,
+            jerk_deg_per_s3: dir * seg.jerk,
+            kind,
+        });
+        s = s.after(seg.duration, dir * seg.jerk);
+        t += seg.duration;
+    }
+}
+
+/// ELST when the transition lasts no longer than it; else the highest limit the motion reached.
+fn limiter_from(peak_v: f64, peak_up: f64, peak_down: f64, duration: f64, elst: f64, lim: &Limits) -> Limiter {
+    if duration <= 0.0 {
+        Limiter::None
+    } else if duration <= elst * (1.0 + 1e-9) + 1e-12 {
+        Limiter::Elst
+    } else if peak_v >= lim.max_vel * (1.0 - 1e-6) {
+        Limiter::Speed
+    } else if peak_up >= lim.max_accel * (1.0 - 1e-6) || peak_down >= lim.max_decel * (1.0 - 1e-6) {
+        Limiter::Accel
+    } else {
+        Limiter::Jerk
+    }
+}
+
+fn classify(mv: &FullMove, duration: f64, elst: f64, lim: &Limits) -> Limiter {
+    let (mut v, mut up, mut down) = (0.0f64, 0.0f64, 0.0f64);
+    let mut s = mv.start;
+    for seg in &mv.segments {
+        let e = s.after(seg.duration, seg.jerk);
+        v = v.max(s.vel.abs()).max(e.vel.abs());
+        for x in [s, e] {
+            // Along the motion: speeding up or braking.
+            if x.acc * x.vel >= 0.0 {
+                up = up.max(x.acc.abs());
+            } else {
+                down = down.max(x.acc.abs());
+            }
+        }
+        s = e;
+    }
+    limiter_from(v, up, down, duration, elst, lim)
+}
+
+fn classify_span(pieces: &[Piece], t0: f64, t1: f64, duration: f64, elst: f64, lim: &Limits) -> Limiter {
+    let (mut v, mut up, mut down) = (0.0f64, 0.0f64, 0.0f64);
+    let i0 = pieces.partition_point(|p| p.t_start_s + p.duration_s <= t0);
+    for p in pieces[i0..].iter().take_while(|p| p.t_start_s < t1) {
+        for dt in [0.0, p.duration_s] {
+            let s = p.state_after(dt);
+            v = v.max(s.speed_deg_per_s.abs());
+            if s.accel_deg_per_s2 * s.speed_deg_per_s >= 0.0 {
+                up = up.max(s.accel_deg_per_s2.abs());
+            } else {
+                down = down.max(s.accel_deg_per_s2.abs());
+            }
+        }
+    }
+    limiter_from(v, up, down, duration, elst, lim)
+}
+
+/// Timeline of assembled pieces.
+pub(crate) fn timeline(a: &Assembled) -> Timeline {
+    Timeline {
+        pieces: a.pieces.clone(),
+    }
+}

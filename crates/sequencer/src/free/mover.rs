@@ -1,0 +1,363 @@
+//! Full-state moves: between two kinematic states (position, speed, acceleration) in the least
+//! time that lasts at least a given duration, jerk-, acceleration- and speed-limited.
+//!
+//! The planner crate solves moves that start and end with zero acceleration; free motion needs
+//! any acceleration at a layer boundary, which is Ruckig's problem. Each move is solved with
+//! rsruckig, converted to our own constant-jerk segments and re-integrated: a move whose segments
+//! do not reach the target state (to 1e-9), or break a limit, is treated as infeasible.
+
+use arcsim_planner::{Limits, Segment};
+use rsruckig::prelude::*;
+
+/// A kinematic state along the arc's direction of travel (deg, deg/s, deg/s²).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct FullState {
+    pub pos: f64,
+    pub vel: f64,
+    pub acc: f64,
+}
+
+impl FullState {
+    pub fn rest(pos: f64) -> Self {
+        FullState {
+            pos,
+            vel: 0.0,
+            acc: 0.0,
+        }
+    }
+
+    /// The state `t` seconds into a constant-jerk piece with jerk `j`.
+    #[inline]
+    pub fn after(&self, t: f64, j: f64) -> FullState {
+        FullState {
+            pos: self.pos + t * (self.vel + t * (0.5 * self.acc + t * j / 6.0)),
+            vel: self.vel + t * (self.acc + 0.5 * t * j),
+            acc: self.acc + t * j,
+        }
+    }
+}
+
+/// A solved move: its start state and constant-jerk segments.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct FullMove {
+    pub start: FullState,
+    pub segments: Vec<Segment>,
+}
+
+impl FullMove {
+    /// A move of `duration` at rest at `pos`.
+    pub fn dwell(pos: f64, duration: f64) -> Self {
+        FullMove {
+            start: FullState::rest(pos),
+            segments: vec![Segment {
+                duration,
+                jerk: 0.0,
+            }],
+        }
+    }
+
+    pub fn duration(&self) -> f64 {
+        self.segments.iter().map(|s| s.duration).sum()
+    }
+
+    pub fn end(&self) -> FullState {
+        self.segments
+            .iter()
+            .fold(self.start, |s, seg| s.after(seg.duration, seg.jerk))
+    }
+
+    /// State `t` seconds into the move (clamped).
+    pub fn state_at(&self, t: f64) -> FullState {
+        let mut s = self.start;
+        let mut left = t.max(0.0);
+        for seg in &self.segments {
+            if left <= seg.duration {
+                return s.after(left, seg.jerk);
+            }
+            s = s.after(seg.duration, seg.jerk);
+            left -= seg.duration;
+        }
+        s
+    }
+
+    /// First time the position reaches `x` (the move never goes backwards); `+∞` if it never
+    /// does, 0 if it starts there or beyond.
+    pub fn time_at_position(&self, x: f64) -> f64 {
+        if self.start.pos >= x {
+            return 0.0;
+        }
+        let mut s = self.start;
+        let mut t0 = 0.0;
+        for seg in &self.segments {
+            let e = s.after(seg.duration, seg.jerk);
+            if e.pos >= x {
+                return t0 + crossing(s, seg.jerk, seg.duration, x);
+            }
+            s = e;
+            t0 += seg.duration;
+        }
+        f64::INFINITY
+    }
+}
+
+/// The first time in `[0, d]` at which a piece starting at `s` with jerk `j` reaches position
+/// `x` (`s.pos < x <= end position`; position is non-decreasing): Newton's method kept inside a
+/// shrinking bracket, returning the bracket's upper end (the gantry is at or past `x` there).
+fn crossing(s: FullState, j: f64, d: f64, x: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0, d);
+    let mut t = 0.5 * d;
+    for _ in 0..100 {
+        let st = s.after(t, j);
+        if st.pos >= x {
+            hi = t;
+        } else {
+            lo = t;
+        }
+        let next = if st.vel > 0.0 {
+            t - (st.pos - x) / st.vel
+        } else {
+            f64::NAN
+        };
+        let next = if next > lo && next < hi {
+            next
+        } else {
+            0.5 * (lo + hi)
+        };
+        if (st.pos - x).abs() <= 4.0 * f64::EPSILON * (1.0 + x.abs())
+            || (next - t).abs() <= 1e-14 * (1.0 + d)
+            || hi - lo <= 4.0 * f64::EPSILON * d
+        {
+            t = next;
+            break;
+        }
+        t = next;
+    }
+    // The gantry must be at or past `x` at the returned time.
+    if s.after(t, j).pos >= x {
+        t
+    } else {
+        hi
+    }
+}
+
+/// Relative tolerance of a move's own check.
+const TOL: f64 = 1e-9;
+
+/// Solves full-state moves (one Ruckig instance, reused).
+pub(crate) struct Mover {
+    otg: Ruckig<1, ThrowErrorHandler>,
+    input: InputParameter<1>,
+    traj: Trajectory<1>,
+    lim: Limits,
+    /// Speed may be negative (a stop-and-turn between arcs); else it stays in [0, V].
+    reversible: bool,
+}
+
+impl Mover {
+    /// A mover along the direction of travel (speed in [0, V]), or `reversible` for a
+    /// stop-and-turn (speed in [-V, V]). `lim` must be valid.
+    pub fn new(lim: &Limits, reversible: bool) -> Self {
+        let mut input = InputParameter::new(None);
+        input.max_velocity[0] = lim.max_vel;
+        input.min_velocity = Some(daov_stack![if reversible {
+            -lim.max_vel
+        } else {
+            0.0
+        }]);
+        input.max_acceleration[0] = lim.max_accel;
+        input.min_acceleration = Some(daov_stack![-lim.max_decel]);
+        input.max_jerk[0] = lim.max_jerk;
+        Mover {
+            otg: Ruckig::new(None, 0.001),
+            input,
+            traj: Trajectory::new(None),
+            lim: *lim,
+            reversible,
+        }
+    }
+
+    /// Duration of the fastest move `from → to` lasting at least `min_duration`; `None` when
+    /// there is none (e.g. the target cannot be reached without going backwards).
+    pub fn duration(&mut self, from: FullState, to: FullState, min_duration: f64) -> Option<f64> {
+        if !self.admissible(from) || !self.admissible(to) || !min_duration.is_finite() {
+            return None;
+        }
+        self.input.current_position[0] = from.pos;
+        self.input.current_velocity[0] = from.vel;
+        self.input.current_acceleration[0] = from.acc;
+        self.input.target_position[0] = to.pos;
+        self.input.target_velocity[0] = to.vel;
+        self.input.target_acceleration[0] = to.acc;
+        self.input.minimum_duration = Some(min_duration.max(0.0));
+        match self.otg.calculate(&self.input, &mut self.traj) {
+            Ok(_) => {
+                let d = self.traj.get_duration();
+                d.is_finite().then_some(d)
+            }
+            Err(_) => None,
+        }
+    }
+
+    /// The fastest move `from → to` lasting at least `min_duration`, as verified segments.
+    pub fn solve(&mut self, from: FullState, to: FullState, min_duration: f64) -> Option<FullMove> {
+        self.duration(from, to, min_duration)?;
+        let mv = self.segments(from)?;
+        self.check(&mv, to).then_some(mv)
+    }
+
+    fn admissible(&self, s: FullState) -> bool {
+        let l = &self.lim;
+        let v_lo = if self.reversible { -l.max_vel } else { 0.0 };
+        s.pos.is_finite()
+            && s.vel >= v_lo - TOL * l.max_vel
+            && s.vel <= l.max_vel * (1.0 + TOL)
+            && s.acc >= -l.max_decel * (1.0 + TOL)
+            && s.acc <= l.max_accel * (1.0 + TOL)
+    }
+
+    /// The last solved trajectory as our own segments (brake pre-phase, then seven phases).
+    fn segments(&self, from: FullState) -> Option<FullMove> {
+        let prof = self.traj.get_profiles().first()?.first()?;
+        let mut segments = Vec::with_capacity(9);
+        if prof.brake.duration > 0.0 {
+            for i in 0..2 {
+                if prof.brake.t[i] > 0.0 {
+                    segments.push(Segment {
+                        duration: prof.brake.t[i],
+                        jerk: prof.brake.j[i],
+                    });
+                }
+            }
+        }
+        for i in 0..7 {
+            if prof.t[i] > 0.0 {
+                segments.push(Segment {
+                    duration: prof.t[i],
+                    jerk: prof.j[i],
+                });
+            }
+        }
+        Some(FullMove {
+            start: from,
+            segments,
+        })
+    }
+
+    /// Re-integrates a move: it must end at `to` and keep every limit (extrema inside each
+    /// constant-jerk segment included).
+    fn check(&self, mv: &FullMove, to: FullState) -> bool {
+        let l = &self.lim;
+        let v_lo = if self.reversible { -l.max_vel } else { 0.0 };
+        let scale_p = 1.0 + mv.start.pos.abs().max(to.pos.abs());
+        let mut s = mv.start;
+        for seg in &mv.segments {
+            if !(seg.duration.is_finite() && seg.duration >= 0.0)
+                || seg.jerk.abs() > l.max_jerk * (1.0 + TOL)
+            {
+                return false;
+            }
+            let e = s.after(seg.duration, seg.jerk);
+            let mut speeds = [s.vel, e.vel, s.vel];
+            if seg.jerk != 0.0 {
+                let tv = -s.acc / seg.jerk;
+                if tv > 0.0 && tv < seg.duration {
+                    speeds[2] = s.after(tv, seg.jerk).vel;
+                }
+            }
+            for v in speeds {
+                if v < v_lo - TOL * l.max_vel || v > l.max_vel * (1.0 + TOL) {
+                    return false;
+                }
+            }
+            for a in [s.acc, e.acc] {
+                if a < -l.max_decel * (1.0 + TOL) || a > l.max_accel * (1.0 + TOL) {
+                    return false;
+                }
+            }
+            s = e;
+        }
+        (s.pos - to.pos).abs() <= TOL * scale_p
+            && (s.vel - to.vel).abs() <= TOL * l.max_vel
+            && (s.acc - to.acc).abs() <= TOL * l.max_accel.max(l.max_decel)
+    }
+
+    /// The shortest run-up from rest to `to`'s speed and acceleration, ending at `to`'s position
+    /// (it starts wherever it needs to), as verified segments.
+    pub fn run_up(&mut self, to: FullState) -> Option<FullMove> {
+        if !self.admissible(to) {
+            return None;
+        }
+        let mut input = self.input.clone();
+        input.control_interface = ControlInterface::Velocity;
+        input.current_position[0] = 0.0;
+        input.current_velocity[0] = 0.0;
+        input.current_acceleration[0] = 0.0;
+        input.target_velocity[0] = to.vel;
+        input.target_acceleration[0] = to.acc;
+        input.minimum_duration = None;
+        self.otg.calculate(&input, &mut self.traj).ok()?;
+        let from_zero = self.segments(FullState::rest(0.0))?;
+        let dist = from_zero.end().pos;
+        let mv = FullMove {
+            start: FullState::rest(to.pos - dist),
+            segments: from_zero.segments,
+        };
+        self.check(&mv, to).then_some(mv)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Moves between random admissible states end where asked, keep every limit and never go
+    /// backwards (checked by sampling, independently of the segment check).
+    #[test]
+    fn moves_reach_their_targets_within_limits() {
+        let lim = Limits::with_decel(0.5, 0.5, 0.4, 5.0).expect("limits");
+        let mut m = Mover::new(&lim, false);
+        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut solved = 0;
+        for _ in 0..2000 {
+            let from = FullState {
+                pos: 0.0,
+                vel: 3.0 * next(),
+                acc: -0.4 + 0.9 * next(),
+            };
+            let to = FullState {
+                pos: 0.5 + 6.0 * next(),
+                vel: 3.0 * next(),
+                acc: -0.4 + 0.9 * next(),
+            };
+            let min = 4.0 * next();
+            let Some(mv) = m.solve(from, to, min) else {
+                continue;
+            };
+            solved += 1;
+            let d = mv.duration();
+            assert!(d >= min * (1.0 - 1e-12));
+            let n = 400;
+            let mut prev = from.pos;
+            for i in 0..=n {
+                let s = mv.state_at(d * i as f64 / n as f64);
+                assert!(s.vel >= -1e-9 && s.vel <= lim.max_vel + 1e-9, "{s:?}");
+                assert!(s.acc >= -lim.max_decel - 1e-9 && s.acc <= lim.max_accel + 1e-9);
+                assert!(s.pos >= prev - 1e-12);
+                prev = s.pos;
+            }
+            let e = mv.end();
+            assert!((e.pos - to.pos).abs() < 1e-8 && (e.vel - to.vel).abs() < 1e-8);
+            // Crossing times agree with the sampled state.
+            let x = 0.5 * (from.pos + to.pos);
+            let tx = mv.time_at_position(x);
+            assert!((mv.state_at(tx).pos - x).abs() < 1e-9);
+        }
+        assert!(solved > 500, "only {solved} solved");
+    }
+}
