@@ -1,11 +1,12 @@
 //! Sequencer benchmarks on the 180-layer ATOM article cases (read from ../shared/reference):
 //! `scan` and `optimal` schedules, totals only (as sweeps run them) and with the full verified
-//! timeline. `cargo bench --bench sequencer`
+//! timeline; free motion (seeded by `optimal`) with both arc-end options.
+//! `cargo bench --bench sequencer`
 
 use std::hint::black_box;
 
 use arcsim_plan::{atom_case_plan, parse_machine, resolve};
-use arcsim_sequencer::{machine_limits, simulate_resolved, Options, Schedule};
+use arcsim_sequencer::{machine_limits, simulate_resolved, ArcEnds, Motion, Options, Schedule};
 use criterion::{criterion_group, criterion_main, Criterion};
 
 fn bench(c: &mut Criterion) {
@@ -32,7 +33,7 @@ fn bench(c: &mut Criterion) {
         let opts = Options {
             schedule,
             build_timeline: timeline,
-            servo_period_s: None,
+            ..Options::default()
         };
         let name = format!(
             "{} prostate 180 layers ({})",
@@ -53,6 +54,25 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    let mut group = c.benchmark_group("free motion");
+    group.sample_size(10);
+    for ends in ArcEnds::ALL {
+        let opts = Options {
+            motion: Motion::Free,
+            arc_ends: ends,
+            ..Options::new(Schedule::Optimal)
+        };
+        group.bench_function(format!("prostate 180 layers, arc ends {}", ends.name()), |b| {
+            b.iter(|| {
+                black_box(
+                    simulate_resolved(black_box(&arcs), &limits, &opts)
+                        .expect("simulate")
+                        .total_s,
+                )
+            })
+        });
+    }
+    group.finish();
 }
 
 criterion_group!(benches, bench);

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use arcsim_sequencer::{simulate, Delivery, Limiter, Options, Schedule};
+use arcsim_sequencer::{simulate, ArcEnds, Delivery, Limiter, Motion, Options, Schedule};
 use serde::Serialize;
 
 use crate::input::{load_machine, load_plan};
@@ -20,6 +20,41 @@ pub enum ScheduleArg {
     Prescribed,
     /// Gantry at rest for every layer (baseline).
     StepAndShoot,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum MotionArg {
+    /// The gantry may change speed while the beam is on, anywhere inside the window (the
+    /// machine's real minimum time; seeded by the schedule's constant speeds).
+    Free,
+    /// One constant speed per layer, sweep centred in the window (ATOM's model).
+    Constant,
+}
+
+impl From<MotionArg> for Motion {
+    fn from(m: MotionArg) -> Self {
+        match m {
+            MotionArg::Free => Motion::Free,
+            MotionArg::Constant => Motion::Constant,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ArcEndsArg {
+    /// The first and last layers of each arc are irradiated at rest.
+    Rest,
+    /// The gantry may move at the first and last beam (run-up counted, final braking not).
+    Free,
+}
+
+impl From<ArcEndsArg> for ArcEnds {
+    fn from(a: ArcEndsArg) -> Self {
+        match a {
+            ArcEndsArg::Rest => ArcEnds::Rest,
+            ArcEndsArg::Free => ArcEnds::Free,
+        }
+    }
 }
 
 impl From<ScheduleArg> for Schedule {
@@ -40,9 +75,15 @@ pub struct Args {
     /// Machine model (JSON); default: the built-in ATOM article gantry (scenarios/machine-atom.json).
     #[arg(long)]
     machine: Option<PathBuf>,
-    /// How layer speeds are chosen.
-    #[arg(long, value_enum, default_value_t = ScheduleArg::Scan)]
+    /// How layer speeds are chosen (with free motion: the constant-speed start and baseline).
+    #[arg(long, value_enum, default_value_t = ScheduleArg::Optimal)]
     schedule: ScheduleArg,
+    /// Free motion (default; constant when a servo period applies) or constant speed per layer.
+    #[arg(long, value_enum)]
+    motion: Option<MotionArg>,
+    /// Arc ends at rest (default) or free (free motion only).
+    #[arg(long, value_enum, default_value_t = ArcEndsArg::Rest)]
+    arc_ends: ArcEndsArg,
     /// Servo period (s): every transition lasts a whole number of periods (overrides the
     /// machine's `servo_period_s`).
     #[arg(long, value_name = "TS")]
@@ -105,8 +146,13 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
     };
     let _ = writeln!(
         s,
-        "plan {plan} on {machine}, schedule {}",
-        d.schedule.name()
+        "plan {plan} on {machine}, schedule {}, motion {}{}",
+        d.schedule.name(),
+        d.motion.name(),
+        match d.motion {
+            Motion::Free => format!(" (arc ends {})", d.arc_ends.name()),
+            Motion::Constant => String::new(),
+        }
     );
     let _ = writeln!(
         s,
@@ -143,6 +189,14 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
             s,
             "transitions last whole numbers of a {:.3} ms servo period (limits kept)",
             1e3 * ts
+        );
+    }
+    if let Some(c) = d.constant_speed_total_s {
+        let saved = c - d.total_s;
+        let _ = writeln!(
+            s,
+            "free motion saves {saved:.2} s ({:.1} %) against constant speed per layer ({c:.2} s)",
+            if c > 0.0 { 100.0 * saved / c } else { 0.0 }
         );
     }
     let c = d.limiter_counts;
@@ -277,8 +331,22 @@ pub fn run(args: Args) -> Result<(), CliError> {
             )));
         }
     }
+    let period = args.period.or(machine.servo_period_s);
+    let motion = match args.motion {
+        Some(m) => m.into(),
+        None if period.is_some() => {
+            eprintln!("note: a servo period applies, so the motion is constant speed per layer (free motion is continuous-time only)");
+            Motion::Constant
+        }
+        None if matches!(args.schedule, ScheduleArg::Prescribed | ScheduleArg::StepAndShoot) => {
+            Motion::Constant
+        }
+        None => Motion::Free,
+    };
     let opts = Options {
         servo_period_s: args.period,
+        motion,
+        arc_ends: args.arc_ends.into(),
         ..Options::new(args.schedule.into())
     };
     let delivery = simulate(&plan, &machine, &opts)

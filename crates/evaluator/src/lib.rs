@@ -13,6 +13,7 @@
 
 mod csv;
 mod error;
+mod mode;
 mod run;
 mod shard;
 mod summary;
@@ -21,6 +22,7 @@ pub mod sweep_file;
 
 pub use csv::{merge_csv, write_csv_header, write_csv_row, CSV_HEADER};
 pub use error::EvalError;
+pub use mode::RunMode;
 pub use run::{Evaluator, Outcome, Row, Status};
 pub use shard::Shard;
 pub use summary::{

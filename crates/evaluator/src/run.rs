@@ -10,14 +10,14 @@ use std::time::{Duration, Instant};
 use arcsim_plan::{ArcPlan, ElstModel, Machine, ResolvedArc};
 use arcsim_planner::Limits;
 use arcsim_sequencer::{
-    machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options, Schedule,
+    machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options,
     SequenceError,
 };
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::sweep::{Setting, Sweep};
-use crate::EvalError;
+use crate::{EvalError, RunMode};
 
 /// What became of one combination.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -65,7 +65,7 @@ pub struct Row {
     pub index: usize,
     /// Plan label (path relative to the sweep file, or `atom:CASE`).
     pub plan: String,
-    pub schedule: Schedule,
+    pub schedule: RunMode,
     pub setting: Setting,
     pub status: Status,
     pub outcome: Option<Outcome>,
@@ -283,7 +283,7 @@ impl Evaluator {
     pub fn simulate(
         &self,
         plan: usize,
-        schedule: Schedule,
+        schedule: RunMode,
         s: &Setting,
         base_total_s: Option<f64>,
     ) -> (Status, Option<Outcome>, String) {
@@ -300,7 +300,7 @@ impl Evaluator {
     fn simulate_variant(
         &self,
         arcs: &Resolved,
-        schedule: Schedule,
+        schedule: RunMode,
         s: &Setting,
         base_total_s: Option<f64>,
     ) -> (Status, Option<Outcome>, String) {
@@ -309,9 +309,11 @@ impl Evaluator {
             Err(e) => return (Status::Invalid, None, e.clone()),
         };
         let opts = Options {
-            schedule,
+            schedule: schedule.schedule,
             build_timeline: self.sweep.margins,
             servo_period_s: self.sweep.machine.servo_period_s,
+            motion: schedule.motion,
+            arc_ends: schedule.arc_ends,
         };
         let limits = self.limits(s);
         let result = catch_unwind(AssertUnwindSafe(|| simulate_resolved(arcs, &limits, &opts)));

@@ -13,7 +13,7 @@
 //!   changes (doubling or halving one limit costs ln 2 ≈ 0.69; doubling two costs 1.39). Ties go
 //!   to the shorter total. Changes from or to a zero value (e.g. an ELST of 0 s) are not ranked.
 
-use arcsim_sequencer::Schedule;
+use crate::RunMode;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -37,7 +37,7 @@ pub struct Summary {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Entry {
     pub plan: String,
-    pub schedule: Schedule,
+    pub schedule: RunMode,
     pub rows: usize,
     pub feasible: usize,
     /// Total on the base machine.

@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use arcsim_plan::{ArcPlan, ElstModel, Machine};
-use arcsim_sequencer::Schedule;
+use crate::RunMode;
 use serde::Serialize;
 
 use crate::sweep_file::{parse_sweep_file, Axes, AxisSpec, PlanSource, SweepFile, Target};
@@ -47,7 +47,7 @@ pub struct Grid {
 /// One schedule entry: a schedule and its grid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Run {
-    pub schedule: Schedule,
+    pub schedule: RunMode,
     pub grid: Grid,
 }
 
@@ -328,7 +328,14 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
                 elst_down: optional(|a| &a.elst_down_s, Axis::ElstDown)?,
                 window: optional(|a| &a.window_deg, Axis::Window)?,
             };
-            Ok(Run { schedule: entry.schedule, grid })
+            Ok(Run {
+                schedule: RunMode {
+                    schedule: entry.schedule,
+                    motion: entry.motion,
+                    arc_ends: entry.arc_ends,
+                },
+                grid,
+            })
         })
         .collect()
 }

@@ -3,7 +3,7 @@
 
 use std::fmt;
 
-use arcsim_sequencer::Schedule;
+use arcsim_sequencer::{ArcEnds, Motion, Schedule};
 use serde::de::value::{MapAccessDeserializer, SeqAccessDeserializer};
 use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use serde::{Deserialize, Serialize};
@@ -103,6 +103,10 @@ pub enum AxisSpec {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScheduleEntry {
     pub schedule: Schedule,
+    /// Constant speed per layer (default) or free motion.
+    pub motion: Motion,
+    /// Arc ends at rest (default) or free (free motion only).
+    pub arc_ends: ArcEnds,
     /// Axes replacing the top-level ones for this schedule (per axis).
     pub axes: Option<Axes>,
 }
@@ -310,6 +314,10 @@ impl<'de> Deserialize<'de> for AxisSpec {
 struct ScheduleObject {
     schedule: Schedule,
     #[serde(default)]
+    motion: Motion,
+    #[serde(default)]
+    arc_ends: ArcEnds,
+    #[serde(default)]
     axes: Option<Axes>,
 }
 
@@ -319,19 +327,28 @@ impl<'de> Deserialize<'de> for ScheduleEntry {
         impl<'de> Visitor<'de> for V {
             type Value = ScheduleEntry;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a schedule name (prescribed, scan, optimal, step-and-shoot) or {\"schedule\": NAME, \"axes\": {..}}")
+                f.write_str("a schedule name (prescribed, scan, optimal, step-and-shoot) or {\"schedule\": NAME, \"motion\": \"free\", \"arc_ends\": \"free\", \"axes\": {..}}")
             }
             fn visit_str<E: de::Error>(self, s: &str) -> Result<ScheduleEntry, E> {
                 let schedule = s.parse::<Schedule>().map_err(E::custom)?;
                 Ok(ScheduleEntry {
                     schedule,
+                    motion: Motion::Constant,
+                    arc_ends: ArcEnds::Rest,
                     axes: None,
                 })
             }
             fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<ScheduleEntry, M::Error> {
                 let o = ScheduleObject::deserialize(MapAccessDeserializer::new(map))?;
+                if o.motion == Motion::Constant && o.arc_ends == ArcEnds::Free {
+                    return Err(de::Error::custom(
+                        "arc_ends \"free\" needs \"motion\": \"free\" (a constant-speed arc starts and ends at rest)",
+                    ));
+                }
                 Ok(ScheduleEntry {
                     schedule: o.schedule,
+                    motion: o.motion,
+                    arc_ends: o.arc_ends,
                     axes: o.axes,
                 })
             }

@@ -101,7 +101,7 @@ fn sample(timeline: &Timeline, dt: f64) -> Result<Vec<Sample>, ViewerError> {
     }
     let beam_of = |kind: PieceKind| match kind {
         PieceKind::Beam { layer } => Some(layer),
-        PieceKind::Move { .. } => None,
+        PieceKind::Move { .. } | PieceKind::RunUp { .. } => None,
     };
     // (t, order at equal t: 0 = end of a piece, 1 = grid, 2 = start of a piece, sample)
     let mut keyed: Vec<(f64, u8, Sample)> = Vec::with_capacity(count as usize + 2);
@@ -331,6 +331,7 @@ fn bound_name(b: SpeedBound) -> &'static str {
         SpeedBound::StepAndShoot => "step-and-shoot",
         SpeedBound::Optimised => "optimised",
         SpeedBound::Servo => "servo period",
+        SpeedBound::Free => "free motion (mean speed)",
     }
 }
 

@@ -417,7 +417,7 @@ fn sweep_round_trip() {
     let row = |index: usize, j: f64, outcome: Option<Outcome>| Row {
         index,
         plan: "plans/prostate.json".into(),
-        schedule: Schedule::Scan,
+        schedule: arcsim_evaluator::RunMode::constant(Schedule::Scan),
         setting: setting(j),
         status: if outcome.is_some() {
             Status::Ok

@@ -132,12 +132,17 @@ fn crossing(s: FullState, j: f64, d: f64, x: f64) -> f64 {
         }
         t = next;
     }
-    // The gantry must be at or past `x` at the returned time.
-    if s.after(t, j).pos >= x {
-        t
-    } else {
-        hi
+    // The gantry must be at or past `x` at the returned time: step up from a root found just
+    // below it (by rounding) rather than falling back to the bracket's far end.
+    let mut step = 4.0 * f64::EPSILON * (1.0 + t);
+    for _ in 0..60 {
+        if s.after(t, j).pos >= x || t >= hi {
+            break;
+        }
+        t = (t + step).min(hi);
+        step *= 2.0;
     }
+    t.min(hi)
 }
 
 /// Relative tolerance of a move's own check.
@@ -356,7 +361,7 @@ mod tests {
             // Crossing times agree with the sampled state.
             let x = 0.5 * (from.pos + to.pos);
             let tx = mv.time_at_position(x);
-            assert!((mv.state_at(tx).pos - x).abs() < 1e-9);
+            assert!((mv.state_at(tx).pos - x).abs() < 1e-9, "x {x} tx {tx} pos {} mv {mv:?}", mv.state_at(tx).pos);
         }
         assert!(solved > 500, "only {solved} solved");
     }
