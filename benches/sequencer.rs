@@ -62,15 +62,18 @@ fn bench(c: &mut Criterion) {
             arc_ends: ends,
             ..Options::new(Schedule::Optimal)
         };
-        group.bench_function(format!("prostate 180 layers, arc ends {}", ends.name()), |b| {
-            b.iter(|| {
-                black_box(
-                    simulate_resolved(black_box(&arcs), &limits, &opts)
-                        .expect("simulate")
-                        .total_s,
-                )
-            })
-        });
+        group.bench_function(
+            format!("prostate 180 layers, arc ends {}", ends.name()),
+            |b| {
+                b.iter(|| {
+                    black_box(
+                        simulate_resolved(black_box(&arcs), &limits, &opts)
+                            .expect("simulate")
+                            .total_s,
+                    )
+                })
+            },
+        );
     }
     group.finish();
 }

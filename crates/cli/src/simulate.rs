@@ -237,7 +237,9 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
             let _ = writeln!(
                 s,
                 "  ELST slack   {:8.4} s        at t = {:8.2} s (layer {})",
-                m.elst_slack_s.value, m.elst_slack_s.t_s, m.elst_slack_s.layer
+                m.elst_slack_s.value.max(0.0),
+                m.elst_slack_s.t_s,
+                m.elst_slack_s.layer
             );
         }
     }
@@ -338,7 +340,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
             eprintln!("note: a servo period applies, so the motion is constant speed per layer (free motion is continuous-time only)");
             Motion::Constant
         }
-        None if matches!(args.schedule, ScheduleArg::Prescribed | ScheduleArg::StepAndShoot) => {
+        None if matches!(
+            args.schedule,
+            ScheduleArg::Prescribed | ScheduleArg::StepAndShoot
+        ) =>
+        {
             Motion::Constant
         }
         None => Motion::Free,

@@ -10,8 +10,7 @@ use std::time::{Duration, Instant};
 use arcsim_plan::{ArcPlan, ElstModel, Machine, ResolvedArc};
 use arcsim_planner::Limits;
 use arcsim_sequencer::{
-    machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options,
-    SequenceError,
+    machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options, SequenceError,
 };
 use rayon::prelude::*;
 use serde::Serialize;

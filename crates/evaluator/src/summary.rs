@@ -407,7 +407,7 @@ impl Summary {
             .map(|e| {
                 vec![
                     e.plan.clone(),
-                    e.schedule.name().into(),
+                    e.schedule.name(),
                     e.rows.to_string(),
                     e.feasible.to_string(),
                     opt(e.base_total_s, 1),
@@ -457,7 +457,7 @@ impl Summary {
             .entries
             .iter()
             .map(|e| {
-                let mut r = vec![e.plan.clone(), e.schedule.name().to_string()];
+                let mut r = vec![e.plan.clone(), e.schedule.name()];
                 r.extend(axes.iter().map(|a| {
                     e.sensitivity
                         .iter()
@@ -483,7 +483,7 @@ impl Summary {
             .map(|e| match &e.cheapest {
                 Some(c) => vec![
                     e.plan.clone(),
-                    e.schedule.name().into(),
+                    e.schedule.name(),
                     opt(e.target_total_s, 1),
                     describe_steps(&c.steps),
                     format!("{:.1}", c.total_s),
@@ -491,7 +491,7 @@ impl Summary {
                 ],
                 None => vec![
                     e.plan.clone(),
-                    e.schedule.name().into(),
+                    e.schedule.name(),
                     opt(e.target_total_s, 1),
                     "not reached by any evaluated setting".into(),
                     "-".into(),
@@ -521,7 +521,7 @@ impl Summary {
                     for pt in &p.points {
                         rows.push(vec![
                             e.plan.clone(),
-                            e.schedule.name().into(),
+                            e.schedule.name(),
                             format!("{sym} [{unit}]"),
                             short(pt.value),
                             opt(pt.total_s, 1),

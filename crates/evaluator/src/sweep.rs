@@ -7,8 +7,8 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use arcsim_plan::{ArcPlan, ElstModel, Machine};
 use crate::RunMode;
+use arcsim_plan::{ArcPlan, ElstModel, Machine};
 use serde::Serialize;
 
 use crate::sweep_file::{parse_sweep_file, Axes, AxisSpec, PlanSource, SweepFile, Target};

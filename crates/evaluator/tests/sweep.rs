@@ -348,3 +348,52 @@ fn merged_shards_summarise_like_a_single_run() {
     let err = ev.rows_from_csv("bad.csv", &damaged).expect_err("damaged");
     assert!(err.to_string().contains("expected a number"), "{err}");
 }
+
+/// A schedule entry with free motion runs it: rows named `optimal+free`, never slower than the
+/// same schedule with constant speed, and the CSV merge reads the label back.
+#[test]
+fn free_motion_entries_run_and_merge() {
+    let text = GOOD.replace(
+        "\"schedules\": [\"scan\"]",
+        "\"schedules\": [\"optimal\", {\"schedule\": \"optimal\", \"motion\": \"free\"}, {\"schedule\": \"optimal\", \"motion\": \"free\", \"arc_ends\": \"free\"}]",
+    );
+    let sweep = from_text(&text).expect("sweep");
+    let ev = Evaluator::new(sweep).expect("prepare");
+    assert_eq!(ev.len(), 6);
+    let rows = ev.run_collect(&(0..6).collect::<Vec<_>>());
+    let names: Vec<String> = rows.iter().map(|r| r.schedule.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "optimal",
+            "optimal",
+            "optimal+free",
+            "optimal+free",
+            "optimal+free+free-ends",
+            "optimal+free+free-ends"
+        ]
+    );
+    for j in 0..2 {
+        let total = |r: &Row| r.outcome.expect("ok").total_s;
+        let constant = total(&rows[j]);
+        assert!(
+            total(&rows[2 + j]) <= constant,
+            "free motion slower than constant"
+        );
+        assert!(
+            total(&rows[4 + j]) <= total(&rows[2 + j]) + 1e-9 || total(&rows[4 + j]) <= constant
+        );
+    }
+    let table = csv(&rows);
+    assert!(table.contains(",optimal+free,"), "{table}");
+    let back = ev.rows_from_csv("merged.csv", &table).expect("read back");
+    assert_eq!(back.len(), 6);
+    assert_eq!(back[4].schedule.name(), "optimal+free+free-ends");
+    // Free arc ends without free motion are refused, located.
+    let bad = GOOD.replace(
+        "\"schedules\": [\"scan\"]",
+        "\"schedules\": [{\"schedule\": \"optimal\", \"arc_ends\": \"free\"}]",
+    );
+    let e = error_of(&bad);
+    assert!(e.contains("schedules[0]") && e.contains("motion"), "{e}");
+}

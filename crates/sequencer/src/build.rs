@@ -6,15 +6,15 @@ use arcsim_planner::{
     TwoStep,
 };
 
+use crate::free;
 use crate::optimal::optimal;
 use crate::scan::{scan, ArcProblem};
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
-use crate::free;
 use crate::{
-    ArcEnds, Breakdown, Delivery, Motion, LayerRow, Limiter, LimiterCounts, Options, Schedule, SequenceError,
-    SpeedBound, TransitionRow, Violation,
+    ArcEnds, Breakdown, Delivery, LayerRow, Limiter, LimiterCounts, Motion, Options, Schedule,
+    SequenceError, SpeedBound, TransitionRow, Violation,
 };
 
 /// The planner limits of a machine model.

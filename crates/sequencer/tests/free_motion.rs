@@ -7,7 +7,11 @@ use arcsim_sequencer::{simulate, ArcEnds, Delivery, Motion, Options, PieceKind, 
 
 fn machine(name: &str) -> Machine {
     let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
-    parse_machine(&std::fs::read_to_string(&path).expect("machine file"), &path).expect("machine")
+    parse_machine(
+        &std::fs::read_to_string(&path).expect("machine file"),
+        &path,
+    )
+    .expect("machine")
 }
 
 fn free(ends: ArcEnds) -> Options {
@@ -29,13 +33,26 @@ fn check_sampled(d: &Delivery, m: &Machine, dt: f64, what: &str) {
         .max_accel_deg_per_s2
         .max(g.max_decel_deg_per_s2.unwrap_or(0.0));
     let total = tl.duration_s();
-    assert!((total - d.total_s).abs() <= 1e-9 * (1.0 + total), "{what}: timeline {total} vs total {}", d.total_s);
+    assert!(
+        (total - d.total_s).abs() <= 1e-9 * (1.0 + total),
+        "{what}: timeline {total} vs total {}",
+        d.total_s
+    );
     // Beam intervals from the rows; the timeline says the same.
     for l in &d.layers {
-        assert!((l.t_end_s - l.t_start_s - l.irradiation_s).abs() <= 1e-9, "{what}: layer {} beam length", l.index);
+        assert!(
+            (l.t_end_s - l.t_start_s - l.irradiation_s).abs() <= 1e-9,
+            "{what}: layer {} beam length",
+            l.index
+        );
         if l.irradiation_s > 0.0 {
             let mid = 0.5 * (l.t_start_s + l.t_end_s);
-            assert_eq!(tl.beam_layer_at(mid), Some(l.index), "{what}: layer {} not on at {mid}", l.index);
+            assert_eq!(
+                tl.beam_layer_at(mid),
+                Some(l.index),
+                "{what}: layer {} not on at {mid}",
+                l.index
+            );
         }
     }
     for w in d.layers.windows(2) {
@@ -45,34 +62,62 @@ fn check_sampled(d: &Delivery, m: &Machine, dt: f64, what: &str) {
             .iter()
             .find(|t| t.to_layer == w[1].index)
             .expect("transition row");
-        assert!(gap >= tr.elst_s - 1e-9, "{what}: {gap} s between beams {} and {}, ELST {}", w[0].index, w[1].index, tr.elst_s);
+        assert!(
+            gap >= tr.elst_s - 1e-9,
+            "{what}: {gap} s between beams {} and {}, ELST {}",
+            w[0].index,
+            w[1].index,
+            tr.elst_s
+        );
     }
     let dir_of = |layer: usize| -> f64 {
         let arc = d.layers[layer].arc;
-        let same: Vec<&arcsim_sequencer::LayerRow> = d.layers.iter().filter(|l| l.arc == arc).collect();
+        let same: Vec<&arcsim_sequencer::LayerRow> =
+            d.layers.iter().filter(|l| l.arc == arc).collect();
         if same.len() < 2 {
             return 0.0;
         }
         (same[same.len() - 1].angle_deg - same[0].angle_deg).signum()
     };
-    let mut times: Vec<f64> = (0..=((total / dt) as usize)).map(|i| i as f64 * dt).collect();
+    let mut times: Vec<f64> = (0..=((total / dt) as usize))
+        .map(|i| i as f64 * dt)
+        .collect();
     times.extend(tl.pieces.iter().map(|p| p.t_start_s + p.duration_s));
     times.sort_by(f64::total_cmp);
     let mut beams_seen = 0usize;
     for &t in &times {
         let s = tl.state_at(t);
-        assert!(s.speed_deg_per_s.abs() <= v_max * (1.0 + 1e-9), "{what}: speed {} at {t}", s.speed_deg_per_s);
-        assert!(s.accel_deg_per_s2.abs() <= a_max * (1.0 + 1e-9), "{what}: accel at {t}");
-        assert!(s.jerk_deg_per_s3.abs() <= j_max * (1.0 + 1e-9), "{what}: jerk at {t}");
+        assert!(
+            s.speed_deg_per_s.abs() <= v_max * (1.0 + 1e-9),
+            "{what}: speed {} at {t}",
+            s.speed_deg_per_s
+        );
+        assert!(
+            s.accel_deg_per_s2.abs() <= a_max * (1.0 + 1e-9),
+            "{what}: accel at {t}"
+        );
+        assert!(
+            s.jerk_deg_per_s3.abs() <= j_max * (1.0 + 1e-9),
+            "{what}: jerk at {t}"
+        );
         let i = tl.piece_at(t).expect("piece");
         if let PieceKind::Beam { layer } = tl.pieces[i].kind {
             let l = &d.layers[layer];
             if t >= l.t_start_s && t <= l.t_end_s {
                 beams_seen += 1;
                 let off = (s.angle_deg - l.angle_deg).abs();
-                assert!(off <= 0.5 * l.window_deg + 1e-9, "{what}: layer {layer} at {} deg (window {} ± {}) at {t}", s.angle_deg, l.angle_deg, 0.5 * l.window_deg);
+                assert!(
+                    off <= 0.5 * l.window_deg + 1e-9,
+                    "{what}: layer {layer} at {} deg (window {} ± {}) at {t}",
+                    s.angle_deg,
+                    l.angle_deg,
+                    0.5 * l.window_deg
+                );
                 let dir = dir_of(layer);
-                assert!(s.speed_deg_per_s * dir >= -1e-9, "{what}: reverses while irradiating layer {layer}");
+                assert!(
+                    s.speed_deg_per_s * dir >= -1e-9,
+                    "{what}: reverses while irradiating layer {layer}"
+                );
             }
         }
     }
@@ -80,7 +125,10 @@ fn check_sampled(d: &Delivery, m: &Machine, dt: f64, what: &str) {
 }
 
 fn atom() -> Option<String> {
-    let path = format!("{}/../../../shared/reference/atom-article-cases.json", env!("CARGO_MANIFEST_DIR"));
+    let path = format!(
+        "{}/../../../shared/reference/atom-article-cases.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
     match std::fs::read_to_string(&path) {
         Ok(t) => Some(t),
         Err(_) if std::env::var_os("CI").is_some() => panic!("CI: {path} is missing"),
@@ -109,11 +157,18 @@ fn atom_cases_beat_local_search_and_constant_speed() {
                 constant.total_s,
                 constant.total_s - d.total_s
             );
-            assert!(d.total_s <= constant.total_s + 1e-9, "{case}: free slower than constant");
+            assert!(
+                d.total_s <= constant.total_s + 1e-9,
+                "{case}: free slower than constant"
+            );
             assert_eq!(d.constant_speed_total_s, Some(constant.total_s));
             check_sampled(&d, &m, 1e-3, &format!("{case} {}", ends.name()));
             if case == "prostate" && ends == ArcEnds::Free {
-                assert!(d.total_s <= 261.67, "prostate free ends {} > ATOM local search 261.67", d.total_s);
+                assert!(
+                    d.total_s <= 261.67,
+                    "prostate free ends {} > ATOM local search 261.67",
+                    d.total_s
+                );
             }
         }
     }
@@ -121,7 +176,11 @@ fn atom_cases_beat_local_search_and_constant_speed() {
 
 fn plans() -> Vec<(String, ArcPlan)> {
     let mut out = Vec::new();
-    for (kind, seeds) in [(PlanKind::Prostate, 1..3u64), (PlanKind::Lung, 1..3), (PlanKind::TwoArc, 1..3)] {
+    for (kind, seeds) in [
+        (PlanKind::Prostate, 1..3u64),
+        (PlanKind::Lung, 1..3),
+        (PlanKind::TwoArc, 1..3),
+    ] {
         for seed in seeds {
             out.push((format!("{kind:?} {seed}"), generate(kind, seed)));
         }
@@ -134,17 +193,83 @@ fn plans() -> Vec<(String, ArcPlan)> {
 #[test]
 fn generated_plans_free_motion_is_valid_and_never_slower() {
     for (label, plan) in plans() {
-        for name in ["machine-atom.json", "machine-fast.json", "machine-opentps.json"] {
+        for name in [
+            "machine-atom.json",
+            "machine-fast.json",
+            "machine-opentps.json",
+        ] {
             let m = machine(name);
             let constant = simulate(&plan, &m, &Options::new(Schedule::Optimal)).expect("constant");
             for ends in ArcEnds::ALL {
                 let what = format!("{label} on {name}, ends {}", ends.name());
                 let d = simulate(&plan, &m, &free(ends)).unwrap_or_else(|e| panic!("{what}: {e}"));
-                assert!(d.total_s <= constant.total_s + 1e-9, "{what}: free {} > constant {}", d.total_s, constant.total_s);
+                assert!(
+                    d.total_s <= constant.total_s + 1e-9,
+                    "{what}: free {} > constant {}",
+                    d.total_s,
+                    constant.total_s
+                );
                 check_sampled(&d, &m, 5e-3, &what);
                 let b = d.breakdown;
-                assert!((b.beam_on_s + b.energy_switching_s + b.lost_s - d.total_s).abs() <= 1e-9 * d.total_s, "{what}: breakdown");
+                assert!(
+                    (b.beam_on_s + b.energy_switching_s + b.lost_s - d.total_s).abs()
+                        <= 1e-9 * d.total_s,
+                    "{what}: breakdown"
+                );
             }
+        }
+    }
+}
+
+/// Random machines (J, A, D, V, ELST up/down) on generated plans, both arc-end options: every
+/// timeline sampled every millisecond, never slower than constant speed.
+#[test]
+fn random_machines_free_motion_is_valid_and_never_slower() {
+    let base: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(format!(
+            "{}/../../scenarios/machine-atom.json",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .expect("machine"),
+    )
+    .expect("json");
+    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let kinds = [PlanKind::Prostate, PlanKind::Lung, PlanKind::TwoArc];
+    for case in 0..6 {
+        let mut m = base.clone();
+        let g = &mut m["gantry"];
+        g["max_jerk_deg_per_s3"] = (0.1 + 3.9 * next()).into();
+        g["max_accel_deg_per_s2"] = (0.1 + 1.9 * next()).into();
+        g["max_decel_deg_per_s2"] = (0.1 + 1.9 * next()).into();
+        g["max_speed_deg_per_s"] = (2.0 + 6.0 * next()).into();
+        m["elst"]["up_s"] = (0.5 + 7.0 * next()).into();
+        m["elst"]["down_s"] = (0.1 + 1.0 * next()).into();
+        let machine = parse_machine(&m.to_string(), "random").expect("machine");
+        let kind = kinds[case % kinds.len()];
+        let plan = generate(kind, 100 + case as u64);
+        let constant =
+            simulate(&plan, &machine, &Options::new(Schedule::Optimal)).expect("constant");
+        for ends in ArcEnds::ALL {
+            let what = format!(
+                "case {case} {kind:?} ends {} on {}",
+                ends.name(),
+                m["gantry"]
+            );
+            let d =
+                simulate(&plan, &machine, &free(ends)).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert!(
+                d.total_s <= constant.total_s + 1e-9,
+                "{what}: free {} > constant {}",
+                d.total_s,
+                constant.total_s
+            );
+            check_sampled(&d, &machine, 1e-3, &what);
         }
     }
 }
@@ -155,9 +280,18 @@ fn incompatible_options_are_refused() {
     let m = machine("machine-atom.json");
     let plan = generate(PlanKind::Prostate, 1);
     let cases = [
-        Options { arc_ends: ArcEnds::Free, ..Options::new(Schedule::Optimal) },
-        Options { servo_period_s: Some(0.001), ..free(ArcEnds::Rest) },
-        Options { schedule: Schedule::StepAndShoot, ..free(ArcEnds::Rest) },
+        Options {
+            arc_ends: ArcEnds::Free,
+            ..Options::new(Schedule::Optimal)
+        },
+        Options {
+            servo_period_s: Some(0.001),
+            ..free(ArcEnds::Rest)
+        },
+        Options {
+            schedule: Schedule::StepAndShoot,
+            ..free(ArcEnds::Rest)
+        },
     ];
     for o in cases {
         let e = simulate(&plan, &m, &o).expect_err("refused").to_string();
@@ -174,8 +308,21 @@ fn time_atom_free() {
         let plan = arcsim_plan::atom_case_plan(&text, case).expect("case");
         for ends in ArcEnds::ALL {
             let t0 = std::time::Instant::now();
-            let d = simulate(&plan, &m, &Options { build_timeline: false, ..free(ends) }).expect("free");
-            println!("{case} {}: {:.4} s in {:?}", ends.name(), d.total_s, t0.elapsed());
+            let d = simulate(
+                &plan,
+                &m,
+                &Options {
+                    build_timeline: false,
+                    ..free(ends)
+                },
+            )
+            .expect("free");
+            println!(
+                "{case} {}: {:.4} s in {:?}",
+                ends.name(),
+                d.total_s,
+                t0.elapsed()
+            );
         }
     }
 }

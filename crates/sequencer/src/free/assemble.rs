@@ -34,7 +34,12 @@ pub(crate) fn from_constant(p: &ArcProblem, lim: &Limits, speeds: &[f64]) -> Opt
         t += p.t[k];
         if k + 1 < n {
             let d = p.cost(k, speeds[k], speeds[k + 1], lim)?;
-            let prof = arcsim_planner::exact_duration(p.transition_move(k, speeds[k], speeds[k + 1]), lim, d).ok()?;
+            let prof = arcsim_planner::exact_duration(
+                p.transition_move(k, speeds[k], speeds[k + 1]),
+                lim,
+                d,
+            )
+            .ok()?;
             moves.push(FullMove {
                 start: FullState {
                     pos: p.s[k] + 0.5 * speeds[k] * p.t[k],
@@ -142,7 +147,14 @@ pub(crate) fn assemble(
                     message: "no stop-and-turn move reaches the arc's start".into(),
                 })?;
             let index = out.transitions.len();
-            push_move(&mut out.pieces, &mv, t, 0.0, 1.0, PieceKind::Move { transition: index });
+            push_move(
+                &mut out.pieces,
+                &mv,
+                t,
+                0.0,
+                1.0,
+                PieceKind::Move { transition: index },
+            );
             // From the last beam-off: braking (if any), the turn, the run-up.
             let duration = t + mv.duration() + lead - last_off;
             out.transitions.push(TransitionRow {
@@ -163,7 +175,14 @@ pub(crate) fn assemble(
             t += mv.duration();
         }
         if let Some(r) = run_up {
-            push_move(&mut out.pieces, r, t, angle0, dir, PieceKind::RunUp { arc: ai });
+            push_move(
+                &mut out.pieces,
+                r,
+                t,
+                angle0,
+                dir,
+                PieceKind::RunUp { arc: ai },
+            );
             if prev.is_none() {
                 out.lead_s = lead;
             }
@@ -197,7 +216,11 @@ pub(crate) fn assemble(
                 angle_deg: l.angle_deg,
                 energy_mev: l.energy_mev,
                 irradiation_s: p.t[k],
-                speed_deg_per_s: if p.t[k] > 0.0 { used / p.t[k] } else { s_on.vel },
+                speed_deg_per_s: if p.t[k] > 0.0 {
+                    used / p.t[k]
+                } else {
+                    s_on.vel
+                },
                 speed_on_deg_per_s: s_on.vel,
                 speed_off_deg_per_s: s_off.vel,
                 speed_bound: SpeedBound::Free,
@@ -283,7 +306,14 @@ pub(crate) fn assemble(
         // What limited each transition: the ELST, or the peak speed / acceleration reached.
         for k in 0..n.saturating_sub(1) {
             let tr = &mut out.transitions[tr0 + k];
-            tr.limited_by = classify_span(&out.pieces, tr.t_start_s, tr.t_start_s + tr.duration_s, tr.duration_s, tr.elst_s, lim);
+            tr.limited_by = classify_span(
+                &out.pieces,
+                tr.t_start_s,
+                tr.t_start_s + tr.duration_s,
+                tr.duration_s,
+                tr.elst_s,
+                lim,
+            );
             out.layers[first_layer + k + 1].transition_limited_by = tr.limited_by;
         }
         t = t_arc + fa.total - lead;
@@ -295,7 +325,14 @@ pub(crate) fn assemble(
     Ok(out)
 }
 
-fn push_move(pieces: &mut Vec<Piece>, mv: &FullMove, t0: f64, angle0: f64, dir: f64, kind: PieceKind) {
+fn push_move(
+    pieces: &mut Vec<Piece>,
+    mv: &FullMove,
+    t0: f64,
+    angle0: f64,
+    dir: f64,
+    kind: PieceKind,
+) {
     let mut s = absolute(mv.start, angle0, dir);
     let mut t = t0;
     for seg in &mv.segments {
@@ -317,7 +354,14 @@ fn push_move(pieces: &mut Vec<Piece>, mv: &FullMove, t0: f64, angle0: f64, dir: 
 }
 
 /// ELST when the transition lasts no longer than it; else the highest limit the motion reached.
-fn limiter_from(peak_v: f64, peak_up: f64, peak_down: f64, duration: f64, elst: f64, lim: &Limits) -> Limiter {
+fn limiter_from(
+    peak_v: f64,
+    peak_up: f64,
+    peak_down: f64,
+    duration: f64,
+    elst: f64,
+    lim: &Limits,
+) -> Limiter {
     if duration <= 0.0 {
         Limiter::None
     } else if duration <= elst * (1.0 + 1e-9) + 1e-12 {
@@ -350,7 +394,14 @@ fn classify(mv: &FullMove, duration: f64, elst: f64, lim: &Limits) -> Limiter {
     limiter_from(v, up, down, duration, elst, lim)
 }
 
-fn classify_span(pieces: &[Piece], t0: f64, t1: f64, duration: f64, elst: f64, lim: &Limits) -> Limiter {
+fn classify_span(
+    pieces: &[Piece],
+    t0: f64,
+    t1: f64,
+    duration: f64,
+    elst: f64,
+    lim: &Limits,
+) -> Limiter {
     let (mut v, mut up, mut down) = (0.0f64, 0.0f64, 0.0f64);
     let i0 = pieces.partition_point(|p| p.t_start_s + p.duration_s <= t0);
     for p in pieces[i0..].iter().take_while(|p| p.t_start_s < t1) {

@@ -164,11 +164,7 @@ impl Mover {
     pub fn new(lim: &Limits, reversible: bool) -> Self {
         let mut input = InputParameter::new(None);
         input.max_velocity[0] = lim.max_vel;
-        input.min_velocity = Some(daov_stack![if reversible {
-            -lim.max_vel
-        } else {
-            0.0
-        }]);
+        input.min_velocity = Some(daov_stack![if reversible { -lim.max_vel } else { 0.0 }]);
         input.max_acceleration[0] = lim.max_accel;
         input.min_acceleration = Some(daov_stack![-lim.max_decel]);
         input.max_jerk[0] = lim.max_jerk;
@@ -361,7 +357,11 @@ mod tests {
             // Crossing times agree with the sampled state.
             let x = 0.5 * (from.pos + to.pos);
             let tx = mv.time_at_position(x);
-            assert!((mv.state_at(tx).pos - x).abs() < 1e-9, "x {x} tx {tx} pos {} mv {mv:?}", mv.state_at(tx).pos);
+            assert!(
+                (mv.state_at(tx).pos - x).abs() < 1e-9,
+                "x {x} tx {tx} pos {} mv {mv:?}",
+                mv.state_at(tx).pos
+            );
         }
         assert!(solved > 500, "only {solved} solved");
     }

@@ -122,7 +122,12 @@ impl Solver<'_> {
 
     /// The fastest move of a stretch from `on` (first beam-on) to `off` whose beams fit, and
     /// its timing. Lengthened past the minimum time when the fastest one outruns a beam.
-    fn solve_stretch(&mut self, st: Stretch, on: FullState, off: FullState) -> Option<(FullMove, Timed)> {
+    fn solve_stretch(
+        &mut self,
+        st: Stretch,
+        on: FullState,
+        off: FullState,
+    ) -> Option<(FullMove, Timed)> {
         let p = self.p;
         if st.at_rest {
             let mv = FullMove::dwell(on.pos, p.t[st.first]);
@@ -280,8 +285,9 @@ pub(crate) fn solve_arc(
         let mut out = Vec::new();
         let mut first = 0;
         for k in 0..n {
-            if k + 1 == n || cut_after[k] {
-                let at_rest = (start == Start::Rest && k == 0) || (end == End::Rest && first == n - 1);
+            if k + 1 == n || cut_after.get(k).copied().unwrap_or(false) {
+                let at_rest =
+                    (start == Start::Rest && k == 0) || (end == End::Rest && first == n - 1);
                 out.push(Stretch {
                     first,
                     last: k,
@@ -317,11 +323,23 @@ pub(crate) fn solve_arc(
     }
     let on: Vec<FullState> = stretches
         .iter()
-        .map(|st| if st.at_rest { FullState::rest(p.s[st.first]) } else { on0(st.first) })
+        .map(|st| {
+            if st.at_rest {
+                FullState::rest(p.s[st.first])
+            } else {
+                on0(st.first)
+            }
+        })
         .collect();
     let mut off: Vec<FullState> = stretches
         .iter()
-        .map(|st| if st.at_rest { FullState::rest(p.s[st.last]) } else { off0(st.last) })
+        .map(|st| {
+            if st.at_rest {
+                FullState::rest(p.s[st.last])
+            } else {
+                off0(st.last)
+            }
+        })
         .collect();
     if end == End::Brake {
         // The last stretch ends at rest once the gantry has braked after its last beam.
@@ -364,8 +382,17 @@ fn search(s: &mut Solver, st: &mut State) {
     let p = s.p;
     let lim = s.lim;
     let m = st.stretches.len();
-    let w_min = p.window.iter().copied().fold(f64::INFINITY, f64::min).max(1e-6);
-    let mut step = [0.25 * w_min, 0.05 * lim.max_vel, 0.25 * lim.max_accel.min(lim.max_decel)];
+    let w_min = p
+        .window
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min)
+        .max(1e-6);
+    let mut step = [
+        0.25 * w_min,
+        0.05 * lim.max_vel,
+        0.25 * lim.max_accel.min(lim.max_decel),
+    ];
     let floor = [1e-7 * w_min, 1e-7 * lim.max_vel, 1e-7 * lim.max_accel];
     let mut current = st.total(s.end);
     for _ in 0..MAX_PASSES {
@@ -381,7 +408,11 @@ fn search(s: &mut Solver, st: &mut State) {
                         continue;
                     }
                     for sign in [1.0, -1.0] {
-                        let k = if which == 0 { stretch.first } else { stretch.last };
+                        let k = if which == 0 {
+                            stretch.first
+                        } else {
+                            stretch.last
+                        };
                         let mut q = if which == 0 { st.on[i] } else { st.off[i] };
                         match var {
                             0 => q.pos += sign * step[0],
@@ -389,8 +420,12 @@ fn search(s: &mut Solver, st: &mut State) {
                             _ => q.acc += sign * step[2],
                         }
                         let (lo, hi) = s.pos_range(k, braking && which == 1);
-                        if q.pos < lo || q.pos > hi || q.vel < 0.0 || q.vel > lim.max_vel
-                            || q.acc > lim.max_accel || q.acc < -lim.max_decel
+                        if q.pos < lo
+                            || q.pos > hi
+                            || q.vel < 0.0
+                            || q.vel > lim.max_vel
+                            || q.acc > lim.max_accel
+                            || q.acc < -lim.max_decel
                         {
                             continue;
                         }
@@ -416,8 +451,12 @@ fn search(s: &mut Solver, st: &mut State) {
                                         1 => q2.vel += d,
                                         _ => q2.acc += d,
                                     }
-                                    if q2.pos < lo || q2.pos > hi || q2.vel < 0.0 || q2.vel > lim.max_vel
-                                        || q2.acc > lim.max_accel || q2.acc < -lim.max_decel
+                                    if q2.pos < lo
+                                        || q2.pos > hi
+                                        || q2.vel < 0.0
+                                        || q2.vel > lim.max_vel
+                                        || q2.acc > lim.max_accel
+                                        || q2.acc < -lim.max_decel
                                     {
                                         break;
                                     }
@@ -458,7 +497,13 @@ fn search(s: &mut Solver, st: &mut State) {
 }
 
 /// Applies new anchor states to stretch `i` if the total drops; returns the change (s).
-fn try_change(s: &mut Solver, st: &mut State, i: usize, on: FullState, off: FullState) -> Option<f64> {
+fn try_change(
+    s: &mut Solver,
+    st: &mut State,
+    i: usize,
+    on: FullState,
+    off: FullState,
+) -> Option<f64> {
     let p = s.p;
     let m = st.stretches.len();
     let stretch = st.stretches[i];
@@ -538,7 +583,9 @@ fn finish(s: &mut Solver, st: &State) -> Option<FreeArc> {
         if i + 1 < m {
             let tail = timed.duration - timed.last_off;
             let elst = p.elst[st.stretches[i + 1].first];
-            let cut = s.mover.solve(st.off[i], st.on[i + 1], (elst - tail).max(0.0))?;
+            let cut = s
+                .mover
+                .solve(st.off[i], st.on[i + 1], (elst - tail).max(0.0))?;
             t += cut.duration();
             moves.push(cut);
         }
