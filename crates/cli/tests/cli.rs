@@ -286,3 +286,87 @@ fn simulate_on_a_servo_period() {
     }
     let _ = std::fs::remove_file(out);
 }
+
+/// `simulate` runs free motion by default and says what it saved; `--motion constant` is ATOM's
+/// model; the JSON names both; the CSV shows the speed changing while a layer is irradiated;
+/// free arc ends without free motion are refused.
+#[test]
+fn simulate_free_and_constant_motion() {
+    let dir = fixtures::temp_dir();
+    let json = dir.join("free.json");
+    let csv = dir.join("free.csv");
+    let o = arcsim(&[
+        "simulate",
+        "plans/prostate.json",
+        "--arc-ends",
+        "free",
+        "--json",
+        json.to_str().expect("path"),
+        "--csv",
+        csv.to_str().expect("path"),
+        "--dt",
+        "0.01",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("motion free (arc ends free)"), "{out}");
+    assert!(out.contains("free motion saves"), "{out}");
+    let free_total = total_of(&out);
+    let c = arcsim(&["simulate", "plans/prostate.json", "--motion", "constant"]);
+    let (cout, cerr) = text(&c);
+    assert!(c.status.success(), "{cerr}");
+    assert!(
+        cout.contains("motion constant") && !cout.contains("free motion saves"),
+        "{cout}"
+    );
+    let constant_total = total_of(&cout);
+    assert!(
+        free_total <= constant_total,
+        "{free_total} > {constant_total}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("valid json");
+    assert_eq!(v["motion"], "free");
+    assert_eq!(v["arc_ends"], "free");
+    assert!(
+        (v["constant_speed_total_s"]
+            .as_f64()
+            .expect("constant total")
+            - constant_total)
+            .abs()
+            < 0.01
+    );
+    let layer = &v["layers"][5];
+    assert!(layer["speed_on_deg_per_s"].is_number() && layer["speed_off_deg_per_s"].is_number());
+    // Some layer is irradiated while the speed changes (CSV rows with the same beam layer).
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let mut speeds: std::collections::HashMap<String, (f64, f64)> = Default::default();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f[5].is_empty() {
+            continue;
+        }
+        let v: f64 = f[2].parse().expect("speed");
+        let e = speeds.entry(f[5].to_string()).or_insert((v, v));
+        e.0 = e.0.min(v);
+        e.1 = e.1.max(v);
+    }
+    assert!(
+        speeds.values().any(|(lo, hi)| hi - lo > 1e-3),
+        "no layer with a changing speed while irradiated"
+    );
+    let bad = arcsim(&[
+        "simulate",
+        "plans/prostate.json",
+        "--motion",
+        "constant",
+        "--arc-ends",
+        "free",
+    ]);
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(text_of_err(&bad).contains("free arc ends need free motion"));
+}
+
+fn text_of_err(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}

@@ -124,6 +124,18 @@ fn check_sampled(d: &Delivery, m: &Machine, dt: f64, what: &str) {
     assert!(beams_seen > 0, "{what}: no beam sampled");
 }
 
+/// A small seeded generator for reproducible random cases.
+struct Xorshift(u64);
+
+impl Xorshift {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 fn atom() -> Option<String> {
     let path = format!(
         "{}/../../../shared/reference/atom-article-cases.json",
@@ -233,13 +245,8 @@ fn random_machines_free_motion_is_valid_and_never_slower() {
         .expect("machine"),
     )
     .expect("json");
-    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-    let mut next = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = Xorshift(0x9E37_79B9_7F4A_7C15);
+    let mut next = || rng.next();
     let kinds = [PlanKind::Prostate, PlanKind::Lung, PlanKind::TwoArc];
     for case in 0..6 {
         let mut m = base.clone();

@@ -401,84 +401,41 @@ fn search(s: &mut Solver, st: &mut State) {
         for i in 0..m {
             let stretch = st.stretches[i];
             let braking = i + 1 == m && s.end == End::Brake;
-            for which in 0..2 {
+            for which in [Anchor::On, Anchor::Off] {
                 for var in 0..3 {
-                    let fixed_rest = stretch.at_rest || (braking && which == 1);
-                    if fixed_rest && (var > 0 || (stretch.at_rest && which == 1)) {
+                    // A rest anchor has only a position; a braking end's last anchor is at rest.
+                    let rest = stretch.at_rest || (braking && which == Anchor::Off);
+                    if (rest && var > 0) || (stretch.at_rest && which == Anchor::Off) {
                         continue;
                     }
-                    for sign in [1.0, -1.0] {
-                        let k = if which == 0 {
+                    let range = s.pos_range(
+                        if which == Anchor::On {
                             stretch.first
                         } else {
                             stretch.last
-                        };
-                        let mut q = if which == 0 { st.on[i] } else { st.off[i] };
-                        match var {
-                            0 => q.pos += sign * step[0],
-                            1 => q.vel += sign * step[1],
-                            _ => q.acc += sign * step[2],
-                        }
-                        let (lo, hi) = s.pos_range(k, braking && which == 1);
-                        if q.pos < lo
-                            || q.pos > hi
-                            || q.vel < 0.0
-                            || q.vel > lim.max_vel
-                            || q.acc > lim.max_accel
-                            || q.acc < -lim.max_decel
-                        {
-                            continue;
-                        }
-                        let (mut on, mut off) = (st.on[i], st.off[i]);
-                        if stretch.at_rest {
-                            on = q;
-                            off = q;
-                        } else if which == 0 {
-                            on = q;
-                        } else {
-                            off = q;
-                        }
-                        if let Some(delta) = try_change(s, st, i, on, off) {
-                            if delta < -1e-12 * (1.0 + current) {
-                                current += delta;
-                                improved = true;
-                                // Keep going the same way with doubling steps while it pays.
-                                let mut d = 2.0 * sign * step[var];
-                                for _ in 0..20 {
-                                    let mut q2 = if which == 0 { st.on[i] } else { st.off[i] };
-                                    match var {
-                                        0 => q2.pos += d,
-                                        1 => q2.vel += d,
-                                        _ => q2.acc += d,
-                                    }
-                                    if q2.pos < lo
-                                        || q2.pos > hi
-                                        || q2.vel < 0.0
-                                        || q2.vel > lim.max_vel
-                                        || q2.acc > lim.max_accel
-                                        || q2.acc < -lim.max_decel
-                                    {
-                                        break;
-                                    }
-                                    let (mut on2, mut off2) = (st.on[i], st.off[i]);
-                                    if stretch.at_rest {
-                                        on2 = q2;
-                                        off2 = q2;
-                                    } else if which == 0 {
-                                        on2 = q2;
-                                    } else {
-                                        off2 = q2;
-                                    }
-                                    match try_change(s, st, i, on2, off2) {
-                                        Some(dl) if dl < -1e-12 * (1.0 + current) => {
-                                            current += dl;
-                                            d *= 2.0;
-                                        }
-                                        _ => break,
-                                    }
-                                }
+                        },
+                        braking && which == Anchor::Off,
+                    );
+                    for sign in [1.0, -1.0] {
+                        let mut d = sign * step[var];
+                        let mut gained = false;
+                        // A move that pays is repeated with doubling steps while it keeps paying.
+                        for _ in 0..21 {
+                            let Some((on, off)) = nudged(st, i, which, var, d, range, &lim) else {
                                 break;
+                            };
+                            match try_change(s, st, i, on, off) {
+                                Some(delta) if delta < -1e-12 * (1.0 + current) => {
+                                    current += delta;
+                                    gained = true;
+                                    d *= 2.0;
+                                }
+                                _ => break,
                             }
+                        }
+                        if gained {
+                            improved = true;
+                            break;
                         }
                     }
                 }
@@ -494,6 +451,53 @@ fn search(s: &mut Solver, st: &mut State) {
             }
         }
     }
+}
+
+/// Which anchor of a stretch: the first beam-on or the last beam-off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Anchor {
+    On,
+    Off,
+}
+
+/// Stretch `i`'s anchor states with one coordinate (`var`: position, speed, acceleration) of
+/// one anchor moved by `d`; `None` outside the limits or the position `range`. A stretch at rest
+/// moves both anchors (one state).
+fn nudged(
+    st: &State,
+    i: usize,
+    which: Anchor,
+    var: usize,
+    d: f64,
+    range: (f64, f64),
+    lim: &Limits,
+) -> Option<(FullState, FullState)> {
+    let mut q = match which {
+        Anchor::On => st.on[i],
+        Anchor::Off => st.off[i],
+    };
+    match var {
+        0 => q.pos += d,
+        1 => q.vel += d,
+        _ => q.acc += d,
+    }
+    let inside = q.pos >= range.0
+        && q.pos <= range.1
+        && q.vel >= 0.0
+        && q.vel <= lim.max_vel
+        && q.acc <= lim.max_accel
+        && q.acc >= -lim.max_decel;
+    if !inside {
+        return None;
+    }
+    Some(if st.stretches[i].at_rest {
+        (q, q)
+    } else {
+        match which {
+            Anchor::On => (q, st.off[i]),
+            Anchor::Off => (st.on[i], q),
+        }
+    })
 }
 
 /// Applies new anchor states to stretch `i` if the total drops; returns the change (s).
