@@ -402,7 +402,7 @@ fn search(s: &mut Solver, st: &mut State) {
             let stretch = st.stretches[i];
             let braking = i + 1 == m && s.end == End::Brake;
             for which in [Anchor::On, Anchor::Off] {
-                for var in 0..3 {
+                for (var, &size) in step.iter().enumerate() {
                     // A rest anchor has only a position; a braking end's last anchor is at rest.
                     let rest = stretch.at_rest || (braking && which == Anchor::Off);
                     if (rest && var > 0) || (stretch.at_rest && which == Anchor::Off) {
@@ -417,7 +417,7 @@ fn search(s: &mut Solver, st: &mut State) {
                         braking && which == Anchor::Off,
                     );
                     for sign in [1.0, -1.0] {
-                        let mut d = sign * step[var];
+                        let mut d = sign * size;
                         let mut gained = false;
                         // A move that pays is repeated with doubling steps while it keeps paying.
                         for _ in 0..21 {
