@@ -355,13 +355,22 @@ fn log_layer_text(
     let mut rows: Vec<(f64, String, &str)> = vec![(
         0.0,
         format!(
-            "{} schedule: total {:.1} s = beam on {:.1} s + energy switching {:.1} s + gantry {:.1} s; {} layers",
+            "{} schedule, {} motion{}: total {:.1} s = beam on {:.1} s + energy switching {:.1} s + gantry {:.1} s; {} layers{}",
             d.schedule.name(),
+            d.motion.name(),
+            if d.motion == arcsim_sequencer::Motion::Free {
+                format!(" (arc ends {})", d.arc_ends.name())
+            } else {
+                String::new()
+            },
             d.total_s,
             b.beam_on_s,
             b.energy_switching_s,
             b.lost_s,
-            d.layers.len()
+            d.layers.len(),
+            d.constant_speed_total_s
+                .map(|c| format!("; constant speed per layer would take {c:.1} s"))
+                .unwrap_or_default()
         ),
         TextLogLevel::INFO,
     )];
