@@ -134,7 +134,20 @@ pub fn simulate_resolved(
         bounds.push(b);
         first_layer += p.len();
     }
-    let constant = assemble(arcs, &problems, &speeds, &bounds, limits, opts, violations)?;
+    // Free motion needs only the constant-speed total (its baseline), not its timeline.
+    let constant_opts = Options {
+        build_timeline: opts.build_timeline && opts.motion == Motion::Constant,
+        ..opts.clone()
+    };
+    let constant = assemble(
+        arcs,
+        &problems,
+        &speeds,
+        &bounds,
+        limits,
+        &constant_opts,
+        violations,
+    )?;
     match opts.motion {
         Motion::Constant => Ok(constant),
         Motion::Free => simulate_free(arcs, &problems, &speeds, limits, opts, constant),
@@ -199,7 +212,9 @@ fn simulate_free(
     let energy_switching_s: f64 = a.transitions.iter().map(|tr| tr.elst_s).sum();
     let lost_s: f64 = a.transitions.iter().map(|tr| tr.lost_s).sum::<f64>() + a.lead_s;
     let counts = limiter_counts(&a.transitions);
-    let tl = free::timeline(&a);
+    let tl = Timeline {
+        pieces: std::mem::take(&mut a.pieces),
+    };
     verify_timeline(&tl, arcs, problems, &a.layers, &a.transitions, limits, true)?;
     let margins = opts
         .build_timeline

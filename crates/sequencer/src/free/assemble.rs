@@ -7,7 +7,7 @@ use arcsim_planner::{Limits, Segment};
 use super::mover::{FullMove, FullState, Mover};
 use super::solve::FreeArc;
 use crate::scan::ArcProblem;
-use crate::timeline::{Piece, PieceKind, Timeline};
+use crate::timeline::{Piece, PieceKind};
 use crate::{LayerRow, Limiter, SequenceError, SpeedBound, TransitionRow};
 
 /// The constant-speed schedule `speeds` of one arc as a free-motion arc (so arcs where the
@@ -416,11 +416,4 @@ fn classify_span(
         }
     }
     limiter_from(v, up, down, duration, elst, lim)
-}
-
-/// Timeline of assembled pieces.
-pub(crate) fn timeline(a: &Assembled) -> Timeline {
-    Timeline {
-        pieces: a.pieces.clone(),
-    }
 }

@@ -30,5 +30,5 @@ mod assemble;
 mod mover;
 mod solve;
 
-pub(crate) use assemble::{assemble, from_constant, timeline};
+pub(crate) use assemble::{assemble, from_constant};
 pub(crate) use solve::{solve_arc, End, Start};

@@ -152,6 +152,8 @@ const TOL: f64 = 1e-9;
 pub(crate) struct Mover {
     otg: Ruckig<1, ThrowErrorHandler>,
     input: InputParameter<1>,
+    /// The same limits for run-ups from rest (velocity interface: any start position).
+    run_up_input: InputParameter<1>,
     traj: Trajectory<1>,
     lim: Limits,
     /// Speed may be negative (a stop-and-turn between arcs); else it stays in [0, V].
@@ -168,9 +170,12 @@ impl Mover {
         input.max_acceleration[0] = lim.max_accel;
         input.min_acceleration = Some(daov_stack![-lim.max_decel]);
         input.max_jerk[0] = lim.max_jerk;
+        let mut run_up_input = input.clone();
+        run_up_input.control_interface = ControlInterface::Velocity;
         Mover {
             otg: Ruckig::new(None, 0.001),
             input,
+            run_up_input,
             traj: Trajectory::new(None),
             lim: *lim,
             reversible,
@@ -288,15 +293,10 @@ impl Mover {
         if !self.admissible(to) {
             return None;
         }
-        let mut input = self.input.clone();
-        input.control_interface = ControlInterface::Velocity;
-        input.current_position[0] = 0.0;
-        input.current_velocity[0] = 0.0;
-        input.current_acceleration[0] = 0.0;
+        let input = &mut self.run_up_input;
         input.target_velocity[0] = to.vel;
         input.target_acceleration[0] = to.acc;
-        input.minimum_duration = None;
-        self.otg.calculate(&input, &mut self.traj).ok()?;
+        self.otg.calculate(input, &mut self.traj).ok()?;
         let from_zero = self.segments(FullState::rest(0.0))?;
         let dist = from_zero.end().pos;
         let mv = FullMove {
