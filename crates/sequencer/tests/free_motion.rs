@@ -200,6 +200,23 @@ fn plans() -> Vec<(String, ArcPlan)> {
     out
 }
 
+/// Free motion of `plan` on `m`: never slower than `constant_s`, the breakdown adds up, and the
+/// timeline passes [`check_sampled`] every `dt` seconds.
+fn checked_free(plan: &ArcPlan, m: &Machine, ends: ArcEnds, constant_s: f64, dt: f64, what: &str) {
+    let d = simulate(plan, m, &free(ends)).unwrap_or_else(|e| panic!("{what}: {e}"));
+    assert!(
+        d.total_s <= constant_s + 1e-9,
+        "{what}: free {} > constant {constant_s}",
+        d.total_s
+    );
+    let b = d.breakdown;
+    assert!(
+        (b.beam_on_s + b.energy_switching_s + b.lost_s - d.total_s).abs() <= 1e-9 * d.total_s,
+        "{what}: breakdown"
+    );
+    check_sampled(&d, m, dt, what);
+}
+
 /// Generated plans on every bundled machine, both arc-end options: verified timelines, sampled
 /// checks, and never slower than constant speed.
 #[test]
@@ -214,20 +231,7 @@ fn generated_plans_free_motion_is_valid_and_never_slower() {
             let constant = simulate(&plan, &m, &Options::new(Schedule::Optimal)).expect("constant");
             for ends in ArcEnds::ALL {
                 let what = format!("{label} on {name}, ends {}", ends.name());
-                let d = simulate(&plan, &m, &free(ends)).unwrap_or_else(|e| panic!("{what}: {e}"));
-                assert!(
-                    d.total_s <= constant.total_s + 1e-9,
-                    "{what}: free {} > constant {}",
-                    d.total_s,
-                    constant.total_s
-                );
-                check_sampled(&d, &m, 5e-3, &what);
-                let b = d.breakdown;
-                assert!(
-                    (b.beam_on_s + b.energy_switching_s + b.lost_s - d.total_s).abs()
-                        <= 1e-9 * d.total_s,
-                    "{what}: breakdown"
-                );
+                checked_free(&plan, &m, ends, constant.total_s, 5e-3, &what);
             }
         }
     }
@@ -268,15 +272,7 @@ fn random_machines_free_motion_is_valid_and_never_slower() {
                 ends.name(),
                 m["gantry"]
             );
-            let d =
-                simulate(&plan, &machine, &free(ends)).unwrap_or_else(|e| panic!("{what}: {e}"));
-            assert!(
-                d.total_s <= constant.total_s + 1e-9,
-                "{what}: free {} > constant {}",
-                d.total_s,
-                constant.total_s
-            );
-            check_sampled(&d, &machine, 1e-3, &what);
+            checked_free(&plan, &machine, ends, constant.total_s, 1e-3, &what);
         }
     }
 }
