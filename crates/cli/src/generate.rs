@@ -22,10 +22,12 @@ pub struct Args {
 pub fn run(args: Args) -> Result<(), CliError> {
     let json = to_json(&generate(args.kind, args.seed));
     match args.output {
-        Some(path) => std::fs::write(&path, json)
-            .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display()))),
+        Some(path) => {
+            crate::output::check_outputs(&[], &[("--output", &path)])?;
+            crate::output::write_file(&path, json.as_bytes())
+        }
         None => {
-            print!("{json}");
+            crate::output::print(&json);
             Ok(())
         }
     }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use arcsim_dicom::DicomImportError;
 use arcsim_plan::{ArcPlan, RotationDirection};
 
-use crate::CliError;
+use crate::{output, CliError};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -19,19 +19,34 @@ pub struct Args {
 /// Converts the plan, writes the JSON and prints a summary (to standard error when the JSON goes to
 /// standard output).
 pub fn run(args: Args) -> Result<(), CliError> {
-    let plan =
-        arcsim_dicom::read_rt_ion_plan(&args.input).map_err(|e| dicom_error(&args.input, e))?;
+    if let Some(path) = &args.output {
+        output::check_outputs(&[&args.input], &[("--output", path)])?;
+    }
+    let bytes = crate::input::read_input(&args.input)?;
+    let stem = args
+        .input
+        .file_stem()
+        .filter(|_| args.input.as_os_str() != "-")
+        .map(|s| s.to_string_lossy().into_owned());
+    let plan = arcsim_dicom::read_rt_ion_plan_from_bytes_named(
+        &bytes,
+        stem.as_deref().unwrap_or(arcsim_dicom::DEFAULT_PLAN_NAME),
+    )
+    .map_err(|e| dicom_error(&args.input, e))?;
     let json = arcsim_plan::to_json(&plan);
     let summary = summary(&plan);
     match &args.output {
         Some(path) => {
-            std::fs::write(path, &json)
-                .map_err(|e| CliError::failed(format!("cannot write {}: {e}", path.display())))?;
-            println!("{} -> {}", args.input.display(), path.display());
-            println!("{summary}");
+            output::write_file(path, json.as_bytes())?;
+            output::println(&format!(
+                "{} -> {}",
+                crate::input::input_name(&args.input),
+                path.display()
+            ));
+            output::println(&summary);
         }
         None => {
-            print!("{json}");
+            output::print(&json);
             eprintln!("{summary}");
         }
     }
@@ -40,7 +55,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
 
 /// A failed DICOM import as a CLI error (exit 1), prefixed with the file name.
 pub fn dicom_error(path: &Path, err: DicomImportError) -> CliError {
-    CliError::failed(format!("{}: {err}", path.display()))
+    CliError::failed(format!("{}: {err}", crate::input::input_name(path)))
 }
 
 /// "plan NAME: 2 arcs, ..." then one line per arc: direction, angle range, control points, layers,

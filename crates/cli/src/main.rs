@@ -8,6 +8,7 @@ mod error;
 mod generate;
 mod import;
 mod input;
+mod output;
 mod profile;
 mod simulate;
 mod sweep;
@@ -59,7 +60,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err}");
+            eprintln!("error: {}", output::printable(&err.to_string()));
             ExitCode::from(err.exit_code())
         }
     }

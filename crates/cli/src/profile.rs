@@ -40,22 +40,22 @@ pub struct Args {
     #[arg(long, allow_hyphen_values = true)]
     v_end: Option<f64>,
     /// Maximum jerk J (deg/s³).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     jerk: Option<f64>,
     /// Maximum acceleration A (deg/s²).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     accel: Option<f64>,
     /// Maximum deceleration (deg/s²); defaults to --accel.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     decel: Option<f64>,
     /// Maximum speed V (deg/s).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     vel: Option<f64>,
     /// The move must last at least this long (s), e.g. an energy-layer switching time.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     min_duration: Option<f64>,
     /// Servo period (s): every phase becomes a whole number of periods.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     period: Option<f64>,
     /// Whether the axis may move backwards when the end speed is out of reach.
     #[arg(long, value_enum, default_value_t = ReverseArg::Forbid)]
@@ -67,7 +67,7 @@ pub struct Args {
     #[arg(long, requires = "dt")]
     csv: Option<PathBuf>,
     /// Sampling step for --csv (s).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     dt: Option<f64>,
     /// Solve every move of a CSV file (header: distance,v_start,v_end,jerk,accel,vel and
     /// optionally decel,min_duration,period,reverse).
@@ -268,13 +268,15 @@ fn write_samples(path: &Path, profile: &Profile, dt: f64) -> Result<(), CliError
             st.position, st.velocity, st.acceleration, st.jerk
         );
     }
-    std::fs::write(path, s)
-        .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))
+    crate::output::write_file(path, s.as_bytes())
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
     if let Some(batch) = &args.batch {
         return run_batch(batch, args.out.as_deref(), args.reverse.into());
+    }
+    if let Some(path) = &args.csv {
+        crate::output::check_outputs(&[], &[("--csv", path)])?;
     }
     let need = |v: Option<f64>, name: &str| {
         v.ok_or_else(|| CliError::usage(format!("--{name} is required")))
@@ -302,9 +304,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if args.json {
         let text =
             serde_json::to_string_pretty(&out).map_err(|e| CliError::failed(e.to_string()))?;
-        println!("{text}");
+        crate::output::println(&text);
     } else {
-        print!("{}", print_text(&out));
+        crate::output::print(&print_text(&out));
     }
     if let (Some(path), Some(dt)) = (&args.csv, args.dt) {
         write_samples(path, &solved.profile, dt)?;
@@ -376,8 +378,11 @@ fn parse_row(
 }
 
 fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Result<(), CliError> {
-    let text = std::fs::read_to_string(input)
-        .map_err(|e| CliError::failed(format!("{}: cannot read: {e}", input.display())))?;
+    if let Some(out) = out {
+        crate::output::check_outputs(&[input], &[("--out", out)])?;
+    }
+    let text = crate::input::read_text(input)?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let mut lines = text
         .lines()
         .enumerate()
@@ -449,9 +454,8 @@ fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Res
         );
     }
     match out {
-        Some(p) => std::fs::write(p, &report)
-            .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", p.display())))?,
-        None => print!("{report}"),
+        Some(p) => crate::output::write_file(p, report.as_bytes())?,
+        None => crate::output::print(&report),
     }
     eprintln!("{ok} ok, {infeasible} infeasible, {errors} error rows");
     Ok(())

@@ -86,7 +86,7 @@ pub struct Args {
     arc_ends: ArcEndsArg,
     /// Servo period (s): every transition lasts a whole number of periods (overrides the
     /// machine's `servo_period_s`).
-    #[arg(long, value_name = "TS")]
+    #[arg(long, value_name = "TS", allow_hyphen_values = true)]
     period: Option<f64>,
     /// Write the full result (summary, per-layer and per-transition rows, margins) as JSON.
     #[arg(long, value_name = "OUT")]
@@ -95,7 +95,7 @@ pub struct Args {
     #[arg(long, value_name = "TIMELINE")]
     csv: Option<PathBuf>,
     /// Sampling step for --csv and --rrd (s).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true)]
     dt: f64,
     /// Write the timeline for the Rerun viewer (.rrd).
     #[arg(long, value_name = "OUT.rrd")]
@@ -313,8 +313,7 @@ fn write_csv(path: &Path, d: &Delivery, dt: f64) -> Result<(), CliError> {
             layer.map(|l| l.to_string()).unwrap_or_default()
         );
     }
-    std::fs::write(path, s)
-        .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))
+    crate::output::write_file(path, s.as_bytes())
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
@@ -324,12 +323,28 @@ pub fn run(args: Args) -> Result<(), CliError> {
             args.dt
         )));
     }
+    let inputs: Vec<&Path> = std::iter::once(args.plan.as_path())
+        .chain(args.machine.as_deref())
+        .collect();
+    let outputs: Vec<(&str, &Path)> = [
+        ("--json", args.json.as_deref()),
+        ("--csv", args.csv.as_deref()),
+        ("--rrd", args.rrd.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.map(|p| (flag, p)))
+    .collect();
+    crate::output::check_outputs(&inputs, &outputs)?;
     let plan = load_plan(&args.plan)?;
     let machine = load_machine(args.machine.as_deref())?;
     if let Some(ts) = args.period {
-        if !(ts.is_finite() && ts > 0.0) {
+        let (lo, hi) = arcsim_plan::SERVO_PERIOD_RANGE_S;
+        if !(ts.is_finite() && (lo..=hi).contains(&ts)) {
             return Err(CliError::usage(format!(
-                "--period {ts}: expected a finite number > 0 (s)"
+                "--period {}: expected a servo period from {} to {} s",
+                arcsim_plan::fmt_num(ts),
+                arcsim_plan::fmt_num(lo),
+                arcsim_plan::fmt_num(hi)
             )));
         }
     }
@@ -356,8 +371,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ..Options::new(args.schedule.into())
     };
     let delivery = simulate(&plan, &machine, &opts)
-        .map_err(|e| CliError::failed(format!("{}: {e}", args.plan.display())))?;
-    if let Some(tl) = &delivery.timeline {
+        .map_err(|e| CliError::failed(format!("{}: {e}", crate::input::input_name(&args.plan))))?;
+    let sampled = args.csv.is_some() || args.rrd.is_some() || args.spawn || args.connect.is_some();
+    if let Some(tl) = delivery.timeline.as_ref().filter(|_| sampled) {
         if tl.duration_s() / args.dt > 5e7 {
             return Err(CliError::usage(format!(
                 "--dt {} would write more than 5e7 samples",
@@ -365,20 +381,19 @@ pub fn run(args: Args) -> Result<(), CliError> {
             )));
         }
     }
-    print!("{}", summary(&delivery, &plan.name, &machine.name));
+    crate::output::print(&summary(&delivery, &plan.name, &machine.name));
 
     if let Some(path) = &args.json {
         let out = JsonOut {
             format: "arcsim-result/1",
             plan: plan.name.clone(),
-            plan_file: args.plan.display().to_string(),
+            plan_file: crate::input::input_name(&args.plan),
             machine: machine.name.clone(),
             delivery: &delivery,
         };
         let text =
             serde_json::to_string_pretty(&out).map_err(|e| CliError::failed(e.to_string()))?;
-        std::fs::write(path, text)
-            .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display())))?;
+        crate::output::write_file(path, text.as_bytes())?;
     }
     if let Some(path) = &args.csv {
         write_csv(path, &delivery, args.dt)?;

@@ -2,8 +2,7 @@
 //! rows (CSV as they complete, in order; JSON at the end) and print the summary tables.
 //! `arcsim sweep-merge A.csv B.csv .. --out all.csv`: join shard outputs into the single-run table.
 
-use std::fs::File;
-use std::io::{BufWriter, IsTerminal, Write};
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -14,6 +13,7 @@ use arcsim_evaluator::{
 };
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::output::AtomicFile;
 use crate::CliError;
 
 #[derive(clap::Args)]
@@ -65,12 +65,6 @@ fn load(path: &Path) -> Result<Sweep, CliError> {
     .map_err(failed)
 }
 
-fn create(path: &Path) -> Result<BufWriter<File>, CliError> {
-    File::create(path)
-        .map(BufWriter::new)
-        .map_err(|e| CliError::failed(format!("{}: cannot create: {e}", path.display())))
-}
-
 fn write_err(path: &Path) -> impl Fn(std::io::Error) -> EvalError + '_ {
     move |e| {
         EvalError::Io(std::io::Error::new(
@@ -87,18 +81,34 @@ pub fn run(args: Args) -> Result<(), CliError> {
             .map_err(|e| CliError::usage(format!("--shard: {e}")))?,
         None => Shard::ALL,
     };
-    let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
-        if n == 0 {
-            return Err(CliError::usage("--threads: expected at least 1"));
+        if !(1..=MAX_THREADS).contains(&n) {
+            return Err(CliError::usage(format!(
+                "--threads {n}: expected 1 to {MAX_THREADS} (this machine has {} cores)",
+                cores()
+            )));
         }
-        pool = pool.num_threads(n);
     }
-    let pool = pool
-        .build()
-        .map_err(|e| CliError::failed(format!("cannot start worker threads: {e}")))?;
+    let outputs: Vec<(&str, &Path)> = [
+        ("--out", args.out.as_deref()),
+        ("--json", args.json.as_deref()),
+        ("--rrd", args.rrd.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.map(|p| (flag, p)))
+    .collect();
+    crate::output::check_outputs(&[&args.sweep], &outputs)?;
 
     let sweep = load(&args.sweep)?;
+    // No more threads than combinations: each would only wait.
+    let threads = args
+        .threads
+        .unwrap_or_else(cores)
+        .min(sweep.combinations().max(1));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| CliError::failed(format!("cannot start worker threads: {e}")))?;
     let ev = pool.install(|| Evaluator::new(sweep)).map_err(failed)?;
     let indices = shard.indices(ev.len());
     let part = if shard == Shard::ALL {
@@ -108,7 +118,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
     eprintln!(
         "sweep \"{}\": {} plans, {} combinations{part}, {} thread{}",
-        ev.sweep().name,
+        crate::output::printable(&ev.sweep().name),
         ev.sweep().plans.len(),
         ev.len(),
         pool.current_num_threads(),
@@ -126,7 +136,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         eprintln!("\ninterrupted: finishing the rows in progress (Ctrl-C again to abort)");
     }) {
-        eprintln!("warning: Ctrl-C will not save partial results: {e}");
+        eprintln!("warning: Ctrl-C, SIGTERM and SIGHUP will not save partial results: {e}");
     }
 
     let bar = if std::io::stderr().is_terminal() {
@@ -145,28 +155,31 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ProgressBar::hidden()
     };
 
+    // Rows go to OUT.partial as they complete (watch it grow); renamed to OUT at the end, also
+    // after an interrupt, and removed if the run fails.
     let mut csv = match &args.out {
         Some(path) => {
-            let mut w = create(path)?;
-            write_csv_header(&mut w)
-                .and_then(|()| w.flush())
-                .map_err(write_err(path))
-                .map_err(failed)?;
-            Some((w, path.as_path()))
+            let mut f = AtomicFile::create(path)?;
+            let w = f.writer();
+            let header = write_csv_header(w).and_then(|()| w.flush());
+            header.map_err(|e| f.error(e))?;
+            Some(f)
         }
         None => None,
     };
-    let mut rows: Vec<Row> = Vec::with_capacity(indices.len());
+    let mut rows: Vec<Row> = Vec::new();
     let started = Instant::now();
     let done = pool
         .install(|| {
             ev.run(&indices, &CANCEL, |chunk| {
-                if let Some((w, path)) = csv.as_mut() {
+                if let Some(f) = csv.as_mut() {
+                    let path = f.path().to_path_buf();
+                    let w = f.writer();
                     chunk
                         .iter()
                         .try_for_each(|r| write_csv_row(w, r))
                         .and_then(|()| w.flush())
-                        .map_err(write_err(path))?;
+                        .map_err(write_err(&path))?;
                 }
                 rows.extend_from_slice(chunk);
                 bar.inc(chunk.len() as u64);
@@ -175,6 +188,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         })
         .map_err(failed)?;
     bar.finish_and_clear();
+    if let Some(f) = csv {
+        f.commit()?;
+    }
     let seconds = started.elapsed().as_secs_f64();
     let complete = done == indices.len();
     eprintln!(
@@ -193,25 +209,27 @@ pub fn run(args: Args) -> Result<(), CliError> {
             rows: &rows,
             summary: summary.as_ref(),
         };
-        let mut w = create(path)?;
-        serde_json::to_writer_pretty(&mut w, &results)
+        let mut f = AtomicFile::create(path)?;
+        let w = f.writer();
+        let written = serde_json::to_writer_pretty(&mut *w, &results)
             .map_err(std::io::Error::from)
-            .and_then(|()| w.write_all(b"\n"))
-            .and_then(|()| w.flush())
-            .map_err(write_err(path))
-            .map_err(failed)?;
+            .and_then(|()| w.write_all(b"\n"));
+        written.map_err(|e| f.error(e))?;
+        f.commit()?;
     }
     if let Some(path) = &args.rrd {
         let title = match shard {
             Shard::ALL => format!("sweep {}", ev.sweep().name),
             _ => format!("sweep {} (shard {shard})", ev.sweep().name),
         };
-        arcsim_viewer::save_sweep(path, &title, &rows)
-            .map_err(|e| CliError::failed(format!("--rrd: {e}")))?;
+        crate::output::write_via_path(path, |tmp| {
+            arcsim_viewer::save_sweep(tmp, &title, &rows)
+                .map_err(|e| CliError::failed(format!("--rrd {}: {e}", path.display())))
+        })?;
     }
     match summary {
         Some(s) => {
-            print!("{}", s.to_table());
+            crate::output::print(&s.to_table());
             Ok(())
         }
         None => {
@@ -235,35 +253,48 @@ pub fn run(args: Args) -> Result<(), CliError> {
 }
 
 pub fn merge(args: MergeArgs) -> Result<(), CliError> {
+    let mut inputs_and_sweep: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
+    inputs_and_sweep.extend(args.sweep.as_deref());
+    crate::output::check_outputs(&inputs_and_sweep, &[("--out", &args.out)])?;
     let inputs = args
         .inputs
         .iter()
-        .map(|p| {
-            std::fs::read_to_string(p)
-                .map(|t| (p.display().to_string(), t))
-                .map_err(|e| CliError::failed(format!("{}: cannot read: {e}", p.display())))
-        })
+        .map(|p| crate::input::read_text(p).map(|t| (crate::input::input_name(p), t)))
         .collect::<Result<Vec<_>, _>>()?;
     let sweep = match &args.sweep {
         Some(path) => Some(load(path)?),
         None => None,
     };
     let merged = merge_csv(&inputs, sweep.as_ref().map(|s| s.combinations())).map_err(failed)?;
-    std::fs::write(&args.out, &merged)
-        .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", args.out.display())))?;
+    // With the sweep file, every row is read back against it (a shard of another sweep fails
+    // here) before anything is written; then the summary of the whole run.
+    let table = match sweep {
+        Some(sweep) => {
+            let ev = Evaluator::new(sweep).map_err(failed)?;
+            let rows = ev
+                .rows_from_csv(&args.out.display().to_string(), &merged)
+                .map_err(failed)?;
+            Some(ev.summarize(&rows).to_table())
+        }
+        None => None,
+    };
+    crate::output::write_file(&args.out, merged.as_bytes())?;
     eprintln!(
         "merged {} files: {} rows -> {}",
         inputs.len(),
         merged.lines().count().saturating_sub(1),
         args.out.display()
     );
-    // With the sweep file, the summary of the whole run, as a single machine would print it.
-    if let Some(sweep) = sweep {
-        let ev = Evaluator::new(sweep).map_err(failed)?;
-        let rows = ev
-            .rows_from_csv(&args.out.display().to_string(), &merged)
-            .map_err(failed)?;
-        print!("{}", ev.summarize(&rows).to_table());
+    if let Some(table) = table {
+        crate::output::print(&table);
     }
     Ok(())
+}
+
+/// Most worker threads a sweep starts: beyond this, threads only add start-up and switching
+/// costs on any machine arcsim targets.
+const MAX_THREADS: usize = 256;
+
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
 }

@@ -29,16 +29,20 @@ pub fn run(args: Args) -> Result<(), CliError> {
         .windows(2)
         .filter(|w| w[1].energy_mev > w[0].energy_mev)
         .count();
-    println!("{}: valid ({})", args.plan.display(), plan.name);
-    println!(
+    crate::output::println(&format!(
+        "{}: valid ({})",
+        crate::input::input_name(&args.plan),
+        plan.name
+    ));
+    crate::output::println(&format!(
         "  {} arc{}, {control_points} control points, {} layers, {upward} upward energy switches",
         arcs.len(),
         if arcs.len() == 1 { "" } else { "s" },
         layers.len()
-    );
-    println!(
+    ));
+    crate::output::println(&format!(
         "  on machine \"{}\": beam-on time {beam_on:.1} s, energy switching {switching:.1} s",
         machine.name
-    );
+    ));
     Ok(())
 }

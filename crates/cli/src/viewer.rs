@@ -18,8 +18,10 @@ pub fn output(
 ) -> Result<(), CliError> {
     let opts = ViewerOptions { sample_dt_s: dt };
     if let Some(path) = rrd {
-        arcsim_viewer::save_delivery(path, title, d, &opts)
-            .map_err(|e| CliError::failed(format!("--rrd: {e}")))?;
+        crate::output::write_via_path(path, |tmp| {
+            arcsim_viewer::save_delivery(tmp, title, d, &opts)
+                .map_err(|e| CliError::failed(format!("--rrd {}: {e}", path.display())))
+        })?;
     }
     if spawn {
         arcsim_viewer::spawn_delivery(title, d, &opts)

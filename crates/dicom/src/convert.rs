@@ -146,7 +146,7 @@ fn native_layer(layer: &IonLayer, mu_per_weight: f64) -> EnergyLayer {
     let mu: Vec<f64> = (0..paintings).flat_map(|_| once.iter().copied()).collect();
     EnergyLayer {
         energy_mev: layer.energy_mev,
-        // The reader checked that spots x paintings fits in u32.
+        // The reader bounds spots x paintings by MAX_SPOTS, far below u32::MAX.
         spots: Some(Spots {
             count: u32::try_from(mu.len()).unwrap_or(u32::MAX),
             mu: Some(mu),

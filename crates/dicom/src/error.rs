@@ -70,6 +70,20 @@ pub enum DicomImportError {
     Unreadable { reason: String },
 
     #[error(
+        "refused DICOM file: sequences nested deeper than {limit} levels (level {} is {}{tag}); \
+         an RT Ion Plan needs fewer than 10",
+        limit + 1,
+        keyword.map(|k| format!("{k} ")).unwrap_or_default()
+    )]
+    TooDeeplyNested {
+        /// [`MAX_NESTING`](crate::MAX_NESTING).
+        limit: usize,
+        /// The sequence that goes one level too deep.
+        tag: Tag,
+        keyword: Option<&'static str>,
+    },
+
+    #[error(
         "not an RT Ion Plan: SOP class {sop_class_uid}{}; expected RT Ion Plan Storage ({})",
         name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default(),
         crate::read::RT_ION_PLAN_STORAGE
@@ -125,6 +139,31 @@ pub enum DicomImportError {
          (300C,0004) item has ReferencedBeamNumber (300C,0006) {number}"
     )]
     NoBeamMeterset { at: Location, number: i64 },
+
+    #[error(
+        "two beams have BeamNumber (300A,00C0) {number}: IonBeamSequence[{first}] and \
+         IonBeamSequence[{second}]; expected a different number for each beam, since \
+         ReferencedBeamNumber (300C,0006) in the fraction group refers to a beam by its number"
+    )]
+    DuplicateBeamNumber {
+        number: i64,
+        /// Index of the first beam with that number.
+        first: usize,
+        /// Index of the beam that repeats it.
+        second: usize,
+    },
+
+    #[error(
+        "too many spots: the plan has {spots} spots after repainting (NumberOfScanSpotPositions \
+         (300A,0392) x NumberOfPaintings (300A,039A), summed over all energy layers); at most {limit} \
+         are imported"
+    )]
+    TooManySpots {
+        /// Spots after repainting, over all imported beams.
+        spots: u64,
+        /// [`MAX_SPOTS`](crate::MAX_SPOTS).
+        limit: u64,
+    },
 
     #[error("the plan has no ion beam to import: {reason}")]
     NoIonBeams { reason: String },

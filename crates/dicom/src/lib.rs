@@ -18,7 +18,14 @@
 //!   written from the plan reads back to exactly the same numbers.
 //! - **Paintings.** The weights are the total over all paintings (as DICOM defines them), so with N
 //!   paintings the spot list is repeated N times and each spot delivers MU / N per painting: N x count
-//!   spots, same total MU, N x the spot switches.
+//!   spots, same total MU, N x the spot switches. NumberOfPaintings must be 1 to [`MAX_PAINTINGS`]
+//!   (1000: delivery systems repaint a layer a few to a few dozen times), and the whole plan may hold
+//!   at most [`MAX_SPOTS`] (5,000,000) spots after repainting; both are checked before any spot list
+//!   is repeated, so a corrupt count cannot exhaust memory.
+//! - **Single values.** BeamNumber, GantryAngle, NominalBeamEnergy, BeamMeterset and the other
+//!   attributes that hold one number are refused when they hold several (`10\20`), rather than read
+//!   as their first value. Every BeamNumber must be different (the fraction group refers to beams by
+//!   number).
 //! - **Control points.** Consecutive layers at the same gantry angle form one native control point
 //!   (several layers); a new angle starts a new one.
 //! - **Arcs.** Beams are taken in BeamNumber order; setup beams and beams without spots are left out
@@ -33,6 +40,9 @@
 //!   below 0 is shifted up by 360. An arc that never moves is CW unless its control points say CC.
 //!
 //! The result is checked with [`arcsim_plan::validate_plan`]; see `docs/dicom-import.md`.
+//!
+//! A file whose sequences nest deeper than [`MAX_NESTING`] (64) levels is refused before it is parsed
+//! (dicom-object parses nested sequences recursively: thousands of levels would overflow the stack).
 
 mod convert;
 mod error;
@@ -45,7 +55,10 @@ use dicom_object::{DefaultDicomObject, InMemDicomObject};
 
 pub use convert::{MU_RESOLUTION, SAME_ANGLE_TOLERANCE_DEG};
 pub use error::{DicomImportError, Location};
-pub use read::{has_dicom_magic, is_dicom_file, RT_ION_PLAN_STORAGE, RT_PLAN_STORAGE};
+pub use read::{
+    has_dicom_magic, is_dicom_file, MAX_NESTING, MAX_PAINTINGS, MAX_SPOTS, RT_ION_PLAN_STORAGE,
+    RT_PLAN_STORAGE,
+};
 
 /// Name given to a plan whose file has neither RTPlanLabel nor RTPlanName (and no file name).
 pub const DEFAULT_PLAN_NAME: &str = "dicom-rt-ion-plan";
@@ -65,6 +78,15 @@ pub fn read_rt_ion_plan(path: impl AsRef<Path>) -> Result<ArcPlan, DicomImportEr
 /// Converts a complete RT Ion Plan file held in memory (preamble, "DICM", meta group, data set).
 pub fn read_rt_ion_plan_from_bytes(bytes: &[u8]) -> Result<ArcPlan, DicomImportError> {
     import(bytes, DEFAULT_PLAN_NAME)
+}
+
+/// As [`read_rt_ion_plan_from_bytes`], naming the plan `fallback_name` (usually the file stem) when
+/// the file has neither RTPlanLabel nor RTPlanName; for callers that read the file themselves.
+pub fn read_rt_ion_plan_from_bytes_named(
+    bytes: &[u8],
+    fallback_name: &str,
+) -> Result<ArcPlan, DicomImportError> {
+    import(bytes, fallback_name)
 }
 
 /// Converts an RT Ion Plan already opened with dicom-object.

@@ -6,8 +6,12 @@ use std::io::Read;
 use dicom_core::value::{PrimitiveValue, Value};
 use dicom_core::Tag;
 use dicom_dictionary_std::{tags, uids, StandardSopClassDictionary};
+use dicom_encoding::transfer_syntax::{Codec, TransferSyntaxIndex};
 use dicom_object::file::ReadPreamble;
-use dicom_object::{DefaultDicomObject, InMemDicomObject, OpenFileOptions};
+use dicom_object::{DefaultDicomObject, FileMetaTable, InMemDicomObject, OpenFileOptions};
+use dicom_parser::dataset::read::{DataSetReaderOptions, ValueReadStrategy};
+use dicom_parser::dataset::{DataSetReader, DataToken};
+use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
 
 use crate::error::{DicomImportError, Location};
 
@@ -18,6 +22,23 @@ pub const RT_PLAN_STORAGE: &str = uids::RT_PLAN_STORAGE;
 
 /// Length of the DICOM file preamble that precedes the "DICM" magic.
 const PREAMBLE_LEN: usize = 128;
+
+/// Deepest nesting of sequences accepted in a file (a sequence inside an item of a sequence is 2
+/// levels). An RT Ion Plan needs fewer than 10 (IonBeamSequence > IonControlPointSequence >
+/// ReferencedDoseReferenceSequence is 3). dicom-object builds nested sequences recursively, so a
+/// file nested thousands of levels deep would overflow the stack and abort the process; such a file
+/// is refused before it is parsed.
+pub const MAX_NESTING: usize = 64;
+
+/// Largest NumberOfPaintings (300A,039A) accepted. Delivery systems repaint a layer a few to a few
+/// dozen times; each painting repeats the layer's spot list in the imported plan, so a huge count
+/// from a corrupt file would otherwise turn a few kilobytes into gigabytes of spots.
+pub const MAX_PAINTINGS: u32 = 1000;
+
+/// Most spots accepted in a plan, counted after repainting (the sum over all energy layers of the
+/// spot count x NumberOfPaintings). Clinical plans have at most a few hundred thousand; this bounds
+/// the memory of the imported plan (about 8 bytes of MU per spot).
+pub const MAX_SPOTS: u64 = 5_000_000;
 
 type Result<T, E = DicomImportError> = std::result::Result<T, E>;
 
@@ -148,12 +169,71 @@ pub fn parse_bytes(bytes: &[u8]) -> Result<DefaultDicomObject> {
             reason: "no \"DICM\" magic after the 128-byte preamble".into(),
         });
     }
+    check_nesting(bytes)?;
     OpenFileOptions::new()
         .read_preamble(ReadPreamble::Always)
         .from_reader(bytes)
         .map_err(|e| DicomImportError::Unreadable {
             reason: error_chain(&e),
         })
+}
+
+/// Refuses a file whose sequences nest deeper than [`MAX_NESTING`], before dicom-object (which
+/// recurses once per level) parses it. The scan walks the data set's tokens with dicom-parser's
+/// iterative reader (values read as raw bytes, not decoded). Whatever the scan cannot read (meta
+/// group, transfer syntax, a corrupt element) ends it without error: the parser then reports it.
+fn check_nesting(bytes: &[u8]) -> Result<()> {
+    let Some(mut rest) = bytes.get(PREAMBLE_LEN..) else {
+        return Ok(());
+    };
+    // Reads "DICM" and the meta group, leaving `rest` at the start of the data set.
+    let Ok(meta) = FileMetaTable::from_reader(&mut rest) else {
+        return Ok(());
+    };
+    let Some(ts) = TransferSyntaxRegistry.get(meta.transfer_syntax()) else {
+        return Ok(());
+    };
+    let source: Box<dyn Read + '_> = match ts.codec() {
+        Codec::Dataset(Some(adapter)) => adapter.adapt_reader(Box::new(rest)),
+        Codec::Dataset(None) => return Ok(()),
+        Codec::None | Codec::EncapsulatedPixelData(..) => Box::new(rest),
+    };
+    let options = DataSetReaderOptions::default().value_read(ValueReadStrategy::Raw);
+    let Ok(tokens) = DataSetReader::new_with_ts_options(source, ts, options) else {
+        return Ok(());
+    };
+    let mut depth = 0usize;
+    for token in tokens {
+        match token {
+            Ok(DataToken::SequenceStart { tag, .. }) => {
+                depth += 1;
+                if depth > MAX_NESTING {
+                    return Err(too_deep(tag));
+                }
+            }
+            Ok(DataToken::PixelSequenceStart) => {
+                depth += 1;
+                if depth > MAX_NESTING {
+                    return Err(too_deep(tags::PIXEL_DATA));
+                }
+            }
+            Ok(DataToken::SequenceEnd) => depth = depth.saturating_sub(1),
+            Ok(_) => {}
+            Err(_) => break,
+        }
+    }
+    Ok(())
+}
+
+fn too_deep(tag: Tag) -> DicomImportError {
+    use dicom_core::dictionary::DataDictionary;
+    DicomImportError::TooDeeplyNested {
+        limit: MAX_NESTING,
+        keyword: dicom_dictionary_std::StandardDataDictionary
+            .by_tag(tag)
+            .map(|e| e.alias),
+        tag,
+    }
 }
 
 /// An error and its causes, joined by ": ".
@@ -223,12 +303,24 @@ pub(crate) fn read_ion_plan(ds: &InMemDicomObject) -> Result<IonPlan> {
         beams: Vec::new(),
         skipped: Vec::new(),
     };
+    // BeamNumber -> index of the first beam with it: the fraction group refers to beams by number.
+    let mut numbers: Vec<(i64, usize)> = Vec::with_capacity(beam_items.len());
+    // Spots after repainting, over all the beams imported so far.
+    let mut spot_total = 0u64;
     for (index, item) in beam_items.iter().enumerate() {
         let at = Location::Beam {
             beam: index,
             number: None,
         };
         let number = required(int_at(item, BEAM_NUMBER, at)?, BEAM_NUMBER, at)?;
+        if let Some(&(_, first)) = numbers.iter().find(|(n, _)| *n == number) {
+            return Err(DicomImportError::DuplicateBeamNumber {
+                number,
+                first,
+                second: index,
+            });
+        }
+        numbers.push((number, index));
         let at = Location::Beam {
             beam: index,
             number: Some(number),
@@ -251,6 +343,11 @@ pub(crate) fn read_ion_plan(ds: &InMemDicomObject) -> Result<IonPlan> {
             }
         };
         let control_points = read_control_points(item, index, number)?;
+        spot_total += control_points
+            .iter()
+            .filter_map(|cp| cp.layer.as_ref())
+            .map(|l| l.weights.len() as u64 * u64::from(l.paintings))
+            .sum::<u64>();
         if control_points.iter().all(|cp| cp.layer.is_none()) {
             plan.skipped.push(format!(
                 "beam {number} (no spot with a meterset weight above 0)"
@@ -285,6 +382,12 @@ pub(crate) fn read_ion_plan(ds: &InMemDicomObject) -> Result<IonPlan> {
             kind,
             mu_per_weight: meterset / final_weight,
             control_points,
+        });
+    }
+    if spot_total > MAX_SPOTS {
+        return Err(DicomImportError::TooManySpots {
+            spots: spot_total,
+            limit: MAX_SPOTS,
         });
     }
     if plan.beams.is_empty() {
@@ -373,13 +476,16 @@ fn read_control_points(
             energy_mev = Some(e);
         }
         if let Some(n) = int_at(cp, NUMBER_OF_PAINTINGS, at)? {
-            paintings = u32::try_from(n).ok().filter(|&n| n >= 1).ok_or_else(|| {
-                invalid(
-                    NUMBER_OF_PAINTINGS,
-                    at,
-                    format!("{n}; expected a whole number of at least 1"),
-                )
-            })?;
+            paintings = u32::try_from(n)
+                .ok()
+                .filter(|n| (1..=MAX_PAINTINGS).contains(n))
+                .ok_or_else(|| {
+                    invalid(
+                        NUMBER_OF_PAINTINGS,
+                        at,
+                        format!("{n}; expected a whole number from 1 to {MAX_PAINTINGS}"),
+                    )
+                })?;
         }
         let weights = read_spots(cp, at)?;
         let layer = if weights.iter().sum::<f64>() > 0.0 {
@@ -390,16 +496,6 @@ fn read_control_points(
                     Some("this control point delivers spots and no earlier control point gives the energy"),
                 )
             })?;
-            if u32::try_from(weights.len() as u64 * u64::from(paintings)).is_err() {
-                return Err(invalid(
-                    NUMBER_OF_PAINTINGS,
-                    at,
-                    format!(
-                        "{paintings} paintings of {} spots is too many spots",
-                        weights.len()
-                    ),
-                ));
-            }
             Some(IonLayer {
                 energy_mev,
                 weights,
@@ -575,8 +671,44 @@ fn text(obj: &InMemDicomObject, attr: Attr) -> Option<String> {
     })
 }
 
+/// The primitive value of a single-valued attribute: an error when it holds several values, which
+/// would otherwise be read as their first.
+fn single(obj: &InMemDicomObject, attr: Attr, at: Location) -> Result<Option<&PrimitiveValue>> {
+    let Some(p) = primitive(obj, attr) else {
+        return Ok(None);
+    };
+    let count = value_count(p);
+    if count > 1 {
+        return Err(invalid(
+            attr,
+            at,
+            format!("{count} values ({}); expected one", shorten(&p.to_str())),
+        ));
+    }
+    Ok(Some(p))
+}
+
+/// The number of values of a primitive value. A text value counts its backslash-separated parts: a
+/// file's `10\20` reads as two strings, but a data set built in memory may hold it as one.
+fn value_count(p: &PrimitiveValue) -> usize {
+    match p {
+        PrimitiveValue::Str(s) => s.split('\\').count(),
+        PrimitiveValue::Strs(parts) => parts.iter().map(|s| s.split('\\').count()).sum(),
+        other => other.multiplicity() as usize,
+    }
+}
+
+/// `text` cut to its first 40 characters (with "...") for an error message.
+fn shorten(text: &str) -> String {
+    const MAX: usize = 40;
+    match text.char_indices().nth(MAX) {
+        Some((end, _)) => format!("{}...", &text[..end]),
+        None => text.to_string(),
+    }
+}
+
 fn float_at(obj: &InMemDicomObject, attr: Attr, at: Location) -> Result<Option<f64>> {
-    primitive(obj, attr)
+    single(obj, attr, at)?
         .map(|p| {
             p.to_float64()
                 .map_err(|e| invalid(attr, at, format!("not a number: {e}")))
@@ -594,7 +726,7 @@ fn floats_at(obj: &InMemDicomObject, attr: Attr, at: Location) -> Result<Option<
 }
 
 fn int_at(obj: &InMemDicomObject, attr: Attr, at: Location) -> Result<Option<i64>> {
-    primitive(obj, attr)
+    single(obj, attr, at)?
         .map(|p| {
             p.to_int::<i64>()
                 .map_err(|e| invalid(attr, at, format!("not a whole number: {e}")))

@@ -4,9 +4,12 @@ mod fixtures;
 
 use arcsim_dicom::{
     is_dicom_file, read_rt_ion_plan, read_rt_ion_plan_from_bytes, rt_ion_plan_from_dataset,
-    DicomImportError,
+    DicomImportError, MAX_NESTING, MAX_PAINTINGS, MAX_SPOTS,
 };
 use arcsim_plan::{ArcPlan, RotationDirection, PLAN_FORMAT};
+use dicom_core::value::PrimitiveValue;
+use dicom_core::{DataElement, VR};
+use dicom_dictionary_std::tags;
 use fixtures::{BeamSpec, Layer, PlanSpec};
 
 const TOL: f64 = 1e-9;
@@ -596,5 +599,213 @@ fn inconsistent_control_point_count() {
     assert!(
         m.contains("says 3 but IonControlPointSequence (300A,03A8) has 2 items"),
         "{m}"
+    );
+}
+
+// ---- hostile files: bounded resources, no silent guesses -----------------------------------------------
+
+#[test]
+fn deeply_nested_sequences_are_refused_before_parsing() {
+    // dicom-object parses nested sequences recursively: 8,000 levels used to overflow the stack and
+    // abort the process. The nesting pre-scan is iterative, so this runs on a test thread's stack.
+    for explicit_vr in [true, false] {
+        let bytes = fixtures::deeply_nested_file(8_000, explicit_vr);
+        assert!(bytes.len() > 250_000, "{} bytes", bytes.len());
+        let e = read_rt_ion_plan_from_bytes(&bytes).expect_err("nested 8,000 levels deep");
+        assert!(
+            matches!(
+                e,
+                DicomImportError::TooDeeplyNested {
+                    limit: MAX_NESTING,
+                    tag: tags::ION_BEAM_SEQUENCE,
+                    ..
+                }
+            ),
+            "explicit VR {explicit_vr}: {e:?}"
+        );
+        let m = message(&e);
+        assert!(
+            m.contains("nested deeper than 64 levels")
+                && m.contains("level 65 is IonBeamSequence (300A,03A2)"),
+            "{m}"
+        );
+
+        // Exactly MAX_NESTING levels pass the pre-scan; the parser reads the file and the reader
+        // then finds the (empty) beams wanting.
+        let e =
+            read_rt_ion_plan_from_bytes(&fixtures::deeply_nested_file(MAX_NESTING, explicit_vr))
+                .expect_err("not a plan");
+        assert!(
+            matches!(
+                e,
+                DicomImportError::MissingTag {
+                    keyword: "BeamNumber",
+                    ..
+                }
+            ),
+            "explicit VR {explicit_vr}: {e:?}"
+        );
+    }
+}
+
+#[test]
+fn number_of_paintings_is_bounded() {
+    let paint = |paintings: i64| {
+        let layers = fixtures::dynamic_arc_layers(0.0, 2.0, 2);
+        let mut beam = BeamSpec::from_layers(1, "DYNAMIC", "CW", 80.0, &layers);
+        beam.cps[2].paintings = Some(paintings);
+        PlanSpec::ion("PAINT", vec![beam])
+    };
+    for paintings in [i64::from(MAX_PAINTINGS) + 1, 500_000_000, 0, -3] {
+        let e = import_err(&paint(paintings));
+        assert!(
+            matches!(
+                e,
+                DicomImportError::InvalidValue {
+                    keyword: "NumberOfPaintings",
+                    ..
+                }
+            ),
+            "{paintings}: {e:?}"
+        );
+        let m = message(&e);
+        assert!(
+            m.contains("NumberOfPaintings (300A,039A)")
+                && m.contains("IonBeamSequence[0] (BeamNumber 1) > IonControlPointSequence[2]")
+                && m.contains(&format!(
+                    "{paintings}; expected a whole number from 1 to 1000"
+                )),
+            "{m}"
+        );
+    }
+    let plan = read_rt_ion_plan_from_bytes(&paint(i64::from(MAX_PAINTINGS)).to_bytes())
+        .expect("1000 paintings are accepted");
+    assert_eq!(
+        layer_mu(&plan, 0, 1, 0).len(),
+        1000 * fixtures::weights_of(1).len()
+    );
+}
+
+#[test]
+fn spots_after_repainting_are_bounded_plan_wide() {
+    // Two beams of 3 layers of 900 spots painted 1,000 times: 5.4 million spots, though each count
+    // is in range on its own (and each layer is below arcsim_plan::MAX_SPOTS_PER_LAYER).
+    let beam = |number: i64| {
+        let layers: Vec<Layer> = (0..3)
+            .map(|i| Layer {
+                angle: 10.0 * number as f64,
+                energy: 100.0 + i as f64,
+                weights: vec![1.0; 900],
+            })
+            .collect();
+        let mut beam = BeamSpec::from_layers(number, "STATIC", "NONE", 50.0, &layers);
+        beam.cps[0].paintings = Some(i64::from(MAX_PAINTINGS));
+        beam
+    };
+    let e = import_err(&PlanSpec::ion("SPOTS", vec![beam(1), beam(2)]));
+    assert!(
+        matches!(
+            e,
+            DicomImportError::TooManySpots {
+                spots: 5_400_000,
+                limit: MAX_SPOTS
+            }
+        ),
+        "{e:?}"
+    );
+    let m = message(&e);
+    assert!(
+        m.contains("5400000 spots after repainting") && m.contains("at most 5000000"),
+        "{m}"
+    );
+    let plan = read_rt_ion_plan_from_bytes(&PlanSpec::ion("SPOTS", vec![beam(1)]).to_bytes())
+        .expect("2.7 million spots are accepted");
+    assert_eq!(layer_mu(&plan, 0, 0, 2).len(), 900_000);
+}
+
+#[test]
+fn two_beams_with_one_beam_number_are_refused() {
+    // Beam 2 used to take beam 1's BeamMeterset silently.
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[1].number = 1;
+    let e = import_err(&spec);
+    assert!(
+        matches!(
+            e,
+            DicomImportError::DuplicateBeamNumber {
+                number: 1,
+                first: 0,
+                second: 1
+            }
+        ),
+        "{e:?}"
+    );
+    let m = message(&e);
+    assert!(
+        m.contains("BeamNumber (300A,00C0) 1")
+            && m.contains("IonBeamSequence[0] and IonBeamSequence[1]")
+            && m.contains("ReferencedBeamNumber (300C,0006)"),
+        "{m}"
+    );
+}
+
+#[test]
+fn several_values_where_one_is_expected_are_refused() {
+    let angle_at = "IonBeamSequence[0] (BeamNumber 1) > IonControlPointSequence[2]";
+    let check = |e: DicomImportError, keyword: &str, tag: &str, values: &str, at: &str| {
+        assert!(
+            matches!(&e, DicomImportError::InvalidValue { keyword: k, .. } if *k == keyword),
+            "{e:?}"
+        );
+        let m = message(&e);
+        assert!(
+            m.contains(&format!("{keyword} {tag}"))
+                && m.contains(at)
+                && m.contains(&format!("2 values ({values}); expected one")),
+            "{m}"
+        );
+    };
+
+    // A decimal string "10\20": read from a file as two strings, built in memory as one string.
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[0].cps[2]
+        .extra
+        .push(DataElement::new(tags::GANTRY_ANGLE, VR::DS, "10\\20"));
+    check(
+        import_err(&spec),
+        "GantryAngle",
+        "(300A,011E)",
+        "10\\20",
+        angle_at,
+    );
+    let e = rt_ion_plan_from_dataset(&spec.dataset()).expect_err("two angles");
+    check(e, "GantryAngle", "(300A,011E)", "10\\20", angle_at);
+
+    // A binary value with two numbers.
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[0].cps[2].extra.push(DataElement::new(
+        tags::GANTRY_ANGLE,
+        VR::FD,
+        PrimitiveValue::from([10.0f64, 20.0]),
+    ));
+    check(
+        import_err(&spec),
+        "GantryAngle",
+        "(300A,011E)",
+        "10\\20",
+        angle_at,
+    );
+
+    // An integer string (IS).
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[1]
+        .extra
+        .push(DataElement::new(tags::BEAM_NUMBER, VR::IS, "2\\3"));
+    check(
+        import_err(&spec),
+        "BeamNumber",
+        "(300A,00C0)",
+        "2\\3",
+        "IonBeamSequence[1]",
     );
 }

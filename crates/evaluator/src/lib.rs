@@ -10,6 +10,11 @@
 //! the current rayon pool and delivers [`Row`]s in index order (identical for any thread count),
 //! [`Evaluator::summarize`] builds the [`Summary`]. [`Shard`] splits a sweep for a job array and
 //! [`merge_csv`] joins the shards' CSV tables into the single-run table, byte for byte.
+//!
+//! Nothing is allocated per combination before its rows are computed: axes are kept as written and
+//! combinations decoded from their index, shards are index progressions ([`ShardIndices`]), and
+//! [`Evaluator::run`] reads its [`IndexList`] a chunk at a time. A sweep of more than
+//! [`MAX_COMBINATIONS`] combinations is refused when it is loaded.
 
 mod csv;
 mod error;
@@ -24,13 +29,13 @@ pub use csv::{merge_csv, write_csv_header, write_csv_row, CSV_HEADER};
 pub use error::EvalError;
 pub use mode::RunMode;
 pub use run::{Evaluator, Outcome, Row, Status};
-pub use shard::Shard;
+pub use shard::{IndexList, Shard, ShardIndices};
 pub use summary::{
     describe_setting, describe_steps, short, table, Change, Entry, Point, Profile, ProfilePoint,
-    Sensitivity, Step, Summary,
+    Sensitivity, Step, Summary, PROFILE_MAX_POINTS,
 };
-pub use sweep::{Axis, Grid, Run, Setting, Sweep, SweepPlan};
-pub use sweep_file::{parse_sweep_file, Target, SWEEP_FORMAT};
+pub use sweep::{Axis, Grid, Run, Setting, Sweep, SweepPlan, MAX_COMBINATIONS};
+pub use sweep_file::{parse_sweep_file, AxisSpec, Scale, Target, SWEEP_FORMAT};
 
 /// Format of the JSON results document ([`Results`]).
 pub const RESULTS_FORMAT: &str = "arcsim-sweep-results/1";

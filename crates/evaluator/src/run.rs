@@ -1,10 +1,13 @@
-//! Evaluation: every (plan × ELST/window variant) is resolved once, then each combination is one
-//! `simulate_resolved` call with its own limits. Runs are parallel (rayon, the current pool) and
-//! deliver rows in combination order, chunk by chunk, whatever the thread count.
+//! Evaluation: each combination is one `simulate_resolved` call with its own limits, on its
+//! (plan × ELST/window) variant resolved once and kept in a bounded cache. Runs are parallel
+//! (rayon, the current pool) and deliver rows in combination order, chunk by chunk, whatever the
+//! thread count. Nothing is allocated per combination ahead of its chunk: the combinations are
+//! decoded from their indices, and a chunk resolves the variants it needs.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use arcsim_plan::{ArcPlan, ElstModel, Machine, ResolvedArc};
@@ -15,7 +18,8 @@ use arcsim_sequencer::{
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::sweep::{Setting, Sweep};
+use crate::shard::IndexList;
+use crate::sweep::{check_combinations, Setting, Sweep};
 use crate::{EvalError, RunMode};
 
 /// What became of one combination.
@@ -79,21 +83,24 @@ struct Block {
     run: usize,
     offset: usize,
     len: usize,
-    /// Variant id for each (window, ELST up, ELST down) grid point, in grid order.
-    variant_of: Vec<usize>,
     base_total_s: Option<f64>,
 }
 
 type Resolved = Result<Vec<ResolvedArc>, String>;
 type VariantKey = (usize, Option<u64>, Option<u64>, Option<u64>);
+type Variants = HashMap<VariantKey, Arc<Resolved>>;
+
+/// Most resolved variants kept between chunks and calls (a chunk resolves whatever it needs on
+/// top; a sweep with more variants than this resolves some of them again).
+const VARIANT_CACHE: usize = 256;
 
 /// A sweep prepared for evaluation.
 pub struct Evaluator {
     sweep: Sweep,
     base_limits: Limits,
     blocks: Vec<Block>,
-    variants: Vec<Resolved>,
-    variant_ids: HashMap<VariantKey, usize>,
+    /// Resolved (plan × window × ELST) variants, at most [`VARIANT_CACHE`].
+    variants: Mutex<Variants>,
 }
 
 fn key(plan: usize, s: &Setting) -> VariantKey {
@@ -130,66 +137,44 @@ fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
 }
 
 impl Evaluator {
-    /// Resolves every (plan × window × ELST) variant the grids use (in parallel, on the current
-    /// rayon pool) and evaluates each plan on the base machine, for the speed-ups.
+    /// Checks the sweep's size (at most [`crate::MAX_COMBINATIONS`] combinations), resolves each
+    /// plan on the base machine and evaluates it there, for the speed-ups (in parallel, on the
+    /// current rayon pool). The variants the grids use are resolved as the runs reach them.
     pub fn new(sweep: Sweep) -> Result<Evaluator, EvalError> {
         let base_limits = machine_limits(&sweep.machine).map_err(|e| EvalError::Input {
             file: sweep.source.clone(),
             field: "machine".into(),
             message: e.to_string(),
         })?;
+        check_combinations(
+            &sweep.source,
+            Some(sweep.plans.len()),
+            sweep.runs.iter().map(|r| &r.grid),
+        )?;
         let base = sweep.base_setting();
-        let mut variant_ids: HashMap<VariantKey, usize> = HashMap::new();
-        let mut wanted: Vec<(usize, Setting)> = Vec::new();
-        let mut id_of = |plan: usize, s: &Setting| {
-            *variant_ids.entry(key(plan, s)).or_insert_with(|| {
-                wanted.push((plan, *s));
-                wanted.len() - 1
-            })
-        };
         let mut blocks = Vec::new();
         let mut offset = 0;
         for plan in 0..sweep.plans.len() {
-            id_of(plan, &base);
             for (run, r) in sweep.runs.iter().enumerate() {
-                let g = &r.grid;
-                let mut variant_of = Vec::new();
-                for &w in &g.window {
-                    for &u in &g.elst_up {
-                        for &d in &g.elst_down {
-                            let s = Setting {
-                                window_deg: w,
-                                elst_up_s: u,
-                                elst_down_s: d,
-                                ..base
-                            };
-                            variant_of.push(id_of(plan, &s));
-                        }
-                    }
-                }
-                let len = g.len();
+                let len = r.grid.len();
                 blocks.push(Block {
                     plan,
                     run,
                     offset,
                     len,
-                    variant_of,
                     base_total_s: None,
                 });
                 offset += len;
             }
         }
-        let variants: Vec<Resolved> = wanted
-            .par_iter()
-            .map(|(plan, s)| resolve_variant(&sweep.plans[*plan].plan, &sweep.machine, s))
-            .collect();
         let mut ev = Evaluator {
             sweep,
             base_limits,
             blocks,
-            variants,
-            variant_ids,
+            variants: Mutex::new(HashMap::new()),
         };
+        let bases: Vec<(usize, Setting)> = (0..ev.sweep.plans.len()).map(|p| (p, base)).collect();
+        ev.resolve(&bases);
         let base_totals: Vec<Option<f64>> = ev
             .blocks
             .par_iter()
@@ -203,6 +188,57 @@ impl Evaluator {
             b.base_total_s = t;
         }
         Ok(ev)
+    }
+
+    fn cache(&self) -> std::sync::MutexGuard<'_, Variants> {
+        // Nothing panics while holding the lock; a poisoned cache is still a valid cache.
+        self.variants.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The resolved variants of `wanted` (plan, setting) pairs: from the cache, the others
+    /// resolved in parallel and cached (the cache is emptied first when they would overflow it).
+    fn resolve(&self, wanted: &[(usize, Setting)]) -> Variants {
+        let mut out = Variants::new();
+        let mut missing: Vec<(VariantKey, usize, Setting)> = Vec::new();
+        {
+            let cache = self.cache();
+            let mut seen = HashSet::new();
+            for (plan, s) in wanted {
+                let k = key(*plan, s);
+                if !seen.insert(k) {
+                    continue;
+                }
+                match cache.get(&k) {
+                    Some(r) => {
+                        out.insert(k, Arc::clone(r));
+                    }
+                    None => missing.push((k, *plan, *s)),
+                }
+            }
+        }
+        if missing.is_empty() {
+            return out;
+        }
+        let resolve_one = |(k, plan, s): &(VariantKey, usize, Setting)| {
+            let r = resolve_variant(&self.sweep.plans[*plan].plan, &self.sweep.machine, s);
+            (*k, Arc::new(r))
+        };
+        let new: Vec<(VariantKey, Arc<Resolved>)> = if missing.len() == 1 {
+            missing.iter().map(resolve_one).collect()
+        } else {
+            missing.par_iter().map(resolve_one).collect()
+        };
+        let mut cache = self.cache();
+        if cache.len() + new.len() > VARIANT_CACHE {
+            cache.clear();
+        }
+        for (k, r) in new {
+            if cache.len() < VARIANT_CACHE {
+                cache.insert(k, Arc::clone(&r));
+            }
+            out.insert(k, r);
+        }
+        out
     }
 
     pub fn sweep(&self) -> &Sweep {
@@ -255,18 +291,19 @@ impl Evaluator {
 
     /// Evaluates combination `index` (< [`Evaluator::len`]).
     pub fn evaluate(&self, index: usize) -> Row {
+        let (plan, _, setting) = self.combination(index);
+        let variants = self.resolve(&[(plan, setting)]);
+        self.evaluate_with(index, &variants)
+    }
+
+    /// Evaluates combination `index` with its variant among `variants`.
+    fn evaluate_with(&self, index: usize, variants: &Variants) -> Row {
         let b = self.block(index);
         let run = &self.sweep.runs[b.run];
-        let g = &run.grid;
-        let i = index - b.offset;
-        let setting = g.setting(i);
-        let variant = b.variant_of[i / (g.jerk.len() * g.accel.len() * g.speed.len())];
-        let (status, outcome, message) = self.simulate_variant(
-            &self.variants[variant],
-            run.schedule,
-            &setting,
-            b.base_total_s,
-        );
+        let setting = run.grid.setting(index - b.offset);
+        let arcs = &variants[&key(b.plan, &setting)];
+        let (status, outcome, message) =
+            self.simulate_variant(arcs, run.schedule, &setting, b.base_total_s);
         Row {
             index,
             plan: self.sweep.plans[b.plan].label.clone(),
@@ -278,7 +315,7 @@ impl Evaluator {
         }
     }
 
-    /// Simulates any setting of a plan (resolving its variant if the grids do not use it).
+    /// Simulates any setting of a plan (resolving its variant if it is not cached).
     pub fn simulate(
         &self,
         plan: usize,
@@ -286,14 +323,8 @@ impl Evaluator {
         s: &Setting,
         base_total_s: Option<f64>,
     ) -> (Status, Option<Outcome>, String) {
-        match self.variant_ids.get(&key(plan, s)) {
-            Some(&v) => self.simulate_variant(&self.variants[v], schedule, s, base_total_s),
-            None => {
-                let resolved =
-                    resolve_variant(&self.sweep.plans[plan].plan, &self.sweep.machine, s);
-                self.simulate_variant(&resolved, schedule, s, base_total_s)
-            }
-        }
+        let variants = self.resolve(&[(plan, *s)]);
+        self.simulate_variant(&variants[&key(plan, s)], schedule, s, base_total_s)
     }
 
     fn simulate_variant(
@@ -348,24 +379,41 @@ impl Evaluator {
         }
     }
 
-    /// Evaluates `indices` (each < [`Evaluator::len`]) on the current rayon pool and hands the rows
-    /// to `sink` in the order of `indices`, a chunk at a time (chunks last about 0.1 s). Stops early,
-    /// after the rows finished so far, when `cancel` becomes true; returns the number of rows sunk.
-    pub fn run(
+    /// Evaluates `indices` (each < [`Evaluator::len`]; a [`crate::ShardIndices`], a range or a
+    /// list, see [`IndexList`]) on the current rayon pool and hands the rows to `sink` in the order
+    /// of `indices`, a chunk at a time (chunks last about 0.1 s). The indices are read a chunk at a
+    /// time and each chunk resolves the variants it needs, so nothing is allocated per combination
+    /// beyond the current chunk. Stops early, after the rows finished so far, when `cancel` becomes
+    /// true; returns the number of rows sunk.
+    pub fn run<I: IndexList + ?Sized>(
         &self,
-        indices: &[usize],
+        indices: &I,
         cancel: &AtomicBool,
         mut sink: impl FnMut(&[Row]) -> Result<(), EvalError>,
     ) -> Result<usize, EvalError> {
+        let total = indices.index_count();
         let threads = rayon::current_num_threads().max(1);
         let mut chunk = 4 * threads;
         let mut done = 0;
-        while done < indices.len() && !cancel.load(Ordering::Relaxed) {
-            let part = &indices[done..(done + chunk).min(indices.len())];
+        while done < total && !cancel.load(Ordering::Relaxed) {
             let started = Instant::now();
+            let part: Vec<usize> = (done..total.min(done.saturating_add(chunk)))
+                .map(|p| indices.index_at(p))
+                .collect();
+            let wanted: Vec<(usize, Setting)> = part
+                .iter()
+                .map(|&i| {
+                    let (plan, _, s) = self.combination(i);
+                    (plan, s)
+                })
+                .collect();
+            let variants = self.resolve(&wanted);
+            drop(wanted);
             let rows: Vec<Option<Row>> = part
                 .par_iter()
-                .map(|&i| (!cancel.load(Ordering::Relaxed)).then(|| self.evaluate(i)))
+                .map(|&i| {
+                    (!cancel.load(Ordering::Relaxed)).then(|| self.evaluate_with(i, &variants))
+                })
                 .collect();
             let finished: Vec<Row> = rows.into_iter().map_while(|r| r).collect();
             sink(&finished)?;
@@ -381,8 +429,8 @@ impl Evaluator {
     }
 
     /// Evaluates `indices` and returns their rows in order (no cancellation).
-    pub fn run_collect(&self, indices: &[usize]) -> Vec<Row> {
-        let mut rows = Vec::with_capacity(indices.len());
+    pub fn run_collect<I: IndexList + ?Sized>(&self, indices: &I) -> Vec<Row> {
+        let mut rows = Vec::new();
         let never = AtomicBool::new(false);
         // The sink cannot fail, so neither can the run.
         let _ = self.run(indices, &never, |r| {

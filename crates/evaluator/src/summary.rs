@@ -2,6 +2,9 @@
 //!
 //! - **time at each setting of one limit**: the total with one axis at each of its swept values
 //!   and every other limit at the base machine's value, with the speed-up (base total / total);
+//!   an axis of more than [`PROFILE_MAX_POINTS`] values is profiled at that many of them, evenly
+//!   spread by position, both ends included (so a shard of a huge axis is not summarised by
+//!   simulating every value of it);
 //! - **fastest row** of the grid, with its speed-up against the base machine;
 //! - **sensitivity** of the total to each limit L at the base machine, by central finite
 //!   differences: `s_per_10_percent = (T(1.1 L) - T(L / 1.1)) / 2`, the change in total time for a
@@ -63,7 +66,25 @@ pub struct Point {
     pub speedup: Option<f64>,
 }
 
-/// Totals along one axis.
+/// Most points of a one-limit profile ([`Profile`]): a longer axis is profiled at this many of its
+/// values, evenly spread by position, both ends included.
+pub const PROFILE_MAX_POINTS: usize = 1000;
+
+/// The positions of an axis of `n` values that its profile evaluates: all of them, or
+/// [`PROFILE_MAX_POINTS`] evenly spread, both ends included.
+fn profile_positions(n: usize) -> impl Iterator<Item = usize> {
+    let m = n.min(PROFILE_MAX_POINTS);
+    (0..m).map(move |k| {
+        if m == n {
+            k
+        } else {
+            // m >= 2 here; the widening keeps k·(n − 1) from overflowing.
+            (k as u128 * (n - 1) as u128 / (m - 1) as u128) as usize
+        }
+    })
+}
+
+/// Totals along one axis (at most [`PROFILE_MAX_POINTS`] of its values).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Profile {
     pub axis: Axis,
@@ -128,13 +149,14 @@ impl Evaluator {
         for plan in 0..sweep.plans.len() {
             for (run, r) in sweep.runs.iter().enumerate() {
                 let base_total = self.base_total_s(plan, run);
+                let g = &r.grid;
                 let swept: Vec<Axis> = Axis::ALL
                     .into_iter()
-                    .filter(|&a| r.grid.values(a) != vec![base.get(a)])
+                    .filter(|&a| !(g.axis_len(a) == 1 && g.value(a, 0) == base.get(a)))
                     .collect();
                 let mut tasks = Vec::new();
                 for &axis in &swept {
-                    for v in r.grid.values(axis).into_iter().flatten() {
+                    for v in profile_positions(g.axis_len(axis)).filter_map(|i| g.value(axis, i)) {
                         tasks.push(Task::Profile { axis, value: v });
                     }
                 }
@@ -544,5 +566,23 @@ impl Summary {
             );
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_axes_are_profiled_at_spread_positions() {
+        assert_eq!(profile_positions(5).collect::<Vec<_>>(), [0, 1, 2, 3, 4]);
+        let n = PROFILE_MAX_POINTS;
+        assert!(profile_positions(n).eq(0..n));
+        for n in [n + 1, 3 * n + 7, 10_000_000, usize::MAX] {
+            let p: Vec<usize> = profile_positions(n).collect();
+            assert_eq!(p.len(), PROFILE_MAX_POINTS);
+            assert_eq!((p[0], p[p.len() - 1]), (0, n - 1));
+            assert!(p.windows(2).all(|w| w[0] < w[1]), "{n}");
+        }
     }
 }

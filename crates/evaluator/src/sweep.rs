@@ -1,8 +1,13 @@
-//! A loaded sweep: its plans and base machine read, its axes expanded into one grid per schedule.
+//! A loaded sweep: its plans and base machine read, its axes checked into one grid per schedule.
 //!
 //! Combinations are numbered plan-major: for each plan (in file order, glob matches sorted), for
 //! each schedule entry, every grid point, with the jerk varying fastest, then acceleration, speed,
 //! downward ELST, upward ELST and window (slowest).
+//!
+//! Nothing here is proportional to the number of combinations: a grid keeps its axes as written
+//! (a range is its ends and step count), and [`Grid::setting`] decodes a grid index by mixed radix,
+//! computing each axis value on demand. A sweep of more than [`MAX_COMBINATIONS`] combinations is
+//! refused when it is loaded.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -11,8 +16,14 @@ use crate::RunMode;
 use arcsim_plan::{ArcPlan, ElstModel, Machine};
 use serde::Serialize;
 
-use crate::sweep_file::{parse_sweep_file, Axes, AxisSpec, PlanSource, SweepFile, Target};
+use crate::sweep_file::{parse_sweep_file, Axes, AxisSpec, PlanSource, Scale, SweepFile, Target};
 use crate::EvalError;
+
+/// The most combinations (plans × grid points of every schedule entry) a sweep may have; also the
+/// most values one axis may have. A sweep over it is refused when it is loaded, with its size:
+/// its rows are kept in memory for the summary, and at thousands of evaluations per second it
+/// would run for days.
+pub const MAX_COMBINATIONS: usize = 100_000_000;
 
 /// One plan of the sweep.
 #[derive(Debug, Clone)]
@@ -33,15 +44,22 @@ pub struct Setting {
     pub window_deg: Option<f64>,
 }
 
-/// The values of every axis for one schedule entry.
+/// The values of every axis for one schedule entry, kept as written: a range is computed value
+/// by value when needed ([`AxisSpec::value`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grid {
-    pub jerk: Vec<f64>,
-    pub accel: Vec<f64>,
-    pub speed: Vec<f64>,
-    pub elst_up: Vec<Option<f64>>,
-    pub elst_down: Vec<Option<f64>>,
-    pub window: Vec<Option<f64>>,
+    /// J (an absent axis is the base machine's value, one value).
+    pub jerk: AxisSpec,
+    /// A (as `jerk`).
+    pub accel: AxisSpec,
+    /// V (as `jerk`).
+    pub speed: AxisSpec,
+    /// Upward ELST; `None`: the base machine's (one grid point).
+    pub elst_up: Option<AxisSpec>,
+    /// Downward ELST; `None`: the base machine's (one grid point).
+    pub elst_down: Option<AxisSpec>,
+    /// Window; `None`: the plan's and machine's (one grid point).
+    pub window: Option<AxisSpec>,
 }
 
 /// One schedule entry: a schedule and its grid.
@@ -141,47 +159,84 @@ impl Setting {
 }
 
 impl Grid {
-    /// Number of grid points (at least 1 once loaded).
+    fn axis(&self, axis: Axis) -> Option<&AxisSpec> {
+        match axis {
+            Axis::Jerk => Some(&self.jerk),
+            Axis::Accel => Some(&self.accel),
+            Axis::Speed => Some(&self.speed),
+            Axis::ElstUp => self.elst_up.as_ref(),
+            Axis::ElstDown => self.elst_down.as_ref(),
+            Axis::Window => self.window.as_ref(),
+        }
+    }
+
+    /// Number of values of one axis (1 for an absent ELST or window axis).
+    pub fn axis_len(&self, axis: Axis) -> usize {
+        self.axis(axis).map_or(1, AxisSpec::len)
+    }
+
+    /// Value `i` (< [`Grid::axis_len`]) of one axis (`None`: the base value).
+    pub fn value(&self, axis: Axis, i: usize) -> Option<f64> {
+        match self.axis(axis) {
+            Some(a) => Some(a.value(i)),
+            None => {
+                assert!(i == 0, "value {i} of an absent axis");
+                None
+            }
+        }
+    }
+
+    /// Number of grid points, `None` when it overflows `usize` (a loaded sweep has at most
+    /// [`MAX_COMBINATIONS`]).
+    pub fn checked_len(&self) -> Option<usize> {
+        Axis::ALL
+            .into_iter()
+            .try_fold(1usize, |n, a| n.checked_mul(self.axis_len(a)))
+    }
+
+    /// Number of grid points (at least 1 once loaded; saturates at `usize::MAX`).
     pub fn len(&self) -> usize {
-        self.jerk.len()
-            * self.accel.len()
-            * self.speed.len()
-            * self.elst_up.len()
-            * self.elst_down.len()
-            * self.window.len()
+        self.checked_len().unwrap_or(usize::MAX)
     }
 
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
-    /// The setting at grid index `i` (jerk fastest, window slowest).
+    /// The setting at grid index `i` (< [`Grid::len`]; jerk fastest, window slowest): `i` read as
+    /// a mixed-radix number whose digits index the axes, each value computed on demand.
     pub fn setting(&self, i: usize) -> Setting {
-        let (j, i) = (i % self.jerk.len(), i / self.jerk.len());
-        let (a, i) = (i % self.accel.len(), i / self.accel.len());
-        let (v, i) = (i % self.speed.len(), i / self.speed.len());
-        let (d, i) = (i % self.elst_down.len(), i / self.elst_down.len());
-        let (u, w) = (i % self.elst_up.len(), i / self.elst_up.len());
+        let mut rest = i;
+        let mut digit = |axis: Axis| {
+            let n = self.axis_len(axis);
+            let d = rest % n;
+            rest /= n;
+            d
+        };
+        // The digits from the fastest: J, A, V, ELST down, ELST up, window.
+        let j = digit(Axis::Jerk);
+        let a = digit(Axis::Accel);
+        let v = digit(Axis::Speed);
+        let d = digit(Axis::ElstDown);
+        let u = digit(Axis::ElstUp);
+        let w = digit(Axis::Window);
+        assert!(rest == 0, "grid index {i} of {}", self.len());
         Setting {
-            jerk_deg_per_s3: self.jerk[j],
-            accel_deg_per_s2: self.accel[a],
-            speed_deg_per_s: self.speed[v],
-            elst_up_s: self.elst_up[u],
-            elst_down_s: self.elst_down[d],
-            window_deg: self.window[w],
+            jerk_deg_per_s3: self.jerk.value(j),
+            accel_deg_per_s2: self.accel.value(a),
+            speed_deg_per_s: self.speed.value(v),
+            elst_up_s: self.value(Axis::ElstUp, u),
+            elst_down_s: self.value(Axis::ElstDown, d),
+            window_deg: self.value(Axis::Window, w),
         }
     }
 
-    /// The values of one axis (`None`: the base value).
+    /// The values of one axis (`None`: the base value). Materialises the axis: prefer
+    /// [`Grid::axis_len`] and [`Grid::value`].
     pub fn values(&self, axis: Axis) -> Vec<Option<f64>> {
-        match axis {
-            Axis::Jerk => self.jerk.iter().map(|&x| Some(x)).collect(),
-            Axis::Accel => self.accel.iter().map(|&x| Some(x)).collect(),
-            Axis::Speed => self.speed.iter().map(|&x| Some(x)).collect(),
-            Axis::ElstUp => self.elst_up.clone(),
-            Axis::ElstDown => self.elst_down.clone(),
-            Axis::Window => self.window.clone(),
-        }
+        (0..self.axis_len(axis))
+            .map(|i| self.value(axis, i))
+            .collect()
     }
 }
 
@@ -222,6 +277,7 @@ impl Sweep {
         })?;
         let runs = expand_runs(&spec, &machine, file)?;
         let plans = load_plans(&spec, base_dir, file, load_plan)?;
+        check_combinations(file, Some(plans.len()), runs.iter().map(|r| &r.grid))?;
         Ok(Sweep {
             name: spec.name,
             description: spec.description,
@@ -264,15 +320,57 @@ impl Sweep {
         }
     }
 
-    /// Number of combinations per plan (the sum of the schedule entries' grid sizes).
+    /// Number of combinations per plan (the sum of the schedule entries' grid sizes; saturates at
+    /// `usize::MAX`, a loaded sweep has at most [`MAX_COMBINATIONS`]).
     pub fn combinations_per_plan(&self) -> usize {
-        self.runs.iter().map(|r| r.grid.len()).sum()
+        self.runs
+            .iter()
+            .fold(0usize, |n, r| n.saturating_add(r.grid.len()))
     }
 
-    /// Total number of combinations.
+    /// Total number of combinations (saturates as [`Sweep::combinations_per_plan`]).
     pub fn combinations(&self) -> usize {
-        self.plans.len() * self.combinations_per_plan()
+        self.plans
+            .len()
+            .saturating_mul(self.combinations_per_plan())
     }
+}
+
+/// Refuses a sweep whose combinations (`plans` × the grids' points; per plan when `plans` is not
+/// known yet) overflow `usize` or exceed [`MAX_COMBINATIONS`], naming the count.
+pub(crate) fn check_combinations<'a>(
+    file: &str,
+    plans: Option<usize>,
+    grids: impl IntoIterator<Item = &'a Grid>,
+) -> Result<(), EvalError> {
+    let per_plan = grids
+        .into_iter()
+        .try_fold(0usize, |n, g| n.checked_add(g.checked_len()?));
+    let total = per_plan.and_then(|n| n.checked_mul(plans.unwrap_or(1)));
+    if total.is_some_and(|n| n <= MAX_COMBINATIONS) {
+        return Ok(());
+    }
+    let count = |n: Option<usize>| match n {
+        Some(n) => n.to_string(),
+        None => format!("2^{} or more", usize::BITS),
+    };
+    let what = match plans {
+        None => format!(
+            "{} combinations per plan (grid points summed over the schedule entries)",
+            count(per_plan)
+        ),
+        Some(p) => format!(
+            "{} combinations ({p} plan{} × {} grid points summed over the schedule entries)",
+            count(total),
+            if p == 1 { "" } else { "s" },
+            count(per_plan)
+        ),
+    };
+    Err(EvalError::sweep(
+        file,
+        "",
+        format!("{what}; expected at most {MAX_COMBINATIONS} (the most combinations a sweep may have): use fewer steps, values, schedules or plans"),
+    ))
 }
 
 fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Run>, EvalError> {
@@ -284,7 +382,11 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
         ));
     }
     let g = &machine.gantry;
-    spec.schedules
+    // Ranges whose values are checked distinct once the size of the sweep is known to be sane
+    // (that check walks the range).
+    let mut ranges: Vec<(String, AxisSpec)> = Vec::new();
+    let runs = spec
+        .schedules
         .iter()
         .enumerate()
         .map(|(i, entry)| {
@@ -295,38 +397,39 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
                     None => (f(&spec.axes).as_ref(), "axes".to_string()),
                 }
             };
-            let limit = |f: fn(&Axes) -> &Option<AxisSpec>, axis: Axis, base: f64| -> Result<Vec<f64>, EvalError> {
-                let (a, at) = pick(f);
-                match a {
-                    None => Ok(vec![base]),
-                    Some(a) => axis_values(a, &format!("{at}.{}", axis.field()), file, false),
-                }
-            };
-            let optional = |f: fn(&Axes) -> &Option<AxisSpec>, axis: Axis| -> Result<Vec<Option<f64>>, EvalError> {
+            let mut checked = |f: fn(&Axes) -> &Option<AxisSpec>, axis: Axis| -> Result<Option<AxisSpec>, EvalError> {
                 let (a, at) = pick(f);
                 let field = format!("{at}.{}", axis.field());
-                match a {
-                    None => Ok(vec![None]),
-                    Some(a) => {
-                        if axis == Axis::ElstUp && matches!(machine.elst, ElstModel::Polynomial { .. }) {
-                            return Err(EvalError::sweep(
-                                file,
-                                field,
-                                format!("machine \"{}\" has a polynomial ELST model; expected a constant one to sweep the upward switching time", machine.name),
-                            ));
-                        }
-                        let zero_ok = axis != Axis::Window;
-                        Ok(axis_values(a, &field, file, zero_ok)?.into_iter().map(Some).collect())
-                    }
+                let Some(a) = a else { return Ok(None) };
+                if axis == Axis::ElstUp && matches!(machine.elst, ElstModel::Polynomial { .. }) {
+                    return Err(EvalError::sweep(
+                        file,
+                        field,
+                        format!("machine \"{}\" has a polynomial ELST model; expected a constant one to sweep the upward switching time", machine.name),
+                    ));
                 }
+                let zero_ok = matches!(axis, Axis::ElstUp | Axis::ElstDown);
+                check_axis(a, &field, file, zero_ok)?;
+                check_machine_values(a, axis, &field, file, machine)?;
+                if matches!(a, AxisSpec::Range { .. }) && !ranges.iter().any(|(f, _)| *f == field) {
+                    ranges.push((field, a.clone()));
+                }
+                Ok(Some(a.clone()))
             };
+            let jerk = checked(|a| &a.jerk_deg_per_s3, Axis::Jerk)?;
+            let accel = checked(|a| &a.accel_deg_per_s2, Axis::Accel)?;
+            let speed = checked(|a| &a.speed_deg_per_s, Axis::Speed)?;
+            let elst_up = checked(|a| &a.elst_up_s, Axis::ElstUp)?;
+            let elst_down = checked(|a| &a.elst_down_s, Axis::ElstDown)?;
+            let window = checked(|a| &a.window_deg, Axis::Window)?;
+            let limit = |a: Option<AxisSpec>, base: f64| a.unwrap_or(AxisSpec::Values(vec![base]));
             let grid = Grid {
-                jerk: limit(|a| &a.jerk_deg_per_s3, Axis::Jerk, g.max_jerk_deg_per_s3)?,
-                accel: limit(|a| &a.accel_deg_per_s2, Axis::Accel, g.max_accel_deg_per_s2)?,
-                speed: limit(|a| &a.speed_deg_per_s, Axis::Speed, g.max_speed_deg_per_s)?,
-                elst_up: optional(|a| &a.elst_up_s, Axis::ElstUp)?,
-                elst_down: optional(|a| &a.elst_down_s, Axis::ElstDown)?,
-                window: optional(|a| &a.window_deg, Axis::Window)?,
+                jerk: limit(jerk, g.max_jerk_deg_per_s3),
+                accel: limit(accel, g.max_accel_deg_per_s2),
+                speed: limit(speed, g.max_speed_deg_per_s),
+                elst_up,
+                elst_down,
+                window,
             };
             Ok(Run {
                 schedule: RunMode {
@@ -337,17 +440,20 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
                 grid,
             })
         })
-        .collect()
+        .collect::<Result<Vec<Run>, EvalError>>()?;
+    // At least one plan: refuse an absurd grid before walking its ranges or loading any plan.
+    check_combinations(file, None, runs.iter().map(|r| &r.grid))?;
+    for (field, range) in &ranges {
+        check_range_distinct(range, field, file)?;
+    }
+    Ok(runs)
 }
 
-/// Expands and checks one axis: at least one value, each finite and > 0 (>= 0 when `zero_ok`),
-/// no value twice.
-fn axis_values(
-    spec: &AxisSpec,
-    field: &str,
-    file: &str,
-    zero_ok: bool,
-) -> Result<Vec<f64>, EvalError> {
+/// Checks one axis without walking a range: at least one value and at most
+/// [`MAX_COMBINATIONS`], each finite and > 0 (>= 0 when `zero_ok`), no value of a list twice; a
+/// range's ends likewise (> 0 on a log scale), and one step only when `from` equals `to`.
+/// Whether a range's values are distinct is [`check_range_distinct`]'s.
+fn check_axis(spec: &AxisSpec, field: &str, file: &str, zero_ok: bool) -> Result<(), EvalError> {
     let bad = |sub: &str, msg: String| EvalError::sweep(file, format!("{field}{sub}"), msg);
     let lower = if zero_ok {
         "finite and >= 0"
@@ -356,33 +462,49 @@ fn axis_values(
     };
     let ok = |x: f64| x.is_finite() && (x > 0.0 || (zero_ok && x == 0.0));
     match *spec {
-        AxisSpec::Values(ref v) if v.is_empty() => {
-            return Err(bad(
-                "",
-                "expected at least one value; an axis with no values makes an empty sweep".into(),
-            ))
-        }
+        AxisSpec::Values(ref v) if v.is_empty() => Err(bad(
+            "",
+            "expected at least one value; an axis with no values makes an empty sweep".into(),
+        )),
         AxisSpec::Values(ref v) => {
+            if v.len() > MAX_COMBINATIONS {
+                return Err(bad(
+                    "",
+                    format!("{} values; expected at most {MAX_COMBINATIONS}", v.len()),
+                ));
+            }
             if let Some((i, x)) = v.iter().enumerate().find(|(_, &x)| !ok(x)) {
                 return Err(bad(
                     &format!("[{i}]"),
                     format!("expected a value {lower}, got {x}"),
                 ));
             }
+            let mut seen = HashMap::new();
+            for (i, x) in v.iter().enumerate() {
+                if let Some(j) = seen.insert(x.to_bits(), i) {
+                    return Err(bad("", twice(*x, j, i)));
+                }
+            }
+            Ok(())
         }
-        AxisSpec::Range { steps: 0, .. } => {
-            return Err(bad(
-                ".steps",
-                "expected at least 1 step; an axis with no values makes an empty sweep".into(),
-            ))
-        }
+        AxisSpec::Range { steps: 0, .. } => Err(bad(
+            ".steps",
+            "expected at least 1 step; an axis with no values makes an empty sweep".into(),
+        )),
+        AxisSpec::Range { steps, .. } if steps > MAX_COMBINATIONS => Err(bad(
+            ".steps",
+            format!("{steps} steps; expected at most {MAX_COMBINATIONS} (the most combinations a sweep may have)"),
+        )),
         AxisSpec::Range {
-            from, to, scale, ..
+            from,
+            to,
+            steps,
+            scale,
         } => {
             for (name, x) in [("from", from), ("to", to)] {
                 let positive = x.is_finite() && x > 0.0;
-                if !ok(x) || (scale == crate::sweep_file::Scale::Log && !positive) {
-                    let need = if scale == crate::sweep_file::Scale::Log {
+                if !ok(x) || (scale == Scale::Log && !positive) {
+                    let need = if scale == Scale::Log {
                         "finite and > 0 (log scale)"
                     } else {
                         lower
@@ -393,21 +515,116 @@ fn axis_values(
                     ));
                 }
             }
+            if steps == 1 && from != to {
+                return Err(bad(
+                    ".steps",
+                    format!("1 step gives only `from` ({from}), not `to` ({to}); expected at least 2 steps, or `to` equal to `from`"),
+                ));
+            }
+            Ok(())
         }
     }
-    let values = spec.values();
-    let mut seen = HashMap::new();
-    for (i, x) in values.iter().enumerate() {
-        if let Some(j) = seen.insert(x.to_bits(), i) {
-            return Err(bad(
-                "",
+}
+
+fn twice(x: f64, j: usize, i: usize) -> String {
+    format!("value {x} appears twice (positions {j} and {i}); expected distinct values")
+}
+
+/// Checks that a range's values are distinct without storing them: consecutive values must move
+/// strictly from `from` towards `to` (a range finer than the floating-point resolution does not).
+fn check_range_distinct(spec: &AxisSpec, field: &str, file: &str) -> Result<(), EvalError> {
+    let AxisSpec::Range { from, to, .. } = *spec else {
+        return Ok(());
+    };
+    let n = spec.len();
+    let mut prev = spec.value(0);
+    for i in 1..n {
+        let x = spec.value(i);
+        if x == prev {
+            return Err(EvalError::sweep(file, field, twice(x, i - 1, i)));
+        }
+        if (x > prev) != (to > from) {
+            return Err(EvalError::sweep(
+                file,
+                format!("{field}.steps"),
+                format!("{n} steps from {from} to {to} are finer than floating-point resolution (value {i}, {x}, does not move on from value {}, {prev}); expected fewer steps", i - 1),
+            ));
+        }
+        prev = x;
+    }
+    Ok(())
+}
+
+/// Checks an axis's extreme values as the base machine's own would be: the machine with the
+/// value set must pass [`arcsim_plan::validate_machine`] (so a sweep accepts the gantry limits,
+/// switching times and windows a machine file accepts, and no value far beyond physical sense).
+/// The extremes decide, as every accepted set of values is an interval. A also sets the
+/// deceleration limit D = D_base · (A / A_base) (D_base: the machine's explicit deceleration
+/// limit, else its A), which must stay finite, > 0 and accepted.
+fn check_machine_values(
+    spec: &AxisSpec,
+    axis: Axis,
+    field: &str,
+    file: &str,
+    machine: &Machine,
+) -> Result<(), EvalError> {
+    let extremes: [(String, f64); 2] = match spec {
+        AxisSpec::Values(v) => {
+            let pick = |better: fn(f64, f64) -> bool| {
+                let (i, x) = v
+                    .iter()
+                    .copied()
+                    .enumerate()
+                    .reduce(|a, b| if better(b.1, a.1) { b } else { a })
+                    .unwrap_or((0, f64::NAN));
+                (format!("{field}[{i}]"), x)
+            };
+            [pick(|a, b| a < b), pick(|a, b| a > b)]
+        }
+        AxisSpec::Range { from, to, .. } => [
+            (format!("{field}.from"), *from),
+            (format!("{field}.to"), *to),
+        ],
+    };
+    let g = &machine.gantry;
+    for (at, x) in extremes {
+        let mut m = machine.clone();
+        let mut note = String::new();
+        match axis {
+            Axis::Jerk => m.gantry.max_jerk_deg_per_s3 = x,
+            Axis::Speed => m.gantry.max_speed_deg_per_s = x,
+            Axis::Accel => {
+                m.gantry.max_accel_deg_per_s2 = x;
+                let d = g.max_decel_deg_per_s2.unwrap_or(g.max_accel_deg_per_s2);
+                let decel = d * (x / g.max_accel_deg_per_s2);
+                if g.max_decel_deg_per_s2.is_some() || !(decel.is_finite() && decel > 0.0) {
+                    m.gantry.max_decel_deg_per_s2 = Some(decel);
+                    note = format!(
+                        "A = {x} deg/s^2 scales the deceleration limit ({d} deg/s^2 at A = {} deg/s^2) to {decel} deg/s^2: ",
+                        g.max_accel_deg_per_s2
+                    );
+                }
+            }
+            Axis::ElstUp | Axis::ElstDown => match &mut m.elst {
+                ElstModel::Constant { up_s, down_s, .. } => {
+                    *if axis == Axis::ElstUp { up_s } else { down_s } = x;
+                }
+                ElstModel::Polynomial { down_s, .. } => *down_s = x,
+            },
+            Axis::Window => m.default_window_deg = x,
+        }
+        if let Some(issue) = arcsim_plan::validate_machine(&m, &machine.name).first() {
+            return Err(EvalError::sweep(
+                file,
+                at,
                 format!(
-                    "value {x} appears twice (positions {j} and {i}); expected distinct values"
+                    "{note}{} (the values a machine's `{}` accepts)",
+                    issue.message, issue.field
                 ),
             ));
         }
     }
-    Ok(values)
+    Ok(())
 }
 
 fn load_plans(
@@ -483,8 +700,13 @@ fn load_plans(
                         t
                     }
                 };
+                // The reference file is named: a wrong one is found without guessing.
                 let plan = arcsim_plan::atom_case_plan(&text, atom_case).map_err(|e| {
-                    EvalError::sweep(file, format!("{field}.atom_case"), e.to_string())
+                    EvalError::sweep(
+                        file,
+                        format!("{field}.atom_case"),
+                        format!("reference {}: {e}", path.display()),
+                    )
                 })?;
                 plans.push(SweepPlan {
                     label: format!("atom:{atom_case}"),
@@ -501,5 +723,144 @@ fn dir_name(dir: &Path) -> String {
         ".".into()
     } else {
         dir.display().to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The values of a range as the eager expansion computed them (before axes were lazy).
+    fn eager(spec: &AxisSpec) -> Vec<f64> {
+        match *spec {
+            AxisSpec::Values(ref v) => v.clone(),
+            AxisSpec::Range { from, steps: 1, .. } => vec![from],
+            AxisSpec::Range {
+                from,
+                to,
+                steps,
+                scale,
+            } => (0..steps)
+                .map(|i| {
+                    let f = i as f64 / (steps - 1) as f64;
+                    if i + 1 == steps {
+                        to
+                    } else {
+                        match scale {
+                            Scale::Linear => from + f * (to - from),
+                            Scale::Log => from * (to / from).powf(f),
+                        }
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    fn range(from: f64, to: f64, steps: usize, scale: Scale) -> AxisSpec {
+        AxisSpec::Range {
+            from,
+            to,
+            steps,
+            scale,
+        }
+    }
+
+    #[test]
+    fn lazy_axis_values_are_bit_identical_to_the_eager_ones() {
+        for spec in [
+            range(0.125, 4.0, 1001, Scale::Log),
+            range(0.1, 4.0, 997, Scale::Linear),
+            range(8.0, 2.0, 10, Scale::Log),
+            range(3.0, 0.0, 7, Scale::Linear),
+            range(2.5, 2.5, 1, Scale::Linear),
+            AxisSpec::Values(vec![3.0, 1.0, 2.0]),
+        ] {
+            let want = eager(&spec);
+            assert_eq!(spec.len(), want.len());
+            let got: Vec<u64> = (0..spec.len()).map(|i| spec.value(i).to_bits()).collect();
+            let want: Vec<u64> = want.iter().map(|x| x.to_bits()).collect();
+            assert_eq!(got, want, "{spec:?}");
+        }
+    }
+
+    /// Grid points decode by mixed radix in the eager nesting: window slowest, then ELST up,
+    /// ELST down, V, A, and J fastest.
+    #[test]
+    fn grid_settings_decode_like_the_nested_expansion() {
+        let grid = Grid {
+            jerk: range(0.25, 4.0, 5, Scale::Log),
+            accel: AxisSpec::Values(vec![0.5, 0.25]),
+            speed: range(6.0, 3.0, 3, Scale::Linear),
+            elst_up: None,
+            elst_down: Some(range(0.0, 1.0, 2, Scale::Linear)),
+            window: Some(AxisSpec::Values(vec![1.0, 0.5])),
+        };
+        let mut nested = Vec::new();
+        // No ELST up axis: one point, `None`.
+        for &w in &eager(grid.window.as_ref().expect("window")) {
+            for &d in &eager(grid.elst_down.as_ref().expect("down")) {
+                for &v in &eager(&grid.speed) {
+                    for &a in &eager(&grid.accel) {
+                        for &j in &eager(&grid.jerk) {
+                            nested.push(Setting {
+                                jerk_deg_per_s3: j,
+                                accel_deg_per_s2: a,
+                                speed_deg_per_s: v,
+                                elst_up_s: None,
+                                elst_down_s: Some(d),
+                                window_deg: Some(w),
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(grid.len(), nested.len());
+        assert_eq!(grid.checked_len(), Some(120));
+        for (i, s) in nested.iter().enumerate() {
+            assert_eq!(grid.setting(i), *s, "grid point {i}");
+        }
+        assert_eq!(grid.values(Axis::ElstUp), vec![None]);
+        assert_eq!(grid.axis_len(Axis::Jerk), 5);
+        assert_eq!(grid.value(Axis::Speed, 2), Some(3.0));
+    }
+
+    #[test]
+    fn grid_sizes_overflow_into_a_refusal_not_a_wrap() {
+        let huge = range(1.0, 2.0, MAX_COMBINATIONS, Scale::Linear);
+        let grid = Grid {
+            jerk: huge.clone(),
+            accel: huge.clone(),
+            speed: huge,
+            elst_up: None,
+            elst_down: None,
+            window: None,
+        };
+        assert_eq!(grid.checked_len(), None);
+        assert_eq!(grid.len(), usize::MAX);
+        let e = check_combinations("s.json", Some(3), [&grid])
+            .expect_err("too many")
+            .to_string();
+        assert!(
+            e.starts_with("s.json: 2^64 or more combinations (3 plans × 2^64 or more grid points"),
+            "{e}"
+        );
+        let small = Grid {
+            jerk: range(1.0, 2.0, 10_000, Scale::Linear),
+            accel: range(1.0, 2.0, 10_000, Scale::Linear),
+            speed: AxisSpec::Values(vec![1.0]),
+            elst_up: None,
+            elst_down: None,
+            window: None,
+        };
+        assert!(check_combinations("s.json", Some(1), [&small]).is_ok());
+        let e = check_combinations("s.json", Some(2), [&small])
+            .expect_err("too many")
+            .to_string();
+        assert!(
+            e.starts_with("s.json: 200000000 combinations (2 plans × 100000000 grid points"),
+            "{e}"
+        );
+        assert!(e.contains("expected at most 100000000"), "{e}");
     }
 }

@@ -111,9 +111,10 @@ pub struct ScheduleEntry {
     pub axes: Option<Axes>,
 }
 
-/// The target of the summary's cheapest change.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+/// The target of the summary's cheapest change: `{"saving_percent": P}` or `{"total_s": T}` (one
+/// field, checked when the file is parsed: T finite and > 0, 0 <= P < 100).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Target {
     /// An absolute total delivery time (s).
     TotalS(f64),
@@ -138,35 +139,65 @@ impl Target {
 }
 
 impl AxisSpec {
-    /// The values of the axis, in the order written (ranges from `from` to `to`).
-    pub fn values(&self) -> Vec<f64> {
+    /// Number of values (`steps` for a range), without computing them.
+    pub fn len(&self) -> usize {
         match *self {
-            AxisSpec::Values(ref v) => v.clone(),
-            AxisSpec::Range { from, steps: 1, .. } => vec![from],
+            AxisSpec::Values(ref v) => v.len(),
+            AxisSpec::Range { steps, .. } => steps,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Value `i` (< [`AxisSpec::len`]), computed on demand: for a range of `steps` values,
+    /// `from + f·(to − from)` (linear) or `from·(to/from)^f` (log) with `f = i/(steps − 1)`, and
+    /// exactly `to` for the last one (a one-step range is `from`).
+    ///
+    /// # Panics
+    /// If `i` is out of range.
+    pub fn value(&self, i: usize) -> f64 {
+        match *self {
+            AxisSpec::Values(ref v) => v[i],
             AxisSpec::Range {
                 from,
                 to,
                 steps,
                 scale,
-            } => (0..steps)
-                .map(|i| {
+            } => {
+                assert!(i < steps, "axis value {i} of {steps}");
+                if steps == 1 {
+                    from
+                } else if i + 1 == steps {
+                    to
+                } else {
                     let f = i as f64 / (steps - 1) as f64;
-                    if i + 1 == steps {
-                        to
-                    } else {
-                        match scale {
-                            Scale::Linear => from + f * (to - from),
-                            Scale::Log => from * (to / from).powf(f),
-                        }
+                    match scale {
+                        Scale::Linear => from + f * (to - from),
+                        Scale::Log => from * (to / from).powf(f),
                     }
-                })
-                .collect(),
+                }
+            }
         }
+    }
+
+    /// The values of the axis, in the order written (ranges from `from` to `to`).
+    ///
+    /// Materialises the whole axis: prefer [`AxisSpec::len`] and [`AxisSpec::value`] for a range
+    /// that may be long.
+    pub fn values(&self) -> Vec<f64> {
+        (0..self.len()).map(|i| self.value(i)).collect()
     }
 }
 
 /// Parses a sweep file's text; `file` names it in every error.
+///
+/// A UTF-8 byte-order mark at the start of the text is ignored. Besides the JSON shape, the
+/// `format` and the `target` values are checked here; the axes are checked when the sweep is
+/// built ([`crate::Sweep::from_text`]), against the base machine.
 pub fn parse_sweep_file(text: &str, file: &str) -> Result<SweepFile, EvalError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut de = serde_json::Deserializer::from_str(text);
     let parsed: Result<SweepFile, _> = serde_path_to_error::deserialize(&mut de);
     let sweep = match parsed {
@@ -187,6 +218,23 @@ pub fn parse_sweep_file(text: &str, file: &str) -> Result<SweepFile, EvalError> 
             "format",
             format!("expected \"{SWEEP_FORMAT}\", got \"{}\"", sweep.format),
         ));
+    }
+    match sweep.target {
+        Some(Target::TotalS(t)) if !(t.is_finite() && t > 0.0) => {
+            return Err(EvalError::sweep(
+                file,
+                "target.total_s",
+                format!("expected a total time finite and > 0 s, got {t}"),
+            ));
+        }
+        Some(Target::SavingPercent(p)) if !(p.is_finite() && (0.0..100.0).contains(&p)) => {
+            return Err(EvalError::sweep(
+                file,
+                "target.saving_percent",
+                format!("expected a saving >= 0 and < 100 (percent of the base machine's total), got {p}"),
+            ));
+        }
+        _ => {}
     }
     Ok(sweep)
 }
@@ -306,6 +354,47 @@ impl<'de> Deserialize<'de> for AxisSpec {
             }
         }
         d.deserialize_any(V)
+    }
+}
+
+/// `target` as written: exactly one of the two fields, checked after parsing it (an externally
+/// tagged enum would answer "both fields" with a bare syntax error).
+#[derive(Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "{\"total_s\": SECONDS} or {\"saving_percent\": PERCENT}"
+)]
+struct TargetObject {
+    #[serde(default)]
+    total_s: Option<f64>,
+    #[serde(default)]
+    saving_percent: Option<f64>,
+}
+
+impl<'de> Deserialize<'de> for Target {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match TargetObject::deserialize(d)? {
+            TargetObject {
+                total_s: Some(t),
+                saving_percent: None,
+            } => Ok(Target::TotalS(t)),
+            TargetObject {
+                total_s: None,
+                saving_percent: Some(p),
+            } => Ok(Target::SavingPercent(p)),
+            TargetObject {
+                total_s: Some(_),
+                saving_percent: Some(_),
+            } => Err(de::Error::custom(
+                "give either `total_s` (a total time in s) or `saving_percent` (a saving in percent of the base machine's total), not both",
+            )),
+            TargetObject {
+                total_s: None,
+                saving_percent: None,
+            } => Err(de::Error::custom(
+                "expected `total_s` (a total time in s) or `saving_percent` (a saving in percent of the base machine's total), e.g. {\"saving_percent\": 10}",
+            )),
+        }
     }
 }
 

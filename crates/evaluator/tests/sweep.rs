@@ -1,11 +1,15 @@
 //! Acceptance tests of the evaluator: determinism across thread counts, shards that merge into
 //! the single-run table byte for byte, located errors for bad sweep files, empty sweeps refused,
-//! infeasible combinations reported as rows.
+//! infeasible combinations reported as rows, absurd sweeps refused up front and huge ones run
+//! lazily, every number of a sweep file checked.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 use arcsim_evaluator::{
-    merge_csv, write_csv_header, write_csv_row, EvalError, Evaluator, Row, Shard, Status, Sweep,
+    merge_csv, parse_sweep_file, write_csv_header, write_csv_row, EvalError, Evaluator, Row, Shard,
+    Status, Sweep, Target, MAX_COMBINATIONS, PROFILE_MAX_POINTS,
 };
 
 fn scenarios() -> PathBuf {
@@ -396,4 +400,322 @@ fn free_motion_entries_run_and_merge() {
     );
     let e = error_of(&bad);
     assert!(e.contains("schedules[0]") && e.contains("motion"), "{e}");
+}
+
+/// GOOD with its top-level axes replaced.
+fn with_axes(axes: &str) -> String {
+    let text = GOOD.replacen("{\"jerk_deg_per_s3\": [0.5, 1]}", axes, 1);
+    assert_ne!(text, GOOD);
+    text
+}
+
+/// An absurd sweep is refused when it is loaded, with its size and the limit, before anything
+/// the size of the sweep is allocated (a trillion steps used to abort on allocation).
+#[test]
+fn absurd_sweeps_are_refused_up_front_with_their_size() {
+    let started = Instant::now();
+    let e = error_of(&with_axes(
+        r#"{"jerk_deg_per_s3": {"from": 0.1, "to": 4, "steps": 1000000000000}}"#,
+    ));
+    assert!(
+        e.starts_with(&format!("test-sweep.json: axes.jerk_deg_per_s3.steps: 1000000000000 steps; expected at most {MAX_COMBINATIONS}")),
+        "{e}"
+    );
+    // Each axis within the limit, their product beyond usize.
+    let e = error_of(&with_axes(
+        r#"{"jerk_deg_per_s3": {"from": 0.1, "to": 4, "steps": 100000000},
+            "accel_deg_per_s2": {"from": 0.1, "to": 4, "steps": 100000000},
+            "speed_deg_per_s": {"from": 1, "to": 9, "steps": 10000}}"#,
+    ));
+    assert!(
+        e.starts_with("test-sweep.json: 2^64 or more combinations per plan"),
+        "{e}"
+    );
+    // Beyond the limit for one plan.
+    let e = error_of(&with_axes(
+        r#"{"jerk_deg_per_s3": {"from": 0.1, "to": 4, "steps": 10000},
+            "accel_deg_per_s2": {"from": 0.1, "to": 4, "steps": 10001}}"#,
+    ));
+    assert!(
+        e.starts_with(&format!("test-sweep.json: 100010000 combinations per plan (grid points summed over the schedule entries); expected at most {MAX_COMBINATIONS}")),
+        "{e}"
+    );
+    // Within it per plan, beyond it with the plans (4 plan files) and schedule entries (2).
+    let text = with_axes(
+        r#"{"jerk_deg_per_s3": {"from": 0.1, "to": 4, "steps": 5000},
+            "accel_deg_per_s2": {"from": 0.1, "to": 4, "steps": 3000}}"#,
+    )
+    .replace("\"../plans/prostate.json\"", "\"../plans/*.json\"")
+    .replace("[\"scan\"]", "[\"scan\", \"optimal\"]");
+    let e = error_of(&text);
+    assert!(
+        e.starts_with(&format!("test-sweep.json: 120000000 combinations (4 plans × 30000000 grid points summed over the schedule entries); expected at most {MAX_COMBINATIONS}")),
+        "{e}"
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "refusing took {:?}",
+        started.elapsed()
+    );
+}
+
+/// Ten million grid points load at once; a shard of them runs without listing the others, each
+/// value computed from its index exactly as the eager expansion did.
+#[test]
+fn huge_grids_are_evaluated_lazily() {
+    let steps = 10_000_000usize;
+    let text = with_axes(&format!(
+        r#"{{"jerk_deg_per_s3": {{"from": 0.1, "to": 4, "steps": {steps}}},
+            "speed_deg_per_s": {{"from": 2, "to": 8, "steps": 3, "scale": "log"}}}}"#
+    ));
+    let ev = Evaluator::new(from_text(&text).expect("sweep")).expect("prepare");
+    assert_eq!(ev.len(), 3 * steps);
+    let shard = Shard::new(2, 7_000_000).expect("shard").indices(ev.len());
+    assert_eq!(
+        shard.iter().collect::<Vec<_>>(),
+        [1, 7_000_001, 14_000_001, 21_000_001, 28_000_001]
+    );
+    let rows = ev.run_collect(&shard);
+    assert_eq!(rows.len(), 5);
+    for r in &rows {
+        let (j, v) = (r.index % steps, r.index / steps);
+        let f = j as f64 / (steps - 1) as f64;
+        let jerk = 0.1 + f * (4.0 - 0.1);
+        let speed = [2.0, 2.0 * (8.0_f64 / 2.0).powf(0.5), 8.0][v];
+        assert_eq!(r.setting.jerk_deg_per_s3.to_bits(), jerk.to_bits(), "{r:?}");
+        assert_eq!(
+            r.setting.speed_deg_per_s.to_bits(),
+            speed.to_bits(),
+            "{r:?}"
+        );
+        assert_eq!(r.status, Status::Ok, "{r:?}");
+    }
+    let last = ev.evaluate(ev.len() - 1);
+    assert_eq!(
+        (last.setting.jerk_deg_per_s3, last.setting.speed_deg_per_s),
+        (4.0, 8.0)
+    );
+    // The whole sweep as one shard: the first chunk comes, then the run stops on request.
+    let cancel = AtomicBool::new(false);
+    let mut got = 0;
+    let done = ev
+        .run(&Shard::ALL.indices(ev.len()), &cancel, |chunk| {
+            got += chunk.len();
+            cancel.store(true, Ordering::Relaxed);
+            Ok(())
+        })
+        .expect("run");
+    assert!(done == got && done > 0 && done < 1000, "{done}");
+    // Ranges and explicit lists of indices run alike.
+    assert_eq!(ev.run_collect(&(5..8)), ev.run_collect(&[5, 6, 7]));
+    // The summary profiles the ten-million-value axis at PROFILE_MAX_POINTS of its values.
+    let summary = ev.summarize(&rows);
+    let e = &summary.entries[0];
+    assert_eq!(e.rows, 5);
+    let points: Vec<usize> = e.profiles.iter().map(|p| p.points.len()).collect();
+    assert_eq!(points, [PROFILE_MAX_POINTS, 3]);
+    let jerk = &e.profiles[0].points;
+    assert_eq!((jerk[0].value, jerk[jerk.len() - 1].value), (0.1, 4.0));
+}
+
+/// `target` takes one of two fields: both, neither, an unknown one or a value out of range is
+/// named, with what is expected.
+#[test]
+fn target_errors_say_what_is_expected() {
+    let with_target =
+        |t: &str| GOOD.replace("\"schedules\"", &format!("\"target\": {t}, \"schedules\""));
+    let sweep = from_text(&with_target("{\"total_s\": 250}")).expect("valid");
+    assert_eq!(sweep.target, Target::TotalS(250.0));
+    let sweep = from_text(&with_target("{\"saving_percent\": 0}")).expect("valid");
+    assert_eq!(sweep.target, Target::SavingPercent(0.0));
+    for (target, expected) in [
+        (
+            "{\"total_s\": 250, \"saving_percent\": 10}",
+            "test-sweep.json: target: give either `total_s` (a total time in s) or `saving_percent` (a saving in percent of the base machine's total), not both",
+        ),
+        (
+            "{}",
+            "test-sweep.json: target: expected `total_s` (a total time in s) or `saving_percent`",
+        ),
+        (
+            "{\"fraction\": 0.1}",
+            "test-sweep.json: target.fraction: unknown field `fraction`, expected `total_s` or `saving_percent`",
+        ),
+        (
+            "10",
+            "test-sweep.json: target: invalid type: integer `10`, expected {\"total_s\": SECONDS} or {\"saving_percent\": PERCENT}",
+        ),
+        (
+            "{\"total_s\": 0}",
+            "test-sweep.json: target.total_s: expected a total time finite and > 0 s, got 0",
+        ),
+        (
+            "{\"total_s\": -250}",
+            "test-sweep.json: target.total_s: expected a total time finite and > 0 s, got -250",
+        ),
+        (
+            "{\"saving_percent\": 100}",
+            "test-sweep.json: target.saving_percent: expected a saving >= 0 and < 100",
+        ),
+        (
+            "{\"saving_percent\": -5}",
+            "test-sweep.json: target.saving_percent: expected a saving >= 0 and < 100",
+        ),
+    ] {
+        let e = error_of(&with_target(target));
+        assert!(e.starts_with(expected), "{target}: expected «{expected}», got «{e}»");
+        assert!(!e.contains("malformed JSON"), "{e}");
+    }
+}
+
+/// Every number of a sweep file is checked when it is loaded, located: ranges, steps, and the
+/// values a machine file would accept (no J of 1e300, no deceleration scaled past its limit).
+/// A byte-order mark is no error.
+#[test]
+fn sweep_numbers_are_checked_at_the_boundary() {
+    let j = "test-sweep.json: axes.jerk_deg_per_s3";
+    for (axes, expected) in [
+        (
+            r#"{"jerk_deg_per_s3": {"from": 1, "to": 2, "steps": 1}}"#,
+            format!(
+                "{j}.steps: 1 step gives only `from` (1), not `to` (2); expected at least 2 steps"
+            ),
+        ),
+        (
+            r#"{"jerk_deg_per_s3": {"from": 1, "to": 1, "steps": 3}}"#,
+            format!("{j}: value 1 appears twice (positions 0 and 1)"),
+        ),
+        (
+            r#"{"jerk_deg_per_s3": {"from": 1, "to": 1.0000000000000002, "steps": 3}}"#,
+            format!("{j}: value 1 appears twice (positions 0 and 1)"),
+        ),
+        (
+            r#"{"jerk_deg_per_s3": {"from": -1, "to": 2, "steps": 3}}"#,
+            format!("{j}.from: expected a value finite and > 0, got -1"),
+        ),
+        (
+            r#"{"jerk_deg_per_s3": {"from": 0, "to": 2, "steps": 3, "scale": "log"}}"#,
+            format!("{j}.from: expected a value finite and > 0 (log scale), got 0"),
+        ),
+        (r#"{"jerk_deg_per_s3": [0.5, 1e300]}"#, format!("{j}[1]: ")),
+        (
+            r#"{"jerk_deg_per_s3": {"from": 1e-300, "to": 1, "steps": 4, "scale": "log"}}"#,
+            format!("{j}.from: "),
+        ),
+        (
+            r#"{"speed_deg_per_s": [5, 1e300]}"#,
+            "test-sweep.json: axes.speed_deg_per_s[1]: ".to_string(),
+        ),
+        (
+            r#"{"elst_down_s": [-1]}"#,
+            "test-sweep.json: axes.elst_down_s[0]: expected a value finite and >= 0, got -1"
+                .to_string(),
+        ),
+        (
+            r#"{"elst_down_s": {"from": 0, "to": 1e300, "steps": 2}}"#,
+            "test-sweep.json: axes.elst_down_s.to: ".to_string(),
+        ),
+        (
+            r#"{"window_deg": [0]}"#,
+            "test-sweep.json: axes.window_deg[0]: expected a value finite and > 0, got 0"
+                .to_string(),
+        ),
+        (
+            r#"{"window_deg": [1, 400]}"#,
+            "test-sweep.json: axes.window_deg[1]: ".to_string(),
+        ),
+    ] {
+        let e = error_of(&with_axes(axes));
+        assert!(
+            e.starts_with(&expected),
+            "{axes}: expected «{expected}», got «{e}»"
+        );
+    }
+    // The limits beyond physical sense are the machine format's, named as such.
+    let e = error_of(&with_axes(r#"{"jerk_deg_per_s3": [0.5, 1e300]}"#));
+    assert!(
+        e.contains("1e300") && e.contains("`gantry.max_jerk_deg_per_s3`"),
+        "{e}"
+    );
+
+    // A descending range is fine: its values run from `from` to `to`.
+    let sweep = from_text(&with_axes(
+        r#"{"jerk_deg_per_s3": {"from": 2, "to": 0.5, "steps": 4}}"#,
+    ))
+    .expect("descending range");
+    assert_eq!(sweep.runs[0].grid.jerk.values(), [2.0, 1.5, 1.0, 0.5]);
+    // One step from a value to itself is that value.
+    let sweep = from_text(&with_axes(
+        r#"{"jerk_deg_per_s3": {"from": 2, "to": 2, "steps": 1}}"#,
+    ))
+    .expect("one step");
+    assert_eq!(sweep.combinations(), 1);
+
+    // A machine with an explicit deceleration limit: A scales it, within what a machine accepts.
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-evaluator-decel");
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let atom = std::fs::read_to_string(scenarios().join("machine-atom.json")).expect("machine");
+    let decel = atom.replacen(
+        "\"max_accel_deg_per_s2\": 0.5,",
+        "\"max_accel_deg_per_s2\": 0.5, \"max_decel_deg_per_s2\": 1.0,",
+        1,
+    );
+    assert_ne!(decel, atom);
+    let machine = dir.join("machine-decel.json");
+    std::fs::write(&machine, decel).expect("write machine");
+    let on_decel = |accel: &str| {
+        let text = with_axes(&format!("{{\"accel_deg_per_s2\": {accel}}}")).replace(
+            "\"machine-atom.json\"",
+            &format!("{:?}", machine.display().to_string()),
+        );
+        from_text(&text)
+    };
+    assert!(on_decel("[0.25, 1]").is_ok());
+    let e = on_decel("[0.25, 800]").expect_err("D = 1600").to_string();
+    assert!(
+        e.starts_with("test-sweep.json: axes.accel_deg_per_s2[1]: A = 800 deg/s^2 scales the deceleration limit (1 deg/s^2 at A = 0.5 deg/s^2) to 1600 deg/s^2: "),
+        "{e}"
+    );
+    assert!(e.contains("`gantry.max_decel_deg_per_s2`"), "{e}");
+
+    // A UTF-8 byte-order mark, as some editors write it.
+    let bom = format!("\u{feff}{GOOD}");
+    assert!(parse_sweep_file(&bom, "bom.json").is_ok());
+    assert_eq!(from_text(&bom).expect("BOM").combinations(), 2);
+    let path = dir.join("bom-sweep.json");
+    std::fs::write(
+        &path,
+        bom.replace(
+            "\"../plans/",
+            &format!("\"{}/", scenarios().join("../plans").display()),
+        )
+        .replace(
+            "\"machine-atom.json\"",
+            &format!(
+                "{:?}",
+                scenarios().join("machine-atom.json").display().to_string()
+            ),
+        ),
+    )
+    .expect("write sweep");
+    assert_eq!(Sweep::load(&path).expect("BOM file").combinations(), 2);
+}
+
+/// A reference file that is not the ATOM cases file is named in the error.
+#[test]
+fn wrong_atom_reference_file_is_named() {
+    let dir = std::env::temp_dir().join(format!("arcsim-ref-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    std::fs::write(dir.join("wrong.json"), r#"{"something": "else"}"#).expect("write");
+    let text = r#"{"format": "arcsim-sweep/1", "name": "t",
+        "plans": [{"atom_case": "liver", "reference": "wrong.json"}], "machine": "m.json",
+        "axes": {"jerk_deg_per_s3": [0.5]}, "schedules": ["scan"]}"#;
+    std::fs::write(dir.join("s.json"), text).expect("write");
+    let machine = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/machine-atom.json");
+    std::fs::copy(machine, dir.join("m.json")).expect("machine");
+    let err = arcsim_evaluator::Sweep::load(&dir.join("s.json"))
+        .map(|_| ())
+        .expect_err("a wrong reference fails")
+        .to_string();
+    assert!(err.contains("wrong.json"), "{err}");
 }

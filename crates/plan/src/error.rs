@@ -238,3 +238,18 @@ fn push_field(field: &mut String, name: &str) {
     }
     field.push_str(name);
 }
+
+/// A number as messages show it: at most 10 significant digits (no float noise such as
+/// 2.0100000000000002), and in exponent form when very large or small (1e308, not 309 digits).
+pub fn fmt_num(x: f64) -> String {
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    let rounded: f64 = format!("{x:.9e}").parse().unwrap_or(x);
+    let a = rounded.abs();
+    if a != 0.0 && !(1e-4..1e9).contains(&a) {
+        format!("{rounded:e}")
+    } else {
+        format!("{rounded}")
+    }
+}

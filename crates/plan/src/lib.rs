@@ -15,10 +15,16 @@ mod resolve;
 mod validate;
 
 pub use atom::{atom_case_plan, ATOM_PLACEHOLDER_MIN_ENERGY_MEV};
-pub use error::{PlanError, PlanIssue};
+pub use error::{fmt_num, PlanError, PlanIssue};
 pub use generate::{generate, to_json, PlanKind};
 pub use load::{load_machine, load_plan, parse_machine, parse_plan};
-pub use machine::validate_machine;
+pub use machine::{
+    validate_machine, ACCEL_RANGE_DEG_PER_S2, JERK_RANGE_DEG_PER_S3, MAX_BEAM_TIME_S,
+    MAX_ELST_COEFFS, MAX_SWITCH_TIME_S, SERVO_PERIOD_RANGE_S, SPEED_RANGE_DEG_PER_S,
+};
 pub use model::*;
 pub use resolve::{layer_irradiation_time_s, resolve, spots_irradiation_time_s};
-pub use validate::{validate_plan, ENERGY_RANGE_MEV};
+pub use validate::{
+    validate_plan, ENERGY_RANGE_MEV, MAX_ANGLE_DEG, MAX_LAYER_TIME_S, MAX_SPEED_DEG_PER_S,
+    MAX_SPOTS_PER_LAYER, MAX_SPOT_MU,
+};

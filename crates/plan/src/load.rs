@@ -60,6 +60,8 @@ fn parse_json<T: DeserializeOwned>(
     source_name: &str,
     format: &str,
 ) -> Result<T, PlanError> {
+    // A byte-order mark (some Windows editors write one) is not JSON; skip it.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut de = serde_json::Deserializer::from_str(text);
     let parsed: Result<T, _> = serde_path_to_error::deserialize(&mut de);
     match parsed {

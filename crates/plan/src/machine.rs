@@ -1,9 +1,26 @@
 //! Machine-model validation: limits must be positive and finite, times non-negative, so that the
 //! sequencer never divides by zero or turns a bad file into NaN.
 
-use crate::error::{At, PlanIssue};
+use crate::error::{fmt_num, At, PlanIssue};
 use crate::model::{ElstModel, Machine, MACHINE_FORMAT};
 use crate::validate::ENERGY_RANGE_MEV;
+
+/// Gantry limits arcsim accepts. They span every real gantry (V 1–10 deg/s, A 0.1–5 deg/s²,
+/// J 0.1–10 deg/s³) by orders of magnitude for what-if studies; beyond them a move's durations
+/// and distances differ by so many orders that the planner's exact checks lose their precision.
+pub const SPEED_RANGE_DEG_PER_S: (f64, f64) = (1e-3, 1e3);
+/// See [`SPEED_RANGE_DEG_PER_S`].
+pub const ACCEL_RANGE_DEG_PER_S2: (f64, f64) = (1e-3, 1e3);
+/// See [`SPEED_RANGE_DEG_PER_S`].
+pub const JERK_RANGE_DEG_PER_S3: (f64, f64) = (1e-3, 1e4);
+/// Accepted servo periods, seconds: from a 1 µs control loop to a 1 s step.
+pub const SERVO_PERIOD_RANGE_S: (f64, f64) = (1e-6, 1.0);
+/// Largest accepted energy-switching time, seconds (over a day).
+pub const MAX_SWITCH_TIME_S: f64 = 1e5;
+/// Largest accepted per-spot and per-MU beam time, seconds.
+pub const MAX_BEAM_TIME_S: f64 = 10.0;
+/// Most coefficients of an ELST polynomial (degree 15).
+pub const MAX_ELST_COEFFS: usize = 16;
 
 /// Checks every rule of the machine format and returns all problems found (empty when valid).
 pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
@@ -18,53 +35,81 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
         );
     }
     let g = &machine.gantry;
-    m.check(
+    m.range(
         "gantry.max_speed_deg_per_s",
         g.max_speed_deg_per_s,
-        true,
+        SPEED_RANGE_DEG_PER_S,
         "deg/s",
     );
-    m.check(
+    m.range(
         "gantry.max_accel_deg_per_s2",
         g.max_accel_deg_per_s2,
-        true,
+        ACCEL_RANGE_DEG_PER_S2,
         "deg/s^2",
     );
     if let Some(d) = g.max_decel_deg_per_s2 {
-        m.check("gantry.max_decel_deg_per_s2", d, true, "deg/s^2");
+        m.range(
+            "gantry.max_decel_deg_per_s2",
+            d,
+            ACCEL_RANGE_DEG_PER_S2,
+            "deg/s^2",
+        );
     }
-    m.check(
+    m.range(
         "gantry.max_jerk_deg_per_s3",
         g.max_jerk_deg_per_s3,
-        true,
+        JERK_RANGE_DEG_PER_S3,
         "deg/s^3",
     );
     let b = &machine.beam;
     m.check("beam.s_per_mu", b.s_per_mu, true, "s/MU");
     m.check("beam.spot_switch_time_s", b.spot_switch_time_s, false, "s");
     m.check("beam.min_spot_time_s", b.min_spot_time_s, false, "s");
+    for (field, x) in [
+        ("beam.s_per_mu", b.s_per_mu),
+        ("beam.spot_switch_time_s", b.spot_switch_time_s),
+        ("beam.min_spot_time_s", b.min_spot_time_s),
+    ] {
+        m.at_most(field, x, MAX_BEAM_TIME_S, "s");
+    }
     match &machine.elst {
         ElstModel::Constant {
             up_s,
             down_s,
             same_s,
         } => {
-            m.check("elst.up_s", *up_s, false, "s");
-            m.check("elst.down_s", *down_s, false, "s");
-            m.check("elst.same_s", *same_s, false, "s");
+            for (field, x) in [
+                ("elst.up_s", *up_s),
+                ("elst.down_s", *down_s),
+                ("elst.same_s", *same_s),
+            ] {
+                m.check(field, x, false, "s");
+                m.at_most(field, x, MAX_SWITCH_TIME_S, "s");
+            }
         }
         ElstModel::Polynomial {
             down_s,
             same_s,
             up_coeffs_s,
         } => {
-            m.check("elst.down_s", *down_s, false, "s");
-            m.check("elst.same_s", *same_s, false, "s");
-            let mut coeffs_ok = !up_coeffs_s.is_empty();
+            for (field, x) in [("elst.down_s", *down_s), ("elst.same_s", *same_s)] {
+                m.check(field, x, false, "s");
+                m.at_most(field, x, MAX_SWITCH_TIME_S, "s");
+            }
+            let mut coeffs_ok = (1..=MAX_ELST_COEFFS).contains(&up_coeffs_s.len());
             if up_coeffs_s.is_empty() {
                 m.push(
                     "elst.up_coeffs_s",
                     "no coefficients; expected at least one (the constant term)".into(),
+                );
+            } else if up_coeffs_s.len() > MAX_ELST_COEFFS {
+                m.push(
+                    "elst.up_coeffs_s",
+                    format!(
+                        "{} coefficients; expected at most {MAX_ELST_COEFFS} (degree {})",
+                        up_coeffs_s.len(),
+                        MAX_ELST_COEFFS - 1
+                    ),
                 );
             }
             for (i, c) in up_coeffs_s.iter().enumerate() {
@@ -72,27 +117,25 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
                     coeffs_ok = false;
                     m.push(
                         &format!("elst.up_coeffs_s[{i}]"),
-                        format!("expected a finite coefficient, got {c}"),
+                        format!("expected a finite coefficient, got {}", fmt_num(*c)),
                     );
                 }
             }
             if coeffs_ok {
-                // The polynomial must give a usable time for every possible upward step.
+                // Every possible upward step must get a usable time: the polynomial's extremes
+                // on the whole range of steps, found exactly (at the ends and where it turns).
                 let span = ENERGY_RANGE_MEV.1 - ENERGY_RANGE_MEV.0;
-                let steps = (0..=399).map(|i| {
-                    if i == 0 {
-                        1e-3
-                    } else {
-                        f64::from(i) * span / 399.0
-                    }
-                });
-                if let Some((de, t)) = steps
-                    .map(|de| (de, machine.elst.switch_time_s(0.0, de)))
-                    .find(|(_, t)| !t.is_finite() || *t < 0.0)
-                {
+                let (min_at, min) = poly_extreme(up_coeffs_s, 0.0, span, |a, b| a < b);
+                let (max_at, max) = poly_extreme(up_coeffs_s, 0.0, span, |a, b| a > b);
+                if !(min.is_finite() && min >= 0.0) {
                     m.push(
                         "elst.up_coeffs_s",
-                        format!("upward switching time is {t} s for an energy step of {de} MeV; expected a finite value >= 0 for every step up to {span} MeV"),
+                        format!("upward switching time is {} s for an energy step of {} MeV; expected a time >= 0 s for every step up to {span} MeV", fmt_num(min), fmt_num(min_at)),
+                    );
+                } else if !(max.is_finite() && max <= MAX_SWITCH_TIME_S) {
+                    m.push(
+                        "elst.up_coeffs_s",
+                        format!("upward switching time is {} s for an energy step of {} MeV; expected at most {} s for every step up to {span} MeV", fmt_num(max), fmt_num(max_at), fmt_num(MAX_SWITCH_TIME_S)),
                     );
                 }
             }
@@ -104,10 +147,87 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
         true,
         "deg",
     );
+    m.at_most(
+        "default_window_deg",
+        machine.default_window_deg,
+        360.0,
+        "deg",
+    );
     if let Some(p) = machine.servo_period_s {
-        m.check("servo_period_s", p, true, "s");
+        m.range("servo_period_s", p, SERVO_PERIOD_RANGE_S, "s");
     }
     m.issues
+}
+
+/// Value of the polynomial `Σ c[i] x^i`.
+fn poly(c: &[f64], x: f64) -> f64 {
+    c.iter().rev().fold(0.0, |acc, k| acc * x + k)
+}
+
+/// Real roots of the polynomial `c` in `[a, b]`, ascending: between consecutive turning points
+/// (the roots of its derivative, found the same way) the polynomial is monotone, so each sign
+/// change there holds exactly one root, found by bisection. Degree ≤ [`MAX_ELST_COEFFS`] bounds
+/// the recursion.
+fn poly_roots(c: &[f64], a: f64, b: f64) -> Vec<f64> {
+    let c = match c.iter().rposition(|&k| k != 0.0) {
+        Some(last) => &c[..=last],
+        None => return Vec::new(),
+    };
+    if c.len() < 2 {
+        return Vec::new();
+    }
+    let deriv: Vec<f64> = c[1..]
+        .iter()
+        .enumerate()
+        .map(|(i, k)| (i + 1) as f64 * k)
+        .collect();
+    let mut cuts = vec![a];
+    cuts.extend(poly_roots(&deriv, a, b));
+    cuts.push(b);
+    let mut roots = Vec::new();
+    for w in cuts.windows(2) {
+        let (mut lo, mut hi) = (w[0], w[1]);
+        let (flo, fhi) = (poly(c, lo), poly(c, hi));
+        if flo == 0.0 {
+            roots.push(lo);
+            continue;
+        }
+        if flo.signum() == fhi.signum() {
+            continue;
+        }
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if mid <= lo || mid >= hi {
+                break;
+            }
+            if poly(c, mid).signum() == flo.signum() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        roots.push(0.5 * (lo + hi));
+    }
+    roots
+}
+
+/// The extreme value of the polynomial on `[a, b]` in the sense of `better` (`<`: minimum), and
+/// where it is: at an end or at a root of the derivative.
+fn poly_extreme(c: &[f64], a: f64, b: f64, better: impl Fn(f64, f64) -> bool) -> (f64, f64) {
+    let deriv: Vec<f64> = c
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(i, k)| i as f64 * k)
+        .collect();
+    let mut best = (a, poly(c, a));
+    for x in poly_roots(&deriv, a, b).into_iter().chain([b]) {
+        let y = poly(c, x);
+        if y.is_nan() || better(y, best.1) {
+            best = (x, y);
+        }
+    }
+    best
 }
 
 struct Checker<'a> {
@@ -121,6 +241,35 @@ impl Checker<'_> {
             .push(PlanIssue::new(self.source, At::top(), field, message));
     }
 
+    /// Requires `x` finite and within `range` (both ends included).
+    fn range(&mut self, field: &str, x: f64, range: (f64, f64), unit: &str) {
+        if !(x.is_finite() && x >= range.0 && x <= range.1) {
+            self.push(
+                field,
+                format!(
+                    "expected a value from {} to {} {unit}, got {}",
+                    fmt_num(range.0),
+                    fmt_num(range.1),
+                    fmt_num(x)
+                ),
+            );
+        }
+    }
+
+    /// Adds an issue when the finite `x` is above `max`.
+    fn at_most(&mut self, field: &str, x: f64, max: f64, unit: &str) {
+        if x.is_finite() && x > max {
+            self.push(
+                field,
+                format!(
+                    "{} {unit} is above the largest accepted value, {} {unit}",
+                    fmt_num(x),
+                    fmt_num(max)
+                ),
+            );
+        }
+    }
+
     /// Requires `x` finite and `> 0` (`positive`) or `>= 0`.
     fn check(&mut self, field: &str, x: f64, positive: bool, unit: &str) {
         let ok = x.is_finite() && if positive { x > 0.0 } else { x >= 0.0 };
@@ -128,7 +277,7 @@ impl Checker<'_> {
             let bound = if positive { "> 0" } else { ">= 0" };
             self.push(
                 field,
-                format!("expected a finite value {bound} {unit}, got {x}"),
+                format!("expected a finite value {bound} {unit}, got {}", fmt_num(x)),
             );
         }
     }

@@ -1,11 +1,23 @@
 //! Plan validation: every rule of the format checked on a parsed plan, with ALL problems collected so
 //! a user fixes a file in one pass instead of one error per run.
 
-use crate::error::{At, PlanIssue};
+use crate::error::{fmt_num, At, PlanIssue};
 use crate::model::{ArcPlan, ControlPoint, EnergyLayer, Spots, PLAN_FORMAT};
 
 /// Lowest and highest nominal beam energy accepted, MeV.
 pub const ENERGY_RANGE_MEV: (f64, f64) = (1.0, 400.0);
+
+/// Largest accepted magnitude of a control-point angle, degrees: far beyond any gantry's travel
+/// (a few turns at most), small enough that angle differences keep their precision.
+pub const MAX_ANGLE_DEG: f64 = 1e4;
+/// Largest accepted time of a layer (irradiation, switching), seconds: over a day.
+pub const MAX_LAYER_TIME_S: f64 = 1e5;
+/// Largest accepted speed, deg/s (as for the gantry's V).
+pub const MAX_SPEED_DEG_PER_S: f64 = crate::machine::SPEED_RANGE_DEG_PER_S.1;
+/// Largest accepted MU of one spot and of one layer's `total_mu`.
+pub const MAX_SPOT_MU: f64 = 1e6;
+/// Largest accepted spot count of one layer: real layers have hundreds to a few thousand.
+pub const MAX_SPOTS_PER_LAYER: u32 = 1_000_000;
 
 /// Slack when comparing a window with the control-point spacing, so 1.0 vs 0.9999999999 is not an error.
 const SPACING_TOLERANCE_DEG: f64 = 1e-9;
@@ -57,7 +69,20 @@ pub fn validate_plan(plan: &ArcPlan, source: &str) -> Vec<PlanIssue> {
                 v.push(
                     at,
                     "angle_deg",
-                    format!("expected a finite angle in degrees, got {}", cp.angle_deg),
+                    format!(
+                        "expected a finite angle in degrees, got {}",
+                        fmt_num(cp.angle_deg)
+                    ),
+                );
+            } else if cp.angle_deg.abs() > MAX_ANGLE_DEG {
+                v.push(
+                    at,
+                    "angle_deg",
+                    format!(
+                        "{} deg is beyond ±{} deg; expected a gantry angle in degrees",
+                        fmt_num(cp.angle_deg),
+                        fmt_num(MAX_ANGLE_DEG)
+                    ),
                 );
             } else if c > 0 {
                 let prev = arc.control_points[c - 1].angle_deg;
@@ -69,7 +94,7 @@ pub fn validate_plan(plan: &ArcPlan, source: &str) -> Vec<PlanIssue> {
                             "angle_deg",
                             format!(
                                 "duplicate angle {} deg: control point {} has the same angle; expected each angle once per arc",
-                                cp.angle_deg,
+                                fmt_num(cp.angle_deg),
                                 c - 1
                             ),
                         );
@@ -80,10 +105,10 @@ pub fn validate_plan(plan: &ArcPlan, source: &str) -> Vec<PlanIssue> {
                             "angle_deg",
                             format!(
                                 "angle {} deg goes against the arc's {dir} direction after control point {} at {} deg; expected {want} than {}",
-                                cp.angle_deg,
+                                fmt_num(cp.angle_deg),
                                 c - 1,
-                                prev,
-                                prev
+                                fmt_num(prev),
+                                fmt_num(prev)
                             ),
                         );
                     }
@@ -130,7 +155,22 @@ impl Validator<'_> {
             self.push(
                 at,
                 field,
-                format!("expected {what} {bound}, got {x} ({why})"),
+                format!("expected {what} {bound}, got {} ({why})", fmt_num(x)),
+            );
+        }
+    }
+
+    /// Adds an issue when `x` (already known finite and in range below) is above `max`.
+    fn at_most(&mut self, at: At, field: &str, x: f64, max: f64, unit: &str, why: &str) {
+        if x.is_finite() && x > max {
+            self.push(
+                at,
+                field,
+                format!(
+                    "{} {unit} is above the largest accepted value, {} {unit} ({why})",
+                    fmt_num(x),
+                    fmt_num(max)
+                ),
             );
         }
     }
@@ -152,10 +192,20 @@ impl Validator<'_> {
                 false,
                 "a speed magnitude in deg/s",
             );
+            self.at_most(
+                at,
+                "required_speed_deg_per_s",
+                s,
+                MAX_SPEED_DEG_PER_S,
+                "deg/s",
+                "the fastest gantry speed arcsim models",
+            );
         }
         if let Some(w) = cp.window_deg {
             if bad_number(w, 0.0, false).is_some() {
                 self.number(at, "window_deg", w, true, "a window width in degrees");
+            } else if w > 360.0 {
+                self.at_most(at, "window_deg", w, 360.0, "deg", "a full turn");
             } else {
                 let neighbours = [(before, c.wrapping_sub(1)), (after, c + 1)];
                 let tightest = neighbours
@@ -168,7 +218,7 @@ impl Validator<'_> {
                             at,
                             "window_deg",
                             format!(
-                                "window {w} deg is wider than the {s} deg spacing to control point {n}; expected at most {s} deg"
+                                "window {} deg is wider than the {} deg spacing to control point {n}; expected at most {} deg", fmt_num(w), fmt_num(s), fmt_num(s)
                             ),
                         );
                     }
@@ -191,7 +241,7 @@ impl Validator<'_> {
             self.push(
                 at,
                 "energy_mev",
-                format!("expected an energy in {lo}..={hi} MeV, got {e}"),
+                format!("expected an energy in {lo}..={hi} MeV, got {}", fmt_num(e)),
             );
         }
         match (&layer.spots, layer.irradiation_time_s) {
@@ -215,6 +265,14 @@ impl Validator<'_> {
                 true,
                 "an irradiation time in seconds",
             );
+            self.at_most(
+                at,
+                "irradiation_time_s",
+                t,
+                MAX_LAYER_TIME_S,
+                "s",
+                "over a day",
+            );
         }
         if let Some(spots) = &layer.spots {
             self.spots(at, spots);
@@ -226,6 +284,14 @@ impl Validator<'_> {
                 t,
                 false,
                 "a switching time in seconds",
+            );
+            self.at_most(
+                at,
+                "switching_time_s",
+                t,
+                MAX_LAYER_TIME_S,
+                "s",
+                "over a day",
             );
             if first_of_plan {
                 self.push(
@@ -240,6 +306,15 @@ impl Validator<'_> {
     fn spots(&mut self, at: At, spots: &Spots) {
         if spots.count == 0 {
             self.push(at, "spots.count", "expected at least 1 spot, got 0");
+        } else if spots.count > MAX_SPOTS_PER_LAYER {
+            self.push(
+                at,
+                "spots.count",
+                format!(
+                    "{} spots in one layer is above the largest accepted count, {MAX_SPOTS_PER_LAYER}",
+                    spots.count
+                ),
+            );
         }
         match (&spots.mu, spots.total_mu) {
             (Some(_), Some(_)) => self.push(
@@ -273,6 +348,16 @@ impl Validator<'_> {
                         false,
                         "a spot weight in MU",
                     );
+                } else if m > MAX_SPOT_MU {
+                    all_good = false;
+                    self.at_most(
+                        at,
+                        &format!("spots.mu[{i}]"),
+                        m,
+                        MAX_SPOT_MU,
+                        "MU",
+                        "no spot delivers that much",
+                    );
                 }
             }
             let sum: f64 = mu.iter().sum();
@@ -292,6 +377,14 @@ impl Validator<'_> {
         }
         if let Some(t) = spots.total_mu {
             self.number(at, "spots.total_mu", t, true, "a total weight in MU");
+            self.at_most(
+                at,
+                "spots.total_mu",
+                t,
+                MAX_SPOT_MU * f64::from(MAX_SPOTS_PER_LAYER),
+                "MU",
+                "no layer delivers that much",
+            );
         }
     }
 }

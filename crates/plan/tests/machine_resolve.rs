@@ -51,8 +51,8 @@ fn machine_limits_must_be_positive_and_finite() {
     let text = machine_issues(&v);
     for needle in [
         "m.json: field `format`: expected \"arcsim-machine/1\"",
-        "m.json: field `gantry.max_speed_deg_per_s`: expected a finite value > 0 deg/s, got 0",
-        "m.json: field `gantry.max_jerk_deg_per_s3`: expected a finite value > 0 deg/s^3, got -1",
+        "m.json: field `gantry.max_speed_deg_per_s`: expected a value from 0.001 to 1000 deg/s, got 0",
+        "m.json: field `gantry.max_jerk_deg_per_s3`: expected a value from 0.001 to 10000 deg/s^3, got -1",
         "m.json: field `gantry.max_decel_deg_per_s2`",
         "m.json: field `beam.spot_switch_time_s`: expected a finite value >= 0 s",
         "m.json: field `elst.down_s`",
@@ -119,12 +119,88 @@ fn polynomial_elst_is_validated() {
     assert_eq!(text.len(), 1, "{text:#?}");
     assert!(
         text[0].contains("field `elst.up_coeffs_s`: upward switching time is")
-            && text[0].contains("expected a finite value >= 0"),
+            && text[0].contains("expected a time >= 0 s"),
         "{text:#?}"
     );
 
     v["elst"]["up_coeffs_s"] = json!([]);
     assert!(machine_issues(&v)[0].contains("no coefficients"));
+    v["elst"]["up_coeffs_s"] = json!(vec![0.0; 17]);
+    assert!(machine_issues(&v)[0].contains("17 coefficients; expected at most 16"));
+}
+
+/// A polynomial positive at every one of 400 sampled steps but negative between two of them
+/// (a narrow dip of depth 0.2 s around 100.5 MeV) is found by the exact minimum.
+#[test]
+fn polynomial_elst_dip_between_samples_is_refused() {
+    // t(x) = 1.2·(x − 100.5)² − 0.2 ≥ 0 except for |x − 100.5| < 0.408; the old check sampled
+    // x = i·399/399 = i (and 1e-3), all outside the dip... at 100 and 101 it is +0.1.
+    let (c, r) = (1.2, 100.5);
+    let coeffs = [c * r * r - 0.2, -2.0 * c * r, c];
+    for x in [100.0, 101.0] {
+        let t: f64 = coeffs.iter().rev().fold(0.0, |acc, k| acc * x + k);
+        assert!(t > 0.0, "the sampled step {x} MeV must look fine: {t}");
+    }
+    let mut v = machine_json();
+    v["elst"] =
+        json!({ "kind": "polynomial", "down_s": 0.3, "same_s": 0.0, "up_coeffs_s": coeffs });
+    let text = machine_issues(&v);
+    assert_eq!(text.len(), 1, "{text:#?}");
+    assert!(
+        text[0].contains("upward switching time is -0.2 s for an energy step of 100.5 MeV"),
+        "{text:#?}"
+    );
+    // Far too slow a switch is refused too (and a sane one accepted).
+    v["elst"]["up_coeffs_s"] = json!([1.0, 0.0, 10.0]);
+    assert!(machine_issues(&v)[0].contains("expected at most 100000 s"));
+    v["elst"]["up_coeffs_s"] = json!([1.0, 0.03, 0.0001]);
+    assert!(parse_machine(&v.to_string(), "m.json").is_ok());
+}
+
+/// Limits outside the ranges where the planner keeps its precision are refused with the range.
+#[test]
+fn extreme_machine_values_are_refused_with_the_range() {
+    let mut v = machine_json();
+    v["gantry"]["max_jerk_deg_per_s3"] = json!(1e7);
+    v["gantry"]["max_speed_deg_per_s"] = json!(1e5);
+    v["gantry"]["max_accel_deg_per_s2"] = json!(1e-5);
+    v["servo_period_s"] = json!(1e300);
+    v["elst"]["up_s"] = json!(1e308);
+    v["beam"]["s_per_mu"] = json!(100.0);
+    let text = machine_issues(&v);
+    for needle in [
+        "`gantry.max_jerk_deg_per_s3`: expected a value from 0.001 to 10000 deg/s^3, got 10000000",
+        "`gantry.max_speed_deg_per_s`: expected a value from 0.001 to 1000 deg/s, got 100000",
+        "`gantry.max_accel_deg_per_s2`: expected a value from 0.001 to 1000 deg/s^2, got 1e-5",
+        "`servo_period_s`: expected a value from 1e-6 to 1 s, got 1e300",
+        "`elst.up_s`: 1e308 s is above the largest accepted value, 100000 s",
+        "`beam.s_per_mu`: 100 s is above the largest accepted value, 10 s",
+    ] {
+        assert!(
+            text.iter().any(|t| t.contains(needle)),
+            "{needle:?} not in {text:#?}"
+        );
+    }
+    assert_eq!(text.len(), 6, "{text:#?}");
+}
+
+#[test]
+fn extreme_plan_values_are_refused() {
+    let v = json!({ "format": "arcsim-plan/1", "name": "r", "arcs": [{ "direction": "CW", "control_points": [
+        { "angle_deg": 1e308, "layers": [{ "energy_mev": 150.0, "spots": { "count": 2, "mu": [1e307, 1.0] } }] },
+        { "angle_deg": 2.0, "layers": [{ "energy_mev": 150.0, "irradiation_time_s": 1e300, "switching_time_s": 1e308 }] }
+    ] }] });
+    let err = parse_plan(&v.to_string(), "r.json")
+        .unwrap_err()
+        .to_string();
+    for needle in [
+        "control point 0, field `angle_deg`: 1e308 deg is beyond ±10000 deg",
+        "field `spots.mu[0]`: 1e307 MU is above the largest accepted value, 1000000 MU",
+        "field `irradiation_time_s`: 1e300 s is above the largest accepted value, 100000 s",
+        "field `switching_time_s`: 1e308 s is above the largest accepted value, 100000 s",
+    ] {
+        assert!(err.contains(needle), "{needle:?} not in {err}");
+    }
 }
 
 #[test]
@@ -303,11 +379,16 @@ fn resolve_validates_plans_built_in_code() {
 
 #[test]
 fn overflowing_irradiation_time_fails_to_resolve() {
-    let p = plan(json!([{ "direction": "CW", "control_points": [
+    // Validation refuses such MU; resolving still guards a plan built without it.
+    let p: arcsim_plan::ArcPlan = serde_json::from_value(json!({ "format": "arcsim-plan/1", "name": "r", "arcs": [{ "direction": "CW", "control_points": [
         { "angle_deg": 0.0, "layers": [{ "energy_mev": 150.0, "spots": { "count": 2, "mu": [1e307, 1e307] } }] }
-    ] }]));
+    ] }] }))
+    .expect("parses without validation");
     let mut m = machine();
     m.beam.s_per_mu = 10.0;
     let err = resolve(&p, &m).unwrap_err().to_string();
-    assert!(err.contains("arc 0, control point 0, layer 0, field `spots`: irradiation time under machine \"test\" is inf s"), "{err}");
+    assert!(
+        err.contains("layer 0, field `spots.mu[0]`: 1e307 MU is above the largest accepted value"),
+        "{err}"
+    );
 }

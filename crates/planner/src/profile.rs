@@ -79,6 +79,9 @@ fn advance(p: f64, v: f64, a: f64, j: f64, t: f64) -> (f64, f64, f64) {
     )
 }
 
+/// Absolute position error (deg) every verification accepts, whatever the move's scale.
+const MIN_POSITION_SCALE_DEG: f64 = 1e-12;
+
 impl Profile {
     /// Builds a profile from a start state and segments; zero-length segments are dropped.
     /// Panics only if more than [`MAX_SEGMENTS`] non-empty segments are given (a planner bug).
@@ -291,6 +294,9 @@ impl Profile {
                 )))
             }
         };
+        // Positions also get an absolute floor far below any encoder's resolution: a move of
+        // 1e-14 deg cannot be placed on a servo grid to a relative 1e-9.
+        let pos_scale = pos_scale.max(MIN_POSITION_SCALE_DEG / tol.max(f64::MIN_POSITIVE));
         bad("end position", p, target_position, pos_scale)?;
         bad("end velocity", v, target_velocity, vel_scale)?;
         bad("end acceleration", a, 0.0, acc_scale)?;

@@ -123,18 +123,37 @@ pub(crate) fn scan(
     with_elst: bool,
     period: Option<f64>,
 ) -> (Vec<f64>, Vec<SpeedBound>) {
+    scan_converged(p, lim, caps, bounds, with_elst, period).unwrap_or_else(|| {
+        // Not settled after MAX_ROUNDS (never seen in continuous time): rest is always feasible.
+        (vec![0.0; p.len()], vec![SpeedBound::StepAndShoot; p.len()])
+    })
+}
+
+/// Rounds of passes after which [`scan_converged`] gives up.
+const MAX_ROUNDS: usize = 200;
+
+/// [`scan`], or `None` when the speeds have not settled after [`MAX_ROUNDS`] rounds (on a servo
+/// period, speeds on a reachability bound can keep failing the grid one neighbour after another).
+pub(crate) fn scan_converged(
+    p: &ArcProblem,
+    lim: &Limits,
+    caps: &[f64],
+    bounds: &[SpeedBound],
+    with_elst: bool,
+    period: Option<f64>,
+) -> Option<(Vec<f64>, Vec<SpeedBound>)> {
     let n = p.len();
     let mut v = caps.to_vec();
     let mut bound = bounds.to_vec();
     if n < 2 {
-        return (v, bound);
+        return Some((v, bound));
     }
     // Speeds only ever come down; each check is skipped while the pair it last passed with is
     // unchanged (most transitions settle in the first round).
     let mut braked_ok: Vec<Option<(f64, f64)>> = vec![None; n - 1];
     let mut sped_ok: Vec<Option<(f64, f64)>> = vec![None; n - 1];
     let mut move_ok: Vec<Option<(f64, f64)>> = vec![None; n - 1];
-    for round in 0..200 {
+    for round in 0..MAX_ROUNDS {
         let mut changed = false;
         for k in (0..n - 1).rev() {
             // Braking branch (v_k >= v_k+1): the highest start speed that still reaches v_k+1.
@@ -181,9 +200,11 @@ pub(crate) fn scan(
             if check != Check::Ok {
                 // Largest common factor that makes the transition feasible (rest always is), to
                 // 2^-12 of the range searched. Below the factor at which stopping fits in the
-                // gap, a stop and dwell lasts any ELST, so the search starts there.
+                // gap, a stop and dwell lasts any ELST (and any whole number of servo periods
+                // beyond it), so the search starts there, with or without a period: the same
+                // search keeps a period from choosing speeds whose transitions are shorter.
                 let (mut lo, mut hi) = (
-                    if with_elst && period.is_none() {
+                    if with_elst {
                         stop_fits_scale(p, k, v[k], v[k + 1], lim)
                     } else {
                         0.0
@@ -227,8 +248,11 @@ pub(crate) fn scan(
         if !changed {
             break;
         }
+        if round == MAX_ROUNDS - 1 {
+            return None;
+        }
     }
-    (v, bound)
+    Some((v, bound))
 }
 
 /// Largest factor `s` in [0, 1] such that the gantry can brake from `s·vs` to rest and start

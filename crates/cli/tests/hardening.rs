@@ -1,0 +1,412 @@
+//! The CLI under hostile or careless use: closed pipes, standard input and FIFOs, outputs that
+//! alias inputs or cannot be written, interrupted sweeps, absurd arguments and names. Each test
+//! reproduces a failure an adversarial probe found (a panic, a hang, a lost or overwritten file).
+
+#[path = "../../dicom/tests/fixtures/mod.rs"]
+mod fixtures;
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_arcsim"));
+    c.current_dir(repo());
+    c
+}
+
+fn arcsim(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run arcsim")
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn path_str(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// A sweep file of the prostate plan with `scan` over the given jerks (× accelerations).
+fn small_sweep(dir: &Path, name: &str, jerks: &[f64]) -> PathBuf {
+    sweep_file(dir, name, jerks, &[0.5])
+}
+
+fn sweep_file(dir: &Path, name: &str, jerks: &[f64], accels: &[f64]) -> PathBuf {
+    let plan = repo().join("plans/prostate.json");
+    let machine = repo().join("scenarios/machine-atom.json");
+    let text = serde_json::json!({
+        "format": "arcsim-sweep/1",
+        "name": name,
+        "plans": [plan.to_str().expect("utf-8")],
+        "machine": machine.to_str().expect("utf-8"),
+        "axes": { "jerk_deg_per_s3": jerks, "accel_deg_per_s2": accels },
+        "schedules": ["scan"]
+    });
+    let path = dir.join(format!("{name}.json"));
+    std::fs::write(&path, text.to_string()).expect("write sweep");
+    path
+}
+
+#[test]
+fn closed_stdout_ends_quietly() {
+    // head-neck's JSON is far larger than a pipe's buffer: the writer meets the closed pipe.
+    let mut child = bin()
+        .args(["generate-plan", "--kind", "head-neck", "--seed", "1"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let mut out = child.stdout.take().expect("stdout");
+    let mut first = [0u8; 16];
+    out.read_exact(&mut first).expect("some output");
+    drop(out);
+    let o = child.wait_with_output().expect("wait");
+    let err = stderr(&o);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(0), "{err}");
+}
+
+#[test]
+fn plans_read_once_from_stdin_and_fifos() {
+    let plan = std::fs::read(repo().join("plans/prostate.json")).expect("plan");
+    for arg in ["-", "/dev/stdin"] {
+        let mut child = bin()
+            .args([
+                "simulate",
+                arg,
+                "--schedule",
+                "scan",
+                "--motion",
+                "constant",
+            ])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn");
+        child
+            .stdin
+            .take()
+            .expect("stdin")
+            .write_all(&plan)
+            .expect("feed plan");
+        let o = child.wait_with_output().expect("wait");
+        assert!(o.status.success(), "{arg}: {}", stderr(&o));
+        assert!(stdout(&o).contains("plan prostate on atom"), "{arg}");
+    }
+
+    let dir = fixtures::temp_dir();
+    let fifo = dir.join("plan.fifo");
+    let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
+    assert!(made.success());
+    let fifo_w = fifo.clone();
+    let writer = std::thread::spawn(move || {
+        std::fs::write(&fifo_w, plan).expect("write into the FIFO");
+    });
+    let mut child = bin()
+        .args(["validate", path_str(&fifo)])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let started = Instant::now();
+    while child.try_wait().expect("poll").is_none() {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "validate hangs on a FIFO"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let o = child.wait_with_output().expect("wait");
+    writer.join().expect("writer");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("valid (prostate)"), "{}", stdout(&o));
+}
+
+#[test]
+fn outputs_never_overwrite_inputs_or_appear_half_done() {
+    let dir = fixtures::temp_dir();
+    let input = dir.join("in.json");
+    std::fs::copy(repo().join("plans/prostate.json"), &input).expect("copy");
+    let before = std::fs::read(&input).expect("read");
+
+    let o = arcsim(&[
+        "simulate",
+        path_str(&input),
+        "--json",
+        path_str(&input),
+        "--csv",
+        "nodir/x.csv",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("is also an input of this command"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(&input).expect("read"), before, "plan changed");
+
+    // A bad path among good ones: refused before the work, nothing written.
+    let json = dir.join("out.json");
+    let o = arcsim(&[
+        "simulate",
+        path_str(&input),
+        "--json",
+        path_str(&json),
+        "--csv",
+        path_str(&dir.join("nodir/x.csv")),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("does not exist"), "{}", stderr(&o));
+    assert!(!json.exists(), "an output was written before the failure");
+    // Two outputs on one file.
+    let o = arcsim(&[
+        "simulate",
+        path_str(&input),
+        "--json",
+        path_str(&json),
+        "--csv",
+        path_str(&json),
+    ]);
+    assert!(
+        stderr(&o).contains("the same file as --json"),
+        "{}",
+        stderr(&o)
+    );
+
+    // Success leaves exactly the outputs, no `.partial` files.
+    let o = arcsim(&[
+        "simulate",
+        path_str(&input),
+        "--schedule",
+        "scan",
+        "--motion",
+        "constant",
+        "--json",
+        path_str(&json),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.ends_with(".partial")), "{names:?}");
+    assert!(json.exists());
+}
+
+#[test]
+fn sweep_checks_outputs_and_threads_before_the_work() {
+    let dir = fixtures::temp_dir();
+    let sweep = small_sweep(&dir, "small", &[0.5, 1.0]);
+    let started = Instant::now();
+    let o = arcsim(&[
+        "sweep",
+        path_str(&sweep),
+        "--json",
+        path_str(&dir.join("nodir/x.json")),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--json"), "{}", stderr(&o));
+    assert!(
+        !stderr(&o).contains("evaluated"),
+        "the sweep ran first: {}",
+        stderr(&o)
+    );
+    let o = arcsim(&["sweep", path_str(&sweep), "--threads", "20000"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--threads 20000: expected 1 to 256"));
+    assert!(started.elapsed() < Duration::from_secs(30));
+}
+
+#[test]
+fn sweep_merge_leaves_no_bad_output() {
+    let dir = fixtures::temp_dir();
+    let a = small_sweep(&dir, "a", &[0.5, 1.0]);
+    let b = small_sweep(&dir, "b", &[2.0, 4.0]);
+    let (s1, s2) = (dir.join("s1.csv"), dir.join("s2.csv"));
+    for (sweep, shard, out) in [(&a, "1/2", &s1), (&b, "2/2", &s2)] {
+        let o = arcsim(&[
+            "sweep",
+            path_str(sweep),
+            "--shard",
+            shard,
+            "--out",
+            path_str(out),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let merged = dir.join("merged.csv");
+    let o = arcsim(&[
+        "sweep-merge",
+        path_str(&s1),
+        path_str(&s2),
+        "--sweep",
+        path_str(&a),
+        "--out",
+        path_str(&merged),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(!merged.exists(), "a mixed merge was written");
+    // An output that is one of the inputs is refused.
+    let o = arcsim(&["sweep-merge", path_str(&s1), "--out", path_str(&s1)]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
+#[cfg(unix)]
+#[test]
+fn sighup_saves_a_sweep_like_ctrl_c() {
+    let dir = fixtures::temp_dir();
+    // About 20 s of work on one thread: the signal arrives in the middle.
+    let jerks: Vec<f64> = (1..=400).map(|i| 0.1 + 0.01 * f64::from(i)).collect();
+    let accels: Vec<f64> = (1..=50).map(|i| 0.1 + 0.02 * f64::from(i)).collect();
+    let sweep = sweep_file(&dir, "long", &jerks, &accels);
+    let json = dir.join("partial.json");
+    let child = bin()
+        .args([
+            "sweep",
+            path_str(&sweep),
+            "--threads",
+            "1",
+            "--json",
+            path_str(&json),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    std::thread::sleep(Duration::from_millis(1500));
+    let killed = Command::new("kill")
+        .args(["-HUP", &child.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(killed.success());
+    let o = child.wait_with_output().expect("wait");
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json saved")).expect("json");
+    assert_eq!(v["complete"], serde_json::json!(false));
+}
+
+#[test]
+fn long_deliveries_need_no_sampling_without_sampled_outputs() {
+    let o = arcsim(&[
+        "simulate",
+        "plans/prostate.json",
+        "--schedule",
+        "scan",
+        "--motion",
+        "constant",
+        "--dt",
+        "1e-6",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dir = fixtures::temp_dir();
+    let csv = dir.join("t.csv");
+    let o = arcsim(&[
+        "simulate",
+        "plans/prostate.json",
+        "--schedule",
+        "scan",
+        "--motion",
+        "constant",
+        "--dt",
+        "1e-6",
+        "--csv",
+        path_str(&csv),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("more than 5e7 samples"));
+}
+
+#[test]
+fn clearer_errors_for_careless_input() {
+    let dir = fixtures::temp_dir();
+    // A byte-order mark is skipped.
+    let mut bom = b"\xef\xbb\xbf".to_vec();
+    bom.extend(std::fs::read(repo().join("plans/prostate.json")).expect("plan"));
+    let plan = dir.join("bom.json");
+    std::fs::write(&plan, bom).expect("write");
+    let o = arcsim(&["validate", path_str(&plan)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // A negative limit is a value, not an unknown flag.
+    let o = arcsim(&[
+        "profile",
+        "--distance",
+        "10",
+        "--v-start",
+        "0",
+        "--v-end",
+        "0",
+        "--jerk",
+        "1",
+        "--accel",
+        "-1",
+        "--vel",
+        "2",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("max_accel = -1: expected a finite number > 0"),
+        "{}",
+        stderr(&o)
+    );
+
+    // Terminal escapes in a name are shown, not obeyed; huge numbers stay short.
+    let mut v: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("plans/prostate.json")).expect("plan"),
+    )
+    .expect("json");
+    v["name"] = serde_json::json!("evil\u{1b}[2J\u{1b}[31mred");
+    let named = dir.join("named.json");
+    std::fs::write(&named, v.to_string()).expect("write");
+    let o = arcsim(&["validate", path_str(&named)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stdout(&o).contains('\u{1b}'), "{}", stdout(&o));
+    assert!(stdout(&o).contains("evil\\u{1b}[2J"), "{}", stdout(&o));
+    v["arcs"][0]["control_points"][0]["angle_deg"] = serde_json::json!(1e308);
+    std::fs::write(&named, v.to_string()).expect("write");
+    let o = arcsim(&["validate", path_str(&named)]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(!err.contains('\u{1b}'), "{err}");
+    assert!(err.contains("1e308 deg is beyond ±10000 deg"), "{err}");
+    assert!(err.len() < 2000, "{err}");
+}
+
+#[test]
+fn extreme_limits_are_refused_with_the_range() {
+    let dir = fixtures::temp_dir();
+    let mut m: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/machine-atom.json")).expect("machine"),
+    )
+    .expect("json");
+    m["gantry"]["max_jerk_deg_per_s3"] = serde_json::json!(1e7);
+    let path = dir.join("m.json");
+    std::fs::write(&path, m.to_string()).expect("write");
+    let o = arcsim(&[
+        "simulate",
+        "plans/head-neck.json",
+        "--machine",
+        path_str(&path),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("expected a value from 0.001 to 10000 deg/s^3, got 10000000"),
+        "{}",
+        stderr(&o)
+    );
+    let o = arcsim(&["simulate", "plans/prostate.json", "--period", "1e300"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--period 1e300"), "{}", stderr(&o));
+}

@@ -1,0 +1,302 @@
+//! A bounded adversarial probe of the `arcsim` binary: seeded byte and number mutations of the
+//! bundled plan, machine and sweep files and of a DICOM RT Ion Plan, each run through the command
+//! that reads it. Every run must end with exit code 0, 1 or 2, print no panic, write no NaN or
+//! infinity, finish within its time limit and stay under 1 GiB of address space.
+//!
+//! `probe_bounded` runs for `ARCSIM_PROBE_SECONDS` (default 45 s) in the normal test suite;
+//! `probe_long` (ignored) runs for 20 minutes: `cargo test -p arcsim --test probe -- --ignored`.
+
+#[path = "../../dicom/tests/fixtures/mod.rs"]
+mod fixtures;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Deterministic generator (xorshift64*): the same seed gives the same probe.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+/// Numbers a careless or hostile file might hold.
+const EXTREMES: &[&str] = &[
+    "0",
+    "-0",
+    "-1",
+    "1e308",
+    "-1e308",
+    "1e-308",
+    "5e-324",
+    "1e300",
+    "4294967296",
+    "1e7",
+    "1e-9",
+    "99999999999999999999",
+    "0.0000001",
+    "360",
+    "-360",
+    "1e5",
+    "2",
+    "NaN",
+    "\"x\"",
+    "null",
+    "[]",
+    "{}",
+    "true",
+];
+
+fn mutate(rng: &mut Rng, seed: &[u8], text: bool) -> Vec<u8> {
+    let mut b = seed.to_vec();
+    for _ in 0..=rng.below(3) {
+        if b.is_empty() {
+            break;
+        }
+        let i = rng.below(b.len());
+        match rng.below(if text { 7 } else { 5 }) {
+            0 => b[i] ^= 1 << rng.below(8),
+            1 => {
+                b.remove(i);
+            }
+            2 => b.truncate(i),
+            3 => {
+                let j = (i + 1 + rng.below(64)).min(b.len());
+                let chunk = b[i..j].to_vec();
+                b.splice(i..i, chunk);
+            }
+            4 => b[i] = rng.next() as u8,
+            _ => {
+                // Replace the number (or token) starting near i with an extreme value.
+                let start = b[i..]
+                    .iter()
+                    .position(|c| c.is_ascii_digit())
+                    .map_or(i, |p| i + p);
+                let end = b[start..]
+                    .iter()
+                    .position(|c| !(c.is_ascii_digit() || b".eE+-".contains(c)))
+                    .map_or(b.len(), |p| start + p);
+                let with = EXTREMES[rng.below(EXTREMES.len())].as_bytes();
+                b.splice(start..end, with.iter().copied());
+            }
+        }
+    }
+    b
+}
+
+struct Target {
+    name: &'static str,
+    seed: Vec<u8>,
+    text: bool,
+    /// The command, with `{}` for the mutated file and `{out}` for an output path.
+    args: &'static [&'static str],
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn read(rel: &str) -> Vec<u8> {
+    std::fs::read(repo().join(rel)).expect("bundled file")
+}
+
+fn targets() -> Vec<Target> {
+    // A small sweep: two plans' worth of settings at most, whatever the mutation does to it...
+    let sweep = serde_json::json!({
+        "format": "arcsim-sweep/1",
+        "name": "probe",
+        "plans": [repo().join("plans/prostate.json").to_str().expect("utf-8")],
+        "machine": repo().join("scenarios/machine-atom.json").to_str().expect("utf-8"),
+        "axes": { "jerk_deg_per_s3": [0.5, 1], "accel_deg_per_s2": { "from": 0.25, "to": 1, "steps": 2 } },
+        "schedules": ["scan", { "schedule": "optimal", "axes": { "jerk_deg_per_s3": [1] } }]
+    });
+    vec![
+        Target {
+            name: "plan.json",
+            seed: read("plans/prostate.json"),
+            text: true,
+            args: &[
+                "simulate",
+                "{}",
+                "--schedule",
+                "scan",
+                "--motion",
+                "constant",
+                "--json",
+                "{out}",
+            ],
+        },
+        Target {
+            name: "plan.json",
+            seed: read("plans/two-arc.json"),
+            text: true,
+            args: &["validate", "{}"],
+        },
+        Target {
+            name: "machine.json",
+            seed: read("scenarios/machine-atom.json"),
+            text: true,
+            args: &[
+                "simulate",
+                "plans/prostate.json",
+                "--machine",
+                "{}",
+                "--schedule",
+                "scan",
+                "--motion",
+                "constant",
+                "--json",
+                "{out}",
+            ],
+        },
+        Target {
+            name: "sweep.json",
+            seed: sweep.to_string().into_bytes(),
+            text: true,
+            args: &["sweep", "{}", "--threads", "2", "--json", "{out}"],
+        },
+        Target {
+            name: "plan.dcm",
+            seed: fixtures::dynamic_arc_plan().to_bytes(),
+            text: false,
+            args: &["import", "{}", "-o", "{out}"],
+        },
+    ]
+}
+
+/// Whether `text` holds a NaN or an infinity as a word (not "infeasible").
+fn has_non_finite(text: &str) -> bool {
+    text.split(|c: char| !(c.is_ascii_alphanumeric()))
+        .any(|w| matches!(w, "NaN" | "nan" | "inf" | "infinity" | "Infinity"))
+}
+
+/// Runs one command under a 1 GiB address-space limit and a time limit; `Err` says what broke.
+fn run_one(args: &[String], limit: Duration) -> Result<(), String> {
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 1048576 && exec \"$@\"")
+        .arg("sh")
+        .arg(env!("CARGO_BIN_EXE_arcsim"))
+        .args(args)
+        .current_dir(repo())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("spawn: {e}"))?;
+    // Drain the pipes on threads so a chatty child cannot block.
+    let mut out = child.stdout.take().expect("stdout");
+    let mut err = child.stderr.take().expect("stderr");
+    let out_t = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut out, &mut s);
+        s
+    });
+    let err_t = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut err, &mut s);
+        s
+    });
+    let started = Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().map_err(|e| e.to_string())? {
+            break st;
+        }
+        if started.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!("no answer within {} s", limit.as_secs()));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let (stdout, stderr) = (
+        out_t.join().unwrap_or_default(),
+        err_t.join().unwrap_or_default(),
+    );
+    match status.code() {
+        Some(0..=2) => {}
+        code => return Err(format!("exit {code:?} ({status}); stderr: {stderr}")),
+    }
+    if stderr.contains("panicked") {
+        return Err(format!("panic: {stderr}"));
+    }
+    if has_non_finite(&stdout) {
+        return Err(format!("NaN or inf on standard output:\n{stdout}"));
+    }
+    Ok(())
+}
+
+/// Probes for `budget`; returns the number of runs. Panics on the first failure, naming the
+/// saved input and the command.
+fn probe(budget: Duration, seed: u64) -> usize {
+    let dir = fixtures::temp_dir();
+    let targets = targets();
+    let mut rng = Rng(seed | 1);
+    let started = Instant::now();
+    let mut runs = 0;
+    while started.elapsed() < budget {
+        let t = &targets[runs % targets.len()];
+        let input = dir.join(t.name);
+        let out = dir.join("out.json");
+        let _ = std::fs::remove_file(&out);
+        std::fs::write(&input, mutate(&mut rng, &t.seed, t.text)).expect("write input");
+        let args: Vec<String> = t
+            .args
+            .iter()
+            .map(|a| match *a {
+                "{}" => input.display().to_string(),
+                "{out}" => out.display().to_string(),
+                other => other.to_string(),
+            })
+            .collect();
+        let outcome = run_one(&args, Duration::from_secs(60)).and_then(|()| {
+            match std::fs::read_to_string(&out) {
+                Ok(text) if has_non_finite(&text) => Err("NaN or inf in the JSON output".into()),
+                _ => Ok(()),
+            }
+        });
+        if let Err(why) = outcome {
+            let kept = dir.join(format!("failing-{runs}-{}", t.name));
+            let _ = std::fs::copy(&input, &kept);
+            panic!(
+                "run {runs}: arcsim {} failed: {why}\ninput kept as {}",
+                args.join(" "),
+                kept.display()
+            );
+        }
+        runs += 1;
+    }
+    runs
+}
+
+#[test]
+fn probe_bounded() {
+    let secs = std::env::var("ARCSIM_PROBE_SECONDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(45);
+    let runs = probe(Duration::from_secs(secs), 0x5eed_2026);
+    eprintln!("probe: {runs} inputs in {secs} s");
+    assert!(runs > 0);
+}
+
+#[test]
+#[ignore = "20-minute probe; run before a release"]
+fn probe_long() {
+    let runs = probe(Duration::from_secs(1200), 0xa5c1_2026);
+    eprintln!("probe: {runs} inputs in 1200 s");
+}
+
+#[test]
+fn non_finite_detection_ignores_words() {
+    assert!(has_non_finite("total NaN s"));
+    assert!(has_non_finite("speed: inf"));
+    assert!(!has_non_finite("infeasible: gap too short; information"));
+}
