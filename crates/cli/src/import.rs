@@ -62,11 +62,7 @@ pub fn dicom_error(path: &Path, err: DicomImportError) -> CliError {
 /// spots, MU.
 fn summary(plan: &ArcPlan) -> String {
     let n = plan.arcs.len();
-    let mut out = format!(
-        "plan \"{}\": {n} arc{}",
-        plan.name,
-        if n == 1 { "" } else { "s" }
-    );
+    let mut out = format!("plan \"{}\": {}", plan.name, crate::count(n, "arc"));
     for (i, arc) in plan.arcs.iter().enumerate() {
         let cps = &arc.control_points;
         let layers: Vec<_> = cps.iter().flat_map(|cp| &cp.layers).collect();
@@ -89,9 +85,10 @@ fn summary(plan: &ArcPlan) -> String {
             _ => (f64::NAN, f64::NAN),
         };
         out.push_str(&format!(
-            "\n  arc {i}: {dir} {first} -> {last} deg, {} control points, {} layers, {spots} spots, {mu:.3} MU",
-            cps.len(),
-            layers.len()
+            "\n  arc {i}: {dir} {first} -> {last} deg, {}, {}, {}, {mu:.3} MU",
+            crate::count(cps.len(), "control point"),
+            crate::count(layers.len(), "layer"),
+            crate::count(spots as usize, "spot")
         ));
     }
     out

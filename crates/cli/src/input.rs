@@ -74,11 +74,26 @@ pub fn input_name(path: &Path) -> String {
 /// problem, one per line. DICOM RT Ion Plans (recognised by content, or by a .dcm/.dicom extension
 /// so a broken one gets a DICOM message) are imported with `arcsim-dicom`.
 pub fn load_plan(path: &Path) -> Result<ArcPlan, CliError> {
+    load_plan_hashed(path).map(|(plan, _)| plan)
+}
+
+/// SHA-256 of some bytes, as lowercase hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// [`load_plan`], with the SHA-256 of the bytes read (to tell edited files apart in results).
+pub fn load_plan_hashed(path: &Path) -> Result<(ArcPlan, String), CliError> {
     let dicom_extension = path
         .extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"));
     let bytes = read_input(path)?;
+    let digest = sha256_hex(&bytes);
     if dicom_extension || arcsim_dicom::has_dicom_magic(&bytes) {
         let stem = path
             .file_stem()
@@ -88,6 +103,7 @@ pub fn load_plan(path: &Path) -> Result<ArcPlan, CliError> {
             &bytes,
             stem.as_deref().unwrap_or(arcsim_dicom::DEFAULT_PLAN_NAME),
         )
+        .map(|plan| (plan, digest))
         .map_err(|e| crate::import::dicom_error(path, e));
     }
     let name = input_name(path);
@@ -97,17 +113,67 @@ pub fn load_plan(path: &Path) -> Result<ArcPlan, CliError> {
             e.utf8_error().valid_up_to()
         ))
     })?;
-    arcsim_plan::parse_plan(&text, &name).map_err(plan_error)
+    arcsim_plan::parse_plan(&text, &name)
+        .map(|plan| (plan, digest))
+        .map_err(plan_error)
 }
 
 /// Loads the machine file at `path` (`-`: standard input), or the built-in ATOM machine when
 /// `path` is `None`.
 pub fn load_machine(path: Option<&Path>) -> Result<Machine, CliError> {
-    match path {
-        Some(p) => arcsim_plan::parse_machine(&read_text(p)?, &input_name(p)),
-        None => arcsim_plan::parse_machine(DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE),
+    load_machine_hashed(path).map(|(m, _)| m)
+}
+
+/// [`load_machine`], with the SHA-256 of its text.
+pub fn load_machine_hashed(path: Option<&Path>) -> Result<(Machine, String), CliError> {
+    let (text, name) = match path {
+        Some(p) => (read_text(p)?, input_name(p)),
+        None => (
+            DEFAULT_MACHINE_JSON.to_string(),
+            DEFAULT_MACHINE_SOURCE.to_string(),
+        ),
+    };
+    let digest = sha256_hex(text.as_bytes());
+    arcsim_plan::parse_machine(&text, &name)
+        .map(|m| (m, digest))
+        .map_err(plan_error)
+}
+
+/// Name of a machine input in messages and results.
+pub fn machine_name(path: Option<&Path>) -> String {
+    path.map_or_else(|| DEFAULT_MACHINE_SOURCE.to_string(), input_name)
+}
+
+/// The plausibility warnings of a plan and a machine (see [`report_warnings`]).
+pub fn plausibility(
+    plan: &ArcPlan,
+    plan_path: &Path,
+    machine: &Machine,
+    machine_path: Option<&Path>,
+) -> Vec<arcsim_plan::Warning> {
+    let mut warnings = arcsim_plan::plan_warnings(plan, &input_name(plan_path));
+    warnings.extend(arcsim_plan::machine_warnings(
+        machine,
+        &machine_name(machine_path),
+    ));
+    warnings
+}
+
+/// Prints warnings to standard error; with `strict`, turns them into an error (exit 1).
+pub fn report_warnings(warnings: &[arcsim_plan::Warning], strict: bool) -> Result<(), CliError> {
+    if strict && !warnings.is_empty() {
+        let lines: Vec<String> = warnings.iter().map(|w| format!("  {w}")).collect();
+        return Err(CliError::failed(format!(
+            "--strict: {} implausible value{} (a unit slip?):\n{}",
+            warnings.len(),
+            if warnings.len() == 1 { "" } else { "s" },
+            lines.join("\n")
+        )));
     }
-    .map_err(plan_error)
+    for w in warnings {
+        eprintln!("warning: {}", crate::output::printable(&w.to_string()));
+    }
+    Ok(())
 }
 
 /// Bad input data: exit code 1 with the located message.

@@ -457,6 +457,9 @@ fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Res
         Some(p) => crate::output::write_file(p, report.as_bytes())?,
         None => crate::output::print(&report),
     }
-    eprintln!("{ok} ok, {infeasible} infeasible, {errors} error rows");
+    eprintln!(
+        "{}: {ok} ok, {infeasible} infeasible, {errors} with an error",
+        crate::count(ok + infeasible + errors, "row")
+    );
     Ok(())
 }

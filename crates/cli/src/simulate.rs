@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use arcsim_sequencer::{simulate, ArcEnds, Delivery, Limiter, Motion, Options, Schedule};
 use serde::Serialize;
 
-use crate::input::{load_machine, load_plan};
+use crate::input::{load_machine_hashed, load_plan_hashed};
 use crate::CliError;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -106,14 +106,44 @@ pub struct Args {
     /// Stream the timeline to a running Rerun viewer, e.g. rerun+http://127.0.0.1:9876/proxy.
     #[arg(long, value_name = "URL")]
     connect: Option<String>,
+    /// Refuse values far outside their field's plausible range (likely unit slips such as ELST
+    /// in ms or limits in rad/s) instead of warning about them.
+    #[arg(long)]
+    strict: bool,
+}
+
+/// The options a result was computed with, as given or defaulted.
+#[derive(Serialize)]
+struct OptionsOut {
+    schedule: &'static str,
+    motion: &'static str,
+    arc_ends: &'static str,
+    /// The servo period used (s): `--period`, else the machine's; `null`: continuous time.
+    servo_period_s: Option<f64>,
+    strict: bool,
 }
 
 #[derive(Serialize)]
 struct JsonOut<'a> {
     format: &'static str,
+    /// Version of arcsim that computed the result.
+    arcsim_version: &'static str,
     plan: String,
     plan_file: String,
+    /// SHA-256 of the plan file's bytes.
+    plan_sha256: String,
     machine: String,
+    /// The machine file, or the built-in one.
+    machine_file: String,
+    /// SHA-256 of the machine file's text (of the built-in JSON without --machine).
+    machine_sha256: String,
+    /// The whole machine model used: every limit, the ELST and beam models.
+    machine_model: &'a arcsim_plan::Machine,
+    options: OptionsOut,
+    /// Values outside their field's plausible range (likely unit slips).
+    warnings: &'a [arcsim_plan::Warning],
+    /// Remarks on how the options applied (e.g. `prescribed` without prescribed speeds).
+    notes: &'a [String],
     #[serde(flatten)]
     delivery: &'a Delivery,
 }
@@ -156,9 +186,9 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
     );
     let _ = writeln!(
         s,
-        "{} layers, {} transitions",
-        d.layers.len(),
-        d.transitions.len()
+        "{}, {}",
+        crate::count(d.layers.len(), "layer"),
+        crate::count(d.transitions.len(), "transition")
     );
     let _ = writeln!(
         s,
@@ -243,31 +273,7 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
             );
         }
     }
-    let mut costly: Vec<_> = d.transitions.iter().collect();
-    costly.sort_by(|a, b| {
-        b.lost_s
-            .total_cmp(&a.lost_s)
-            .then(b.duration_s.total_cmp(&a.duration_s))
-    });
-    let _ = writeln!(s, "5 most costly transitions (time beyond the ELST):");
-    let _ = writeln!(s, "  layers      start (s)  duration (s)  ELST (s)  lost (s)  gap (deg)  speeds (deg/s)   limit");
-    for tr in costly.iter().take(5) {
-        let _ = writeln!(
-            s,
-            "  {:>4} → {:<4} {:9.2}  {:12.3}  {:8.2}  {:8.3}  {:9.3}  {:5.2} → {:<5.2}  {}{}",
-            tr.from_layer,
-            tr.to_layer,
-            tr.t_start_s,
-            tr.duration_s,
-            tr.elst_s,
-            tr.lost_s,
-            tr.gap_deg,
-            tr.v_start_deg_per_s,
-            tr.v_end_deg_per_s,
-            limiter_name(tr.limited_by),
-            if tr.arc_change { " (arc change)" } else { "" }
-        );
-    }
+    where_lost(&mut s, d);
     if !d.violations.is_empty() {
         let _ = writeln!(
             s,
@@ -288,6 +294,91 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
         }
     }
     s
+}
+
+/// Angle ranges as "10–30, 44–52 deg", at most four, then "+N more".
+fn ranges_text(r: &[[f64; 2]]) -> String {
+    let mut parts: Vec<String> = r
+        .iter()
+        .take(4)
+        .map(|[a, b]| {
+            if (b - a).abs() < 1e-9 {
+                format!("{a:.1}")
+            } else {
+                format!("{a:.1}–{b:.1}")
+            }
+        })
+        .collect();
+    if r.len() > 4 {
+        parts.push(format!("+{} more", r.len() - 4));
+    }
+    parts.join(", ")
+}
+
+/// "Where the time is lost": lost time by cause and place, then the costliest transitions,
+/// located by arc, control point and angle.
+fn where_lost(s: &mut String, d: &Delivery) {
+    let lt = &d.lost_time;
+    if lt.count == 0 {
+        let _ = writeln!(s, "no time lost: every transition lasts just its ELST");
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "where the time is lost: {:.2} s in {} of {} transitions (time beyond the ELST)",
+        lt.total_s,
+        lt.count,
+        d.transitions.len()
+    );
+    let _ = writeln!(
+        s,
+        "  limit  switch      layers apart         count  lost (s)  each (s)  angles (deg)"
+    );
+    for g in lt.groups.iter().take(8) {
+        let _ = writeln!(
+            s,
+            "  {:<5}  {:<10}  {:<19} {:>6}  {:8.2}  {:8.2}  {}",
+            limiter_name(g.limited_by),
+            g.switch.name(),
+            g.gap.name(),
+            g.count,
+            g.lost_s,
+            g.mean_lost_s,
+            ranges_text(&g.angle_ranges_deg)
+        );
+    }
+    if lt.groups.len() > 8 {
+        let rest: f64 = lt.groups[8..].iter().map(|g| g.lost_s).sum();
+        let _ = writeln!(s, "  … {} more causes, {rest:.2} s", lt.groups.len() - 8);
+    }
+    let _ = writeln!(s, "{} most costly transitions:", lt.costliest.len());
+    let _ = writeln!(
+        s,
+        "  arc  control point   angle (deg)        start (s)  duration (s)  ELST (s)  lost (s)  switch  limit"
+    );
+    for c in &lt.costliest {
+        let tr = &d.transitions[c.transition];
+        let arc = if c.from_arc == c.to_arc {
+            format!("{}", c.from_arc)
+        } else {
+            format!("{}→{}", c.from_arc, c.to_arc)
+        };
+        let _ = writeln!(
+            s,
+            "  {:<3}  {:>5} → {:<5}  {:7.2} → {:<7.2}  {:9.2}  {:12.3}  {:8.2}  {:8.3}  {:<6}  {}",
+            arc,
+            c.from_control_point,
+            c.to_control_point,
+            c.from_angle_deg,
+            c.to_angle_deg,
+            tr.t_start_s,
+            c.duration_s,
+            c.elst_s,
+            c.lost_s,
+            c.switch.name(),
+            limiter_name(c.limited_by)
+        );
+    }
 }
 
 fn write_csv(path: &Path, d: &Delivery, dt: f64) -> Result<(), CliError> {
@@ -335,8 +426,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
     .filter_map(|(flag, p)| p.map(|p| (flag, p)))
     .collect();
     crate::output::check_outputs(&inputs, &outputs)?;
-    let plan = load_plan(&args.plan)?;
-    let machine = load_machine(args.machine.as_deref())?;
+    let (plan, plan_sha256) = load_plan_hashed(&args.plan)?;
+    let (machine, machine_sha256) = load_machine_hashed(args.machine.as_deref())?;
+    let mut warnings =
+        crate::input::plausibility(&plan, &args.plan, &machine, args.machine.as_deref());
     if let Some(ts) = args.period {
         let (lo, hi) = arcsim_plan::SERVO_PERIOD_RANGE_S;
         if !(ts.is_finite() && (lo..=hi).contains(&ts)) {
@@ -348,11 +441,37 @@ pub fn run(args: Args) -> Result<(), CliError> {
             )));
         }
     }
+    if let Some(ts) = args.period.filter(|ts| !(1e-4..=0.1).contains(ts)) {
+        let w = arcsim_plan::Warning {
+            field: "--period".into(),
+            value: ts,
+            message: format!(
+                "{} s is outside the plausible 0.0001–0.1 s of a servo period{}",
+                arcsim_plan::fmt_num(ts),
+                if ts > 0.1 {
+                    "; given in milliseconds? the option is in seconds"
+                } else {
+                    ""
+                }
+            ),
+        };
+        warnings.push(w);
+    }
+    crate::input::report_warnings(&warnings, args.strict)?;
+    let mut notes = Vec::new();
+    let prescribes = plan
+        .arcs
+        .iter()
+        .flat_map(|a| &a.control_points)
+        .any(|cp| cp.required_speed_deg_per_s.is_some());
+    if args.schedule == ScheduleArg::Prescribed && !prescribes {
+        notes.push("the plan prescribes no speeds (no required_speed_deg_per_s), so `prescribed` gives the same speeds as `scan`".to_string());
+    }
     let period = args.period.or(machine.servo_period_s);
     let motion = match args.motion {
         Some(m) => m.into(),
         None if period.is_some() => {
-            eprintln!("note: a servo period applies, so the motion is constant speed per layer (free motion is continuous-time only)");
+            notes.push("a servo period applies, so the motion is constant speed per layer (free motion is continuous-time only)".to_string());
             Motion::Constant
         }
         None if matches!(
@@ -370,6 +489,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         arc_ends: args.arc_ends.into(),
         ..Options::new(args.schedule.into())
     };
+    for n in &notes {
+        eprintln!("note: {n}");
+    }
     let delivery = simulate(&plan, &machine, &opts)
         .map_err(|e| CliError::failed(format!("{}: {e}", crate::input::input_name(&args.plan))))?;
     let sampled = args.csv.is_some() || args.rrd.is_some() || args.spawn || args.connect.is_some();
@@ -386,9 +508,23 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if let Some(path) = &args.json {
         let out = JsonOut {
             format: "arcsim-result/1",
+            arcsim_version: env!("CARGO_PKG_VERSION"),
             plan: plan.name.clone(),
             plan_file: crate::input::input_name(&args.plan),
+            plan_sha256,
             machine: machine.name.clone(),
+            machine_file: crate::input::machine_name(args.machine.as_deref()),
+            machine_sha256,
+            machine_model: &machine,
+            options: OptionsOut {
+                schedule: delivery.schedule.name(),
+                motion: delivery.motion.name(),
+                arc_ends: delivery.arc_ends.name(),
+                servo_period_s: delivery.servo_period_s,
+                strict: args.strict,
+            },
+            warnings: &warnings,
+            notes: &notes,
             delivery: &delivery,
         };
         let text =

@@ -84,8 +84,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if let Some(n) = args.threads {
         if !(1..=MAX_THREADS).contains(&n) {
             return Err(CliError::usage(format!(
-                "--threads {n}: expected 1 to {MAX_THREADS} (this machine has {} cores)",
-                cores()
+                "--threads {n}: expected 1 to {MAX_THREADS} (this machine has {})",
+                crate::count(cores(), "core")
             )));
         }
     }
@@ -117,16 +117,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         format!(", shard {shard}: {} of them", indices.len())
     };
     eprintln!(
-        "sweep \"{}\": {} plans, {} combinations{part}, {} thread{}",
+        "sweep \"{}\": {}, {}{part}, {}",
         crate::output::printable(&ev.sweep().name),
-        ev.sweep().plans.len(),
-        ev.len(),
-        pool.current_num_threads(),
-        if pool.current_num_threads() == 1 {
-            ""
-        } else {
-            "s"
-        }
+        crate::count(ev.sweep().plans.len(), "plan"),
+        crate::count(ev.len(), "combination"),
+        crate::count(pool.current_num_threads(), "thread")
     );
 
     if let Err(e) = ctrlc::set_handler(|| {
@@ -194,7 +189,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let seconds = started.elapsed().as_secs_f64();
     let complete = done == indices.len();
     eprintln!(
-        "evaluated {done} combinations in {seconds:.2} s ({:.0} per second)",
+        "evaluated {} in {seconds:.2} s ({:.0} per second)",
+        crate::count(done, "combination"),
         done as f64 / seconds.max(1e-9)
     );
 
@@ -245,8 +241,8 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 format!("; {} {verb} them", saved.join(" and "))
             };
             Err(CliError::interrupted(format!(
-                "interrupted after {done} of {} combinations{saved}",
-                indices.len()
+                "interrupted after {done} of {}{saved}",
+                crate::count(indices.len(), "combination")
             )))
         }
     }
@@ -280,9 +276,9 @@ pub fn merge(args: MergeArgs) -> Result<(), CliError> {
     };
     crate::output::write_file(&args.out, merged.as_bytes())?;
     eprintln!(
-        "merged {} files: {} rows -> {}",
-        inputs.len(),
-        merged.lines().count().saturating_sub(1),
+        "merged {}: {} -> {}",
+        crate::count(inputs.len(), "file"),
+        crate::count(merged.lines().count().saturating_sub(1), "row"),
         args.out.display()
     );
     if let Some(table) = table {

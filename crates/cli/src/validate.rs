@@ -9,17 +9,24 @@ use crate::CliError;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Plan file (arcsim-plan/1 JSON).
+    /// Plan file: arcsim-plan/1 JSON or DICOM RT Ion Plan (recognised by its content or a
+    /// .dcm/.dicom extension); `-` reads it from standard input.
     plan: PathBuf,
     /// Machine model (arcsim-machine/1 JSON); the built-in ATOM machine when omitted.
     #[arg(long)]
     machine: Option<PathBuf>,
+    /// Refuse values far outside their field's plausible range (likely unit slips) instead of
+    /// warning about them.
+    #[arg(long)]
+    strict: bool,
 }
 
 /// Prints all problems (exit 1) or a summary: arcs, control points, layers, beam-on time (exit 0).
 pub fn run(args: Args) -> Result<(), CliError> {
     let plan = load_plan(&args.plan)?;
     let machine = load_machine(args.machine.as_deref())?;
+    let warnings = crate::input::plausibility(&plan, &args.plan, &machine, args.machine.as_deref());
+    crate::input::report_warnings(&warnings, args.strict)?;
     let arcs = resolve(&plan, &machine).map_err(plan_error)?;
     let control_points: usize = plan.arcs.iter().map(|a| a.control_points.len()).sum();
     let layers: Vec<_> = arcs.iter().flat_map(|a| &a.layers).collect();
@@ -35,10 +42,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         plan.name
     ));
     crate::output::println(&format!(
-        "  {} arc{}, {control_points} control points, {} layers, {upward} upward energy switches",
-        arcs.len(),
-        if arcs.len() == 1 { "" } else { "s" },
-        layers.len()
+        "  {}, {}, {}, {}",
+        crate::count(arcs.len(), "arc"),
+        crate::count(control_points, "control point"),
+        crate::count(layers.len(), "layer"),
+        crate::count(upward, "upward energy switch")
     ));
     crate::output::println(&format!(
         "  on machine \"{}\": beam-on time {beam_on:.1} s, energy switching {switching:.1} s",

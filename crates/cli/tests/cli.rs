@@ -370,3 +370,118 @@ fn simulate_free_and_constant_motion() {
 fn text_of_err(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
+
+/// `--help` explains the summaries' terms (issue "Answers a physicist can read").
+#[test]
+fn help_explains_the_summaries() {
+    let o = arcsim(&["simulate", "--help"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    for needle in [
+        "lost (gantry)",
+        "beyond their ELST",
+        "window slack",
+        "ELST slack",
+        "tightest margins",
+    ] {
+        assert!(
+            out.contains(needle),
+            "simulate --help lacks {needle:?}:\n{out}"
+        );
+    }
+    let o = arcsim(&["sweep", "--help"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let lower = out.to_lowercase();
+    for needle in [
+        "base [s]",
+        "fastest setting",
+        "sensitivity",
+        "cheapest change",
+        "ln(new/base)",
+    ] {
+        assert!(
+            lower.contains(needle),
+            "sweep --help lacks {needle:?}:\n{out}"
+        );
+    }
+    // The short help points to the long one.
+    let o = arcsim(&["sweep", "-h"]);
+    assert!(text(&o).0.contains("arcsim sweep --help"), "{}", text(&o).0);
+}
+
+#[test]
+fn validate_help_says_it_reads_dicom_and_standard_input() {
+    let o = arcsim(&["validate", "--help"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("DICOM RT Ion Plan"), "{out}");
+    assert!(out.contains("standard input"), "{out}");
+}
+
+#[test]
+fn generate_plan_to_a_file_says_what_it_wrote() {
+    let dir = fixtures::temp_dir();
+    let path = dir.join("prostate.json");
+    let o = arcsim(&[
+        "generate-plan",
+        "--kind",
+        "prostate",
+        "--seed",
+        "1",
+        "-o",
+        path.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(
+        out.trim_end(),
+        format!(
+            "wrote prostate plan (seed 1): 1 arc, 180 control points, 180 layers -> {}",
+            path.display()
+        )
+    );
+    assert!(std::fs::read_to_string(&path)
+        .expect("plan written")
+        .contains("arcsim-plan/1"));
+    let path = dir.join("two-arc.json");
+    let o = arcsim(&[
+        "generate-plan",
+        "--kind",
+        "two-arc",
+        "-o",
+        path.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.starts_with("wrote two-arc plan (seed 1): 2 arcs, "),
+        "{out}"
+    );
+}
+
+#[test]
+fn one_plan_sweep_banner_is_singular() {
+    let dir = fixtures::temp_dir();
+    let sweep = dir.join("one.json");
+    let text_of_sweep = serde_json::json!({
+        "format": "arcsim-sweep/1",
+        "name": "one",
+        "plans": [repo().join("plans/prostate.json").to_str().expect("utf-8")],
+        "machine": repo().join("scenarios/machine-atom.json").to_str().expect("utf-8"),
+        "axes": { "jerk_deg_per_s3": [0.5] },
+        "schedules": ["scan"]
+    });
+    std::fs::write(&sweep, text_of_sweep.to_string()).expect("write sweep");
+    let o = arcsim(&["sweep", sweep.to_str().unwrap(), "--threads", "1"]);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("sweep \"one\": 1 plan, 1 combination, 1 thread\n"),
+        "{err}"
+    );
+    assert!(err.contains("evaluated 1 combination in "), "{err}");
+    for plural in ["1 plans", "1 combinations", "1 threads"] {
+        assert!(!err.contains(plural), "{err}");
+    }
+}

@@ -1,12 +1,21 @@
 //! The results table as CSV (one header line, then one line per combination in index order) and
 //! the merge of shard outputs. Numbers are written in Rust's shortest round-trip form, so equal
 //! results give equal bytes; there are no timing fields.
+//!
+//! The limit columns (`jerk_deg_per_s3` to `window_deg`) follow one rule: each holds the value the
+//! combination uses, the swept one or else the base machine's ([`crate::Defaults`]). Two columns
+//! hold the machine's value where the plan can override it: `elst_up_s` and `elst_down_s` (layers
+//! with their own switching time keep it) and `window_deg` when the window is not swept (it is
+//! then the machine's `default_window_deg`, used by the control points without a window of their
+//! own; a swept window replaces every control point's). `elst_up_s` is empty only for a machine
+//! with a polynomial ELST model, which has no single upward time.
 
 use std::io::Write;
 
 use arcsim_sequencer::{Breakdown, LimiterCounts};
 
 use crate::run::{Evaluator, Outcome, Row, Status};
+use crate::sweep::{Axis, Defaults, Setting};
 use crate::EvalError;
 
 /// The CSV header line (without the newline).
@@ -19,23 +28,18 @@ pub fn write_csv_header(out: &mut impl Write) -> std::io::Result<()> {
     writeln!(out, "{CSV_HEADER}")
 }
 
-/// Writes one row as one line. Empty fields: a value that keeps the base machine's (ELST, window)
-/// or a result the row does not have.
+/// Writes one row as one line. The limit columns hold the values used (see the module
+/// documentation); empty fields: a result the row does not have (and the upward ELST of a
+/// polynomial ELST model).
 pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
     let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
-    let s = &r.setting;
     let mut f: Vec<String> = vec![
         r.index.to_string(),
         text(&r.plan),
         r.schedule.name().to_string(),
-        s.jerk_deg_per_s3.to_string(),
-        s.accel_deg_per_s2.to_string(),
-        s.speed_deg_per_s.to_string(),
-        opt(s.elst_up_s),
-        opt(s.elst_down_s),
-        opt(s.window_deg),
-        r.status.name().to_string(),
     ];
+    f.extend(limit_fields(&r.setting, &r.defaults));
+    f.push(r.status.name().to_string());
     match &r.outcome {
         Some(o) => {
             let c = &o.limiter_counts;
@@ -67,6 +71,15 @@ pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
     }
     f.push(text(&r.message));
     writeln!(out, "{}", f.join(","))
+}
+
+/// The six limit columns of a setting: J, A, V, ELST up, ELST down, window, each the value used.
+fn limit_fields(s: &Setting, defaults: &Defaults) -> [String; 6] {
+    Axis::ALL.map(|a| {
+        s.get_or(a, defaults)
+            .map(|v| v.to_string())
+            .unwrap_or_default()
+    })
 }
 
 /// A text field on one line, quoted when it holds a comma or a quote.
@@ -182,8 +195,9 @@ fn split_line(line: &str) -> Vec<String> {
 
 impl Evaluator {
     /// Reads back the rows of a results table of this sweep (e.g. merged shards) to summarise
-    /// them. Each line must match the combination its index names (plan, schedule, J, A, V);
-    /// margins are not read back (summaries do not use them).
+    /// them. Each line must match the combination its index names (plan, schedule, and the six
+    /// limit columns as [`write_csv_row`] writes them); margins are not read back (summaries do
+    /// not use them).
     pub fn rows_from_csv(&self, name: &str, text: &str) -> Result<Vec<Row>, EvalError> {
         let merr = |line: usize, message: String| EvalError::Merge {
             file: name.to_string(),
@@ -194,6 +208,7 @@ impl Evaluator {
             return Err(merr(1, "expected the arcsim sweep CSV header".into()));
         }
         let columns = CSV_HEADER.split(',').count();
+        let defaults = self.sweep().defaults();
         let mut rows = Vec::new();
         for (n, line) in lines.enumerate() {
             let ln = n + 2;
@@ -234,25 +249,25 @@ impl Evaluator {
             let (plan, run, setting) = self.combination(index);
             let schedule = self.sweep().runs[run].schedule;
             let label = &self.sweep().plans[plan].label;
-            let same = f[1] == *label
-                && f[2] == schedule.name()
-                && num(3)? == setting.jerk_deg_per_s3
-                && num(4)? == setting.accel_deg_per_s2
-                && num(5)? == setting.speed_deg_per_s
-                && opt(6)? == setting.elst_up_s
-                && opt(7)? == setting.elst_down_s
-                && opt(8)? == setting.window_deg;
+            let mut same = f[1] == *label && f[2] == schedule.name();
+            for (i, axis) in Axis::ALL.into_iter().enumerate() {
+                same &= opt(3 + i)? == setting.get_or(axis, &defaults);
+            }
             if !same {
+                let limits: Vec<String> = Axis::ALL
+                    .into_iter()
+                    .zip(limit_fields(&setting, &defaults))
+                    .filter(|(_, v)| !v.is_empty())
+                    .map(|(a, v)| format!("{} {v}", a.symbol().0))
+                    .collect();
                 return Err(merr(
                     ln,
                     format!(
-                        "row {index} is {} {} J {} A {} V {} in this sweep; the file has another \
-                         combination (a different sweep file?)",
-                        label,
+                        "row {index} is {label} {} {} in this sweep; the file has another \
+                         combination (a different sweep file, or an older arcsim's table, which \
+                         left the ELST and window columns empty when they were not swept?)",
                         schedule.name(),
-                        setting.jerk_deg_per_s3,
-                        setting.accel_deg_per_s2,
-                        setting.speed_deg_per_s
+                        limits.join(" ")
                     ),
                 ));
             }
@@ -292,6 +307,7 @@ impl Evaluator {
                 plan: label.clone(),
                 schedule,
                 setting,
+                defaults,
                 status,
                 outcome,
                 message: f[26].clone(),

@@ -32,9 +32,9 @@ pub use run::{Evaluator, Outcome, Row, Status};
 pub use shard::{IndexList, Shard, ShardIndices};
 pub use summary::{
     describe_setting, describe_steps, short, table, Change, Entry, Point, Profile, ProfilePoint,
-    Sensitivity, Step, Summary, PROFILE_MAX_POINTS,
+    Sensitivity, Step, Summary, PROFILE_MAX_POINTS, TIE_TOLERANCE,
 };
-pub use sweep::{Axis, Grid, Run, Setting, Sweep, SweepPlan, MAX_COMBINATIONS};
+pub use sweep::{Axis, Defaults, Grid, Run, Setting, Sweep, SweepPlan, MAX_COMBINATIONS};
 pub use sweep_file::{parse_sweep_file, AxisSpec, Scale, Target, SWEEP_FORMAT};
 
 /// Format of the JSON results document ([`Results`]).

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::shard::IndexList;
-use crate::sweep::{check_combinations, Setting, Sweep};
+use crate::sweep::{check_combinations, Defaults, Setting, Sweep};
 use crate::{EvalError, RunMode};
 
 /// What became of one combination.
@@ -70,6 +70,10 @@ pub struct Row {
     pub plan: String,
     pub schedule: RunMode,
     pub setting: Setting,
+    /// The base machine's values of the limits `setting` keeps (`None`), which the CSV writes in
+    /// their columns; not in the JSON rows, where `null` still means "as in the base machine".
+    #[serde(skip)]
+    pub defaults: Defaults,
     pub status: Status,
     pub outcome: Option<Outcome>,
     /// Why the combination is not `ok` (empty when it is).
@@ -97,6 +101,8 @@ const VARIANT_CACHE: usize = 256;
 /// A sweep prepared for evaluation.
 pub struct Evaluator {
     sweep: Sweep,
+    /// The sweep's [`Sweep::defaults`], given to every row.
+    defaults: Defaults,
     base_limits: Limits,
     blocks: Vec<Block>,
     /// Resolved (plan × window × ELST) variants, at most [`VARIANT_CACHE`].
@@ -168,6 +174,7 @@ impl Evaluator {
             }
         }
         let mut ev = Evaluator {
+            defaults: sweep.defaults(),
             sweep,
             base_limits,
             blocks,
@@ -309,6 +316,7 @@ impl Evaluator {
             plan: self.sweep.plans[b.plan].label.clone(),
             schedule: run.schedule,
             setting,
+            defaults: self.defaults,
             status,
             outcome,
             message,

@@ -44,6 +44,20 @@ pub struct Setting {
     pub window_deg: Option<f64>,
 }
 
+/// The base machine's values of the limits a [`Setting`] may leave unset (`None`): what a
+/// combination that does not sweep them runs with, and what the CSV's limit columns hold for them.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Defaults {
+    /// Upward ELST (s); `None` for a polynomial ELST model (no single value; the axis cannot be
+    /// swept then).
+    pub elst_up_s: Option<f64>,
+    /// Downward ELST (s).
+    pub elst_down_s: f64,
+    /// The machine's default window (deg). Control points with a window of their own keep it
+    /// unless the window is swept.
+    pub window_deg: f64,
+}
+
 /// The values of every axis for one schedule entry, kept as written: a range is computed value
 /// by value when needed ([`AxisSpec::value`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -142,6 +156,17 @@ impl Setting {
             Axis::ElstDown => self.elst_down_s,
             Axis::Window => self.window_deg,
         }
+    }
+
+    /// The value of one axis, the base machine's (`defaults`) where the setting keeps it (`None`
+    /// only for the upward ELST of a polynomial ELST model).
+    pub fn get_or(&self, axis: Axis, defaults: &Defaults) -> Option<f64> {
+        self.get(axis).or(match axis {
+            Axis::ElstUp => defaults.elst_up_s,
+            Axis::ElstDown => Some(defaults.elst_down_s),
+            Axis::Window => Some(defaults.window_deg),
+            Axis::Jerk | Axis::Accel | Axis::Speed => None,
+        })
     }
 
     /// A copy with one axis set.
@@ -317,6 +342,17 @@ impl Sweep {
             },
             Axis::Window => Some(self.machine.default_window_deg),
             other => self.base_setting().get(other),
+        }
+    }
+
+    /// The base machine's ELST and default window ([`Defaults`]).
+    pub fn defaults(&self) -> Defaults {
+        Defaults {
+            elst_up_s: self.base_value(Axis::ElstUp),
+            elst_down_s: match self.machine.elst {
+                ElstModel::Constant { down_s, .. } | ElstModel::Polynomial { down_s, .. } => down_s,
+            },
+            window_deg: self.machine.default_window_deg,
         }
     }
 

@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use arcsim_evaluator::{
-    merge_csv, parse_sweep_file, write_csv_header, write_csv_row, EvalError, Evaluator, Row, Shard,
-    Status, Sweep, Target, MAX_COMBINATIONS, PROFILE_MAX_POINTS,
+    merge_csv, parse_sweep_file, write_csv_header, write_csv_row, Axis, EvalError, Evaluator, Row,
+    Shard, Status, Sweep, Target, MAX_COMBINATIONS, PROFILE_MAX_POINTS,
 };
 
 fn scenarios() -> PathBuf {
@@ -718,4 +718,151 @@ fn wrong_atom_reference_file_is_named() {
         .expect_err("a wrong reference fails")
         .to_string();
     assert!(err.contains("wrong.json"), "{err}");
+}
+
+/// The lung plan's scan does not depend on V (3, 5 or 6 deg/s give the same totals, to rounding):
+/// the fastest setting is the one at the base machine's V 5 whatever the order or subset of the
+/// rows, and the summary says V has no effect, in the table and the JSON.
+#[test]
+fn fastest_setting_ties_go_to_the_base_machine_and_no_effect_is_said() {
+    let text = with_axes(
+        r#"{"jerk_deg_per_s3": [0.5, 2], "accel_deg_per_s2": [0.5, 1], "speed_deg_per_s": [3, 5, 6]}"#,
+    )
+    .replace("prostate.json", "lung.json");
+    let ev = Evaluator::new(from_text(&text).expect("sweep")).expect("prepare");
+    assert_eq!(ev.len(), 12);
+    let rows = ev.run_collect(&(0..ev.len()).collect::<Vec<_>>());
+    let total = |i: usize| rows[i].outcome.expect("ok").total_s;
+    // J 2, A 1 at V 3, 5, 6: rows 3, 7, 11, equal to rounding (the premise of this test).
+    let fastest = [3, 7, 11].map(total);
+    for t in fastest {
+        assert!((t - fastest[1]).abs() <= 1e-12 * t, "{fastest:?}");
+    }
+    assert!(rows
+        .iter()
+        .all(|r| r.outcome.expect("ok").total_s >= fastest[1] * (1.0 - 1e-12)));
+
+    let s = ev.summarize(&rows);
+    let table = s.to_table();
+    print!("{table}");
+    let e = &s.entries[0];
+    let f = e.fastest.expect("fastest");
+    assert_eq!(f.index, Some(7), "{f:?}");
+    assert_eq!(
+        (
+            f.setting.jerk_deg_per_s3,
+            f.setting.accel_deg_per_s2,
+            f.setting.speed_deg_per_s
+        ),
+        (2.0, 1.0, 5.0)
+    );
+    assert!(table.contains("J 2, A 1, V 5\n"), "{table}");
+    // The same pick from the rows in reverse order, and from each shard holding row 7.
+    let reversed: Vec<Row> = rows.iter().rev().cloned().collect();
+    assert_eq!(ev.summarize(&reversed).entries[0].fastest, Some(f));
+    let odd: Vec<Row> = rows.iter().filter(|r| r.index % 2 == 1).cloned().collect();
+    assert_eq!(
+        ev.summarize(&odd).entries[0].fastest.and_then(|p| p.index),
+        Some(7)
+    );
+    // Without V 5: V 6, the smaller change (|ln 6/5| < |ln 3/5|), in either order.
+    let no_v5: Vec<Row> = rows.iter().filter(|r| r.index != 7).cloned().collect();
+    let rev_no_v5: Vec<Row> = no_v5.iter().rev().cloned().collect();
+    for r in [&no_v5, &rev_no_v5] {
+        assert_eq!(
+            ev.summarize(r).entries[0].fastest.and_then(|p| p.index),
+            Some(11)
+        );
+    }
+
+    // V: no effect over the values evaluated (3 to 6, and 5/1.1 and 5.5); J has an effect.
+    let sens = |a: Axis| *e.sensitivity.iter().find(|x| x.axis == a).expect("axis");
+    let v = sens(Axis::Speed);
+    assert!(v.no_effect, "{v:?}");
+    assert_eq!((v.evaluated_min, v.evaluated_max), (3.0, 6.0));
+    let j = sens(Axis::Jerk);
+    assert!(!j.no_effect, "{j:?}");
+    assert_eq!((j.evaluated_min, j.evaluated_max), (0.5 / 1.1, 2.0));
+    assert!(table.contains("no effect (3–6 deg/s)"), "{table}");
+    let json = serde_json::to_value(&s).expect("json");
+    let v_json = &json["entries"][0]["sensitivity"][2];
+    assert_eq!(v_json["axis"], "speed");
+    assert_eq!(v_json["no_effect"], true);
+    assert_eq!(v_json["evaluated_min"], 3.0);
+    assert_eq!(v_json["evaluated_max"], 6.0);
+    assert_eq!(json["entries"][0]["sensitivity"][0]["no_effect"], false);
+}
+
+/// Every limit column holds the value used: swept, or the base machine's (ELST up 5 s, down
+/// 0.5 s, window 1 deg on the ATOM machine), never empty; shards merge into the single-run table
+/// byte for byte and the table reads back into rows that write it again byte for byte.
+#[test]
+fn csv_writes_the_limit_used_in_every_column() {
+    let text = with_axes(r#"{"jerk_deg_per_s3": [0.5, 1], "elst_down_s": [0.5, 1]}"#);
+    let ev = Evaluator::new(from_text(&text).expect("sweep")).expect("prepare");
+    assert_eq!(ev.len(), 4);
+    let rows = ev.run_collect(&(0..ev.len()).collect::<Vec<_>>());
+    let single = csv(&rows);
+    let limits: Vec<Vec<&str>> = single
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').skip(3).take(6).collect())
+        .collect();
+    assert_eq!(
+        limits,
+        [
+            ["0.5", "0.5", "5", "5", "0.5", "1"],
+            ["1", "0.5", "5", "5", "0.5", "1"],
+            ["0.5", "0.5", "5", "5", "1", "1"],
+            ["1", "0.5", "5", "5", "1", "1"],
+        ]
+    );
+    // The settings still say which limits the sweep left to the machine (and the plan).
+    assert_eq!(rows[0].setting.elst_up_s, None);
+    assert_eq!(rows[0].setting.window_deg, None);
+    assert_eq!(rows[0].setting.elst_down_s, Some(0.5));
+
+    let shards: Vec<(String, String)> = (1..=3)
+        .rev()
+        .map(|k| {
+            let shard = Shard::new(k, 3).expect("shard");
+            (
+                format!("shard-{k}.csv"),
+                csv(&ev.run_collect(&shard.indices(ev.len()))),
+            )
+        })
+        .collect();
+    let merged = merge_csv(&shards, Some(ev.len())).expect("merge");
+    assert_eq!(merged.as_bytes(), single.as_bytes());
+    let back = ev.rows_from_csv("merged.csv", &merged).expect("read back");
+    assert_eq!(csv(&back).as_bytes(), single.as_bytes());
+    assert_eq!(
+        ev.summarize(&back).to_table(),
+        ev.summarize(&rows).to_table()
+    );
+    // A table with the old empty columns is another combination, and the error says so.
+    let old = single.replace(",5,0.5,1,ok,", ",,0.5,,ok,");
+    assert_ne!(old, single);
+    let err = ev
+        .rows_from_csv("old.csv", &old)
+        .expect_err("empty columns")
+        .to_string();
+    assert!(
+        err.contains("old.csv: line 2: row 0 is ../plans/prostate.json scan J 0.5 A 0.5 V 5 ELST up 5 ELST down 0.5 window 1")
+            && err.contains("left the ELST and window columns empty"),
+        "{err}"
+    );
+
+    // A polynomial ELST model has no single upward time: that column only is empty.
+    let text = GOOD.replace("machine-atom.json", "machine-fast.json");
+    let ev = Evaluator::new(from_text(&text).expect("sweep")).expect("prepare");
+    let rows = ev.run_collect(&[0, 1]);
+    let table = csv(&rows);
+    let line = table.lines().nth(1).expect("row 0");
+    assert!(
+        line.starts_with("0,../plans/prostate.json,scan,0.5,1.5,6,,0.3,1,ok,"),
+        "{line}"
+    );
+    let back = ev.rows_from_csv("fast.csv", &table).expect("read back");
+    assert_eq!(csv(&back), table);
 }

@@ -135,12 +135,71 @@ pub enum PlanError {
     },
 }
 
+/// Problems of one kind that are listed once, with their count and first few places.
+const GROUP_FROM: usize = 3;
+/// Places named for a group.
+const GROUP_PLACES: usize = 3;
+
+/// What makes two problems "the same": the field without its indices and the message without
+/// its numbers (`spots.mu[3]` and `spots.mu[7]`, "got 150000" and "got 160000").
+fn kind_of(issue: &PlanIssue) -> (String, String) {
+    let strip = |s: &str| -> String {
+        let mut out = String::with_capacity(s.len());
+        let mut in_number = false;
+        for c in s.chars() {
+            let numeric = c.is_ascii_digit() || (in_number && matches!(c, '.' | 'e' | '-' | '+'));
+            if numeric {
+                if !in_number {
+                    out.push('#');
+                }
+            } else {
+                out.push(c);
+            }
+            in_number = numeric;
+        }
+        out
+    };
+    (strip(&issue.field), strip(&issue.message))
+}
+
+/// One line per problem; a kind of problem found in many places is one line (the first), then
+/// the count and the first few other places.
 fn join_issues(issues: &[PlanIssue]) -> String {
-    issues
-        .iter()
-        .map(|i| format!("  {i}"))
-        .collect::<Vec<_>>()
-        .join("\n")
+    let kinds: Vec<(String, String)> = issues.iter().map(kind_of).collect();
+    let mut lines = Vec::new();
+    let mut done = vec![false; issues.len()];
+    for i in 0..issues.len() {
+        if done[i] {
+            continue;
+        }
+        let same: Vec<usize> = (i..issues.len())
+            .filter(|&j| !done[j] && kinds[j] == kinds[i])
+            .collect();
+        lines.push(format!("  {}", issues[i]));
+        if same.len() >= GROUP_FROM {
+            for &j in &same {
+                done[j] = true;
+            }
+            let others: Vec<String> = same[1..]
+                .iter()
+                .take(GROUP_PLACES)
+                .map(|&j| issues[j].location())
+                .collect();
+            let more = if same.len() - 1 > GROUP_PLACES {
+                "; …"
+            } else {
+                ""
+            };
+            lines.push(format!(
+                "    and {} more like it: {}{more}",
+                same.len() - 1,
+                others.join("; ")
+            ));
+        } else {
+            done[i] = true;
+        }
+    }
+    lines.join("\n")
 }
 
 impl PlanError {

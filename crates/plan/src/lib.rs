@@ -11,6 +11,7 @@ pub mod generate;
 mod load;
 mod machine;
 pub mod model;
+mod plausible;
 mod resolve;
 mod validate;
 
@@ -23,6 +24,7 @@ pub use machine::{
     MAX_ELST_COEFFS, MAX_SWITCH_TIME_S, SERVO_PERIOD_RANGE_S, SPEED_RANGE_DEG_PER_S,
 };
 pub use model::*;
+pub use plausible::{machine_warnings, plan_warnings, Warning};
 pub use resolve::{layer_irradiation_time_s, resolve, spots_irradiation_time_s};
 pub use validate::{
     validate_plan, ENERGY_RANGE_MEV, MAX_ANGLE_DEG, MAX_LAYER_TIME_S, MAX_SPEED_DEG_PER_S,

@@ -117,7 +117,10 @@ fn check_default_window(
                     At::cp(a, c),
                     "window_deg",
                     format!(
-                        "no window given, and the machine's default window {window} deg is wider than the {spacing} deg spacing to control point {n}; expected a window_deg of at most {spacing} deg"
+                        "no window given, and the machine's default window {} deg (machine field `default_window_deg`) is wider than the {} deg spacing to control point {n}; lower the machine's default_window_deg to at most {} deg, or give this control point a window_deg (JSON plans)",
+                        crate::error::fmt_num(window),
+                        crate::error::fmt_num(spacing),
+                        crate::error::fmt_num(spacing)
                     ),
                 ));
                 return;

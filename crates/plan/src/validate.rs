@@ -241,7 +241,15 @@ impl Validator<'_> {
             self.push(
                 at,
                 "energy_mev",
-                format!("expected an energy in {lo}..={hi} MeV, got {}", fmt_num(e)),
+                format!(
+                    "expected an energy in {lo}..={hi} MeV, got {}{}",
+                    fmt_num(e),
+                    if e > hi && (lo..=hi).contains(&(e / 1000.0)) {
+                        " — given in keV? the field is in MeV"
+                    } else {
+                        ""
+                    }
+                ),
             );
         }
         match (&layer.spots, layer.irradiation_time_s) {

@@ -347,7 +347,7 @@ fn default_window_wider_than_spacing_fails_to_resolve() {
     assert!(
         issues[0]
             .message
-            .contains("default window 1 deg is wider than the 0.5 deg spacing to control point 1"),
+            .contains("default window 1 deg (machine field `default_window_deg`) is wider than the 0.5 deg spacing to control point 1; lower the machine's default_window_deg"),
         "{err}"
     );
     assert!(
@@ -391,4 +391,47 @@ fn overflowing_irradiation_time_fails_to_resolve() {
         err.contains("layer 0, field `spots.mu[0]`: 1e307 MU is above the largest accepted value"),
         "{err}"
     );
+}
+
+/// The same problem in many places is one line, with the count and a few places; numbers keep
+/// a sensible precision; energies in keV get a hint.
+#[test]
+fn repeated_problems_are_grouped() {
+    let cps: Vec<Value> = (0..166)
+        .map(|i| json!({ "angle_deg": 2.0 * f64::from(i), "layers": [{ "energy_mev": 150000.0 + f64::from(i), "irradiation_time_s": 0.1 }] }))
+        .collect();
+    let v = json!({ "format": "arcsim-plan/1", "name": "kev", "arcs": [{ "direction": "CW", "control_points": cps }] });
+    let err = parse_plan(&v.to_string(), "kev.json").unwrap_err();
+    assert_eq!(err.issues().len(), 166);
+    let text = err.to_string();
+    assert!(text.starts_with("kev.json: 166 problems:"), "{text}");
+    assert!(
+        text.contains(
+            "field `energy_mev`: expected an energy in 1..=400 MeV, got 150000 — given in keV?"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("and 165 more like it: arc 0, control point 1, layer 0, field `energy_mev`;"),
+        "{text}"
+    );
+    assert_eq!(text.lines().count(), 3, "{text}");
+}
+
+/// Implausible plan values are warned about once per field, with the count of places.
+#[test]
+fn plan_warnings_name_the_field_and_count() {
+    let p = plan(json!([{ "direction": "CW", "control_points": [
+        { "angle_deg": 0.0, "window_deg": 1.0, "layers": [{ "energy_mev": 20.0, "irradiation_time_s": 500.0 }] },
+        { "angle_deg": 2.0, "layers": [{ "energy_mev": 150.0, "irradiation_time_s": 900.0 }] },
+        { "angle_deg": 4.0, "layers": [{ "energy_mev": 150.0, "irradiation_time_s": 0.5 }] }
+    ] }]));
+    let w: Vec<String> = arcsim_plan::plan_warnings(&p, "p.json")
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    assert_eq!(w.len(), 2, "{w:#?}");
+    assert!(w[0].contains("arc 0, control point 0, layer 0: energy_mev: 20 MeV is outside the plausible 30–300 MeV"), "{w:#?}");
+    assert!(w[1].contains("irradiation_time_s (and 1 more places): 500 s is outside the plausible 0–120 s; given in milliseconds?"), "{w:#?}");
+    assert!(arcsim_plan::machine_warnings(&machine(), "m.json").is_empty());
 }

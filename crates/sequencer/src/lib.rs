@@ -12,6 +12,7 @@
 mod build;
 mod error;
 mod free;
+mod lost;
 mod optimal;
 mod scan;
 mod servo;
@@ -20,6 +21,7 @@ mod types;
 mod verify;
 
 pub use error::SequenceError;
+pub use lost::{GapClass, LostGroup, LostTime, LostTransition, SwitchKind};
 pub use timeline::{GantryState, Piece, PieceKind, Timeline};
 pub use types::*;
 

@@ -332,6 +332,9 @@ pub struct Delivery {
     pub margins: Option<Margins>,
     /// Prescribed schedule only: every infeasible prescribed speed, with the reason.
     pub violations: Vec<Violation>,
+    /// Where the lost time goes: by cause and place, and the costliest transitions.
+    #[serde(default)]
+    pub lost_time: crate::LostTime,
     #[serde(skip)]
     pub timeline: Option<Timeline>,
 }

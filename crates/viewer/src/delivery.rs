@@ -47,6 +47,7 @@ pub fn log_delivery(
     log_styles(rec)?;
     log_motion(rec, delivery, &samples)?;
     log_energy(rec, delivery, timeline)?;
+    log_lost(rec, delivery, timeline)?;
     log_phases(rec, delivery, timeline)?;
     log_layer_text(rec, delivery, timeline)?;
     log_gantry_2d(rec, delivery, &samples)?;
@@ -177,6 +178,11 @@ fn log_styles(rec: &RecordingStream) -> Result<(), ViewerError> {
             .with_interpolation_mode(InterpolationMode::StepAfter),
     )?;
     rec.log_static(
+        paths::LOST,
+        &series_lines(&[("lost time per transition (s)", GREY, 2.0)])
+            .with_interpolation_mode(InterpolationMode::StepAfter),
+    )?;
+    rec.log_static(
         paths::PHASE,
         &rerun::StateConfiguration::new()
             .with_values([PHASE_BEAM, PHASE_SWITCH, PHASE_GANTRY])
@@ -294,6 +300,26 @@ fn log_energy(rec: &RecordingStream, d: &Delivery, timeline: &Timeline) -> Resul
         .collect();
     let columns = rerun::Scalars::new(energies).columns_of_unit_batches()?;
     rec.send_columns(paths::ENERGY, index_columns(&times, angles), columns)?;
+    Ok(())
+}
+
+/// Each transition's lost time, held from its start to its end (0 in between).
+fn log_lost(rec: &RecordingStream, d: &Delivery, timeline: &Timeline) -> Result<(), ViewerError> {
+    let mut times = Vec::with_capacity(2 * d.transitions.len());
+    let mut lost = Vec::with_capacity(2 * d.transitions.len());
+    for t in &d.transitions {
+        times.extend([t.t_start_s, t.t_start_s + t.duration_s]);
+        lost.extend([t.lost_s.max(0.0), 0.0]);
+    }
+    if times.is_empty() {
+        return Ok(());
+    }
+    let angles: Vec<f64> = times
+        .iter()
+        .map(|&t| timeline.state_at(t).angle_deg)
+        .collect();
+    let columns = rerun::Scalars::new(lost).columns_of_unit_batches()?;
+    rec.send_columns(paths::LOST, index_columns(&times, angles), columns)?;
     Ok(())
 }
 

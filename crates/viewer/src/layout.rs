@@ -69,6 +69,7 @@ fn delivery_layout() -> Node {
                 &[],
                 vec![
                     series("Energy (MeV)", paths::ENERGY),
+                    series("Lost time (s)", paths::LOST),
                     series("Angle (°)", paths::ANGLE),
                 ],
             ),

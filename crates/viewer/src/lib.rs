@@ -50,6 +50,9 @@ pub mod paths {
     pub const JERK: &str = "jerk";
     /// `Scalars` [nominal energy] (MeV), one row per layer start (drawn as steps).
     pub const ENERGY: &str = "energy";
+    /// `Scalars` [lost time] (s): each transition's time beyond its ELST, from its start to its
+    /// end (drawn as steps), so the expensive stretches of the arc stand out.
+    pub const LOST: &str = "lost_time";
     /// `StateChange`: "beam on", "energy switch" (within the ELST), "gantry" (beyond the ELST).
     pub const PHASE: &str = "phase";
     /// `TextLog`: one entry per layer, plus warnings for prescribed-speed violations.

@@ -160,6 +160,7 @@ fn prostate_scan_round_trip() {
         paths::ACCEL,
         paths::JERK,
         paths::ENERGY,
+        paths::LOST,
         paths::PHASE,
         paths::LAYERS,
         paths::GANTRY_BEAM,
@@ -168,6 +169,18 @@ fn prostate_scan_round_trip() {
         paths::GANTRY_ISOCENTRE,
     ] {
         rrd.chunks(p);
+    }
+    // Lost time: each transition's, held over it; the values add up to the breakdown's.
+    let lost = rrd.scalar_rows(paths::LOST);
+    assert_eq!(lost.len(), 2 * d.transitions.len());
+    let sum: f64 = lost.iter().map(|r| r.values[0]).sum();
+    assert!(
+        close(sum, d.breakdown.lost_s, 1e-9),
+        "{sum} vs {}",
+        d.breakdown.lost_s
+    );
+    for (r, t) in lost.iter().step_by(2).zip(&d.transitions) {
+        assert!(close(r.t, t.t_start_s, 1e-9) && r.values[0] == t.lost_s.max(0.0));
     }
     for p in [
         paths::GANTRY_CONTROL_POINTS,
@@ -429,6 +442,11 @@ fn sweep_round_trip() {
             String::new()
         } else {
             "no feasible timeline".into()
+        },
+        defaults: arcsim_evaluator::Defaults {
+            elst_up_s: Some(5.0),
+            elst_down_s: 0.5,
+            window_deg: 1.0,
         },
     };
     let rows = [

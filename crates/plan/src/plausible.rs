@@ -1,0 +1,237 @@
+//! Plausibility: values that are valid but far outside what real machines and plans use, most
+//! often a unit slip (ELST in ms, gantry limits in rad/s, keV for MeV). They are warnings, not
+//! errors, because a what-if machine may be extreme on purpose; the CLI's `--strict` refuses them.
+//!
+//! | field | plausible range | likely slip outside it |
+//! |---|---|---|
+//! | ELST `up_s`, `down_s`, `same_s`, `switching_time_s` | ≤ 60 s | ms (≥ 100) |
+//! | gantry V `max_speed_deg_per_s` | 0.1–30 °/s | rad/s (below 0.2) |
+//! | gantry A/D `max_accel_deg_per_s2`, `max_decel_deg_per_s2` | 0.01–30 °/s² | rad/s² (below 0.02) |
+//! | gantry J `max_jerk_deg_per_s3` | 0.01–100 °/s³ | rad/s³ (below 0.02) |
+//! | servo period `servo_period_s` | 0.1 ms–0.1 s | ms (≥ 0.1) |
+//! | beam `s_per_mu` | ≤ 1 s/MU | ms/MU |
+//! | beam `spot_switch_time_s`, `min_spot_time_s` | ≤ 0.1 s | ms |
+//! | window `default_window_deg`, `window_deg` | ≤ 30° | |
+//! | energy `energy_mev` | 30–300 MeV (protons) | |
+//! | MU of one spot `spots.mu` | ≤ 100 MU | |
+//! | irradiation time of a layer `irradiation_time_s` | ≤ 120 s | ms |
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::fmt_num;
+use crate::model::{ArcPlan, ElstModel, Machine};
+
+/// A value outside the plausible range of its field.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Warning {
+    /// Where: the file (or plan/machine name) and the field, e.g. `machine.json: elst.up_s`.
+    pub field: String,
+    pub value: f64,
+    /// What is plausible and the likely slip.
+    pub message: String,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.field, self.message)
+    }
+}
+
+struct Collector<'a> {
+    source: &'a str,
+    out: Vec<Warning>,
+}
+
+impl Collector<'_> {
+    /// Warns when `x` is outside `[lo, hi]`; `slip` says what a value below (`low`) or above
+    /// (`high`) most likely means.
+    fn range(
+        &mut self,
+        field: &str,
+        x: f64,
+        (lo, hi): (f64, f64),
+        unit: &str,
+        low: Option<&str>,
+        high: Option<&str>,
+    ) {
+        if !x.is_finite() || (lo..=hi).contains(&x) {
+            return;
+        }
+        let slip = if x < lo { low } else { high };
+        let hint = slip.map(|s| format!("; {s}")).unwrap_or_default();
+        self.out.push(Warning {
+            field: format!("{}: {field}", self.source),
+            value: x,
+            message: format!(
+                "{} {unit} is outside the plausible {}–{} {unit}{hint}",
+                fmt_num(x),
+                fmt_num(lo),
+                fmt_num(hi)
+            ),
+        });
+    }
+}
+
+const MS: &str = "given in milliseconds? the field is in seconds";
+
+/// Implausible values of a machine (`source` names it in the messages).
+pub fn machine_warnings(m: &Machine, source: &str) -> Vec<Warning> {
+    let mut c = Collector {
+        source,
+        out: Vec::new(),
+    };
+    let g = &m.gantry;
+    let rad = "given in rad? the field is in degrees";
+    c.range(
+        "gantry.max_speed_deg_per_s",
+        g.max_speed_deg_per_s,
+        (0.1, 30.0),
+        "deg/s",
+        Some(rad),
+        None,
+    );
+    for (field, x) in [
+        ("gantry.max_accel_deg_per_s2", Some(g.max_accel_deg_per_s2)),
+        ("gantry.max_decel_deg_per_s2", g.max_decel_deg_per_s2),
+    ] {
+        if let Some(x) = x {
+            c.range(field, x, (0.01, 30.0), "deg/s^2", Some(rad), None);
+        }
+    }
+    c.range(
+        "gantry.max_jerk_deg_per_s3",
+        g.max_jerk_deg_per_s3,
+        (0.01, 100.0),
+        "deg/s^3",
+        Some(rad),
+        None,
+    );
+    let elst: Vec<(&str, f64)> = match &m.elst {
+        ElstModel::Constant {
+            up_s,
+            down_s,
+            same_s,
+        } => vec![
+            ("elst.up_s", *up_s),
+            ("elst.down_s", *down_s),
+            ("elst.same_s", *same_s),
+        ],
+        ElstModel::Polynomial { down_s, same_s, .. } => {
+            vec![("elst.down_s", *down_s), ("elst.same_s", *same_s)]
+        }
+    };
+    for (field, x) in elst {
+        c.range(field, x, (0.0, 60.0), "s", None, Some(MS));
+    }
+    if let Some(ts) = m.servo_period_s {
+        c.range("servo_period_s", ts, (1e-4, 0.1), "s", None, Some(MS));
+    }
+    c.range(
+        "beam.s_per_mu",
+        m.beam.s_per_mu,
+        (0.0, 1.0),
+        "s/MU",
+        None,
+        Some(MS),
+    );
+    for (field, x) in [
+        ("beam.spot_switch_time_s", m.beam.spot_switch_time_s),
+        ("beam.min_spot_time_s", m.beam.min_spot_time_s),
+    ] {
+        c.range(field, x, (0.0, 0.1), "s", None, Some(MS));
+    }
+    c.range(
+        "default_window_deg",
+        m.default_window_deg,
+        (0.0, 30.0),
+        "deg",
+        None,
+        None,
+    );
+    c.out
+}
+
+/// One checked value of a plan.
+struct Place {
+    /// "arc 0, control point 3, layer 1"
+    at: String,
+    field: &'static str,
+    value: f64,
+    range: (f64, f64),
+    unit: &'static str,
+    slip: Option<&'static str>,
+}
+
+impl Place {
+    fn implausible(&self) -> bool {
+        !(self.range.0..=self.range.1).contains(&self.value)
+    }
+}
+
+/// Implausible values of a plan, one warning per field (naming the first place and how many
+/// there are).
+pub fn plan_warnings(p: &ArcPlan, source: &str) -> Vec<Warning> {
+    let mut places: Vec<Place> = Vec::new();
+    for (a, arc) in p.arcs.iter().enumerate() {
+        for (k, cp) in arc.control_points.iter().enumerate() {
+            let at = format!("arc {a}, control point {k}");
+            if let Some(w) = cp.window_deg {
+                places.push(Place {
+                    at: at.clone(),
+                    field: "window_deg",
+                    value: w,
+                    range: (0.0, 30.0),
+                    unit: "deg",
+                    slip: None,
+                });
+            }
+            for (l, layer) in cp.layers.iter().enumerate() {
+                let at = format!("{at}, layer {l}");
+                let mut add = |field, value, range, unit, slip| {
+                    places.push(Place {
+                        at: at.clone(),
+                        field,
+                        value,
+                        range,
+                        unit,
+                        slip,
+                    })
+                };
+                add("energy_mev", layer.energy_mev, (30.0, 300.0), "MeV", None);
+                if let Some(t) = layer.irradiation_time_s {
+                    add("irradiation_time_s", t, (0.0, 120.0), "s", Some(MS));
+                }
+                if let Some(t) = layer.switching_time_s {
+                    add("switching_time_s", t, (0.0, 60.0), "s", Some(MS));
+                }
+                if let Some(mu) = layer.spots.as_ref().and_then(|s| s.mu.as_ref()) {
+                    if let Some(&max) = mu.iter().max_by(|a, b| a.total_cmp(b)) {
+                        add("spots.mu", max, (0.0, 100.0), "MU", None);
+                    }
+                }
+            }
+        }
+    }
+    let mut c = Collector {
+        source,
+        out: Vec::new(),
+    };
+    let mut fields: Vec<&str> = Vec::new();
+    for p in places.iter().filter(|p| p.implausible()) {
+        if fields.contains(&p.field) {
+            continue;
+        }
+        fields.push(p.field);
+        let count = places
+            .iter()
+            .filter(|q| q.field == p.field && q.implausible())
+            .count();
+        let name = if count == 1 {
+            format!("{}: {}", p.at, p.field)
+        } else {
+            format!("{}: {} (and {} more places)", p.at, p.field, count - 1)
+        };
+        c.range(&name, p.value, p.range, p.unit, None, p.slip);
+    }
+    c.out
+}
