@@ -351,3 +351,44 @@ fn one_cause_one_message() {
         "{stderr}"
     );
 }
+
+/// Sweeps: a limit without effect is said so, ties go to the base machine (lung: V 3, 5 and 6
+/// give the same time, so the fastest setting keeps V 5), and every limit column of the CSV
+/// holds the value used.
+#[test]
+fn sweep_ties_no_effect_and_limit_columns() {
+    let dir = fixtures::temp_dir();
+    let sweep = serde_json::json!({
+        "format": "arcsim-sweep/1",
+        "name": "ties",
+        "plans": [s(&repo().join("plans/lung.json"))],
+        "machine": s(&repo().join("scenarios/machine-atom.json")),
+        "axes": { "jerk_deg_per_s3": [0.5, 1], "speed_deg_per_s": [3, 5, 6] },
+        "schedules": ["scan"]
+    });
+    let path = dir.join("ties.json");
+    std::fs::write(&path, sweep.to_string()).unwrap();
+    let csv = dir.join("ties.csv");
+    let o = arcsim(&["sweep", s(&path), "--out", s(&csv)]);
+    let (stdout, stderr) = out(&o);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("1 plan,"), "{stderr}");
+    let fastest = stdout
+        .lines()
+        .find(|l| l.contains("lung.json") && l.contains("scan"))
+        .expect("fastest row");
+    assert!(fastest.ends_with("J 1, A 0.5, V 5"), "{fastest}");
+    assert!(stdout.contains("no effect (3–6 deg/s)"), "{stdout}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let row: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for (col, want) in [
+        ("elst_up_s", "5"),
+        ("elst_down_s", "0.5"),
+        ("window_deg", "1"),
+    ] {
+        let i = header.iter().position(|h| *h == col).expect(col);
+        assert_eq!(row[i], want, "{col}");
+    }
+}

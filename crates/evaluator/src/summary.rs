@@ -621,8 +621,8 @@ impl Summary {
                             if s.no_effect {
                                 format!(
                                     "no effect ({}–{} {})",
-                                    short(s.evaluated_min),
-                                    short(s.evaluated_max),
+                                    short((s.evaluated_min * 100.0).round() / 100.0),
+                                    short((s.evaluated_max * 100.0).round() / 100.0),
                                     s.axis.symbol().1
                                 )
                             } else {
