@@ -57,23 +57,6 @@ fn arc_time_on_grid(p: &ArcProblem, v: &[f64], lim: &Limits, period: f64) -> f64
     moving.map_or(f64::INFINITY, |m| m + p.t.iter().sum::<f64>())
 }
 
-/// The `scan` schedule. On a servo period, the continuous scan's speeds are kept where their
-/// transitions fit the grid and lowered only where not, so a period never shortens a transition
-/// (a scan from the caps on a fine grid could settle on other, faster speeds); the scan from the
-/// caps is the fallback when that repair does not settle.
-fn scan_schedule(
-    p: &ArcProblem,
-    limits: &Limits,
-    period: Option<f64>,
-) -> (Vec<f64>, Vec<SpeedBound>) {
-    let cont = scan(p, limits, &p.cap, &p.cap_bound, true, None);
-    match period {
-        Some(_) => scan_converged(p, limits, &cont.0, &cont.1, true, period)
-            .unwrap_or_else(|| scan(p, limits, &p.cap, &p.cap_bound, true, period)),
-        None => cont,
-    }
-}
-
 fn check_period(opts: &Options) -> Result<(), SequenceError> {
     match opts.servo_period_s {
         Some(ts) if !(ts.is_finite() && ts > 0.0) => Err(SequenceError::Input(format!(
@@ -101,7 +84,18 @@ pub fn simulate_resolved(
     for (arc, p) in arcs.iter().zip(&problems) {
         let (v, b) = match opts.schedule {
             Schedule::StepAndShoot => (vec![0.0; p.len()], vec![SpeedBound::StepAndShoot; p.len()]),
-            Schedule::Scan => scan_schedule(p, limits, period),
+            // On a servo period, the continuous scan's speeds are kept where their transitions
+            // fit the grid and lowered only where not, so a period never shortens a transition
+            // (a scan from the caps on a fine grid could settle on other, faster speeds); the
+            // scan from the caps is the fallback when that repair does not settle.
+            Schedule::Scan => {
+                let cont = scan(p, limits, &p.cap, &p.cap_bound, true, None);
+                match period {
+                    Some(_) => scan_converged(p, limits, &cont.0, &cont.1, true, period)
+                        .unwrap_or_else(|| scan(p, limits, &p.cap, &p.cap_bound, true, period)),
+                    None => cont,
+                }
+            }
             Schedule::Optimal => {
                 let (upper, _) = scan(p, limits, &p.cap, &p.cap_bound, false, None);
                 let (seed, seed_bounds) = scan(p, limits, &p.cap, &p.cap_bound, true, None);
@@ -124,19 +118,17 @@ pub fn simulate_resolved(
                     // The optimum is found in continuous time; the scan then lowers any speeds
                     // whose transitions cannot be put on the servo grid. The servo-aware scan
                     // from the caps can still do better: keep whichever is shorter.
-                    // `scan` on the same period is a candidate too, so `optimal` is never worse.
+                    // `scan` on the same period (the seed, which is the continuous scan,
+                    // repaired on the grid; else the scan from the caps, `direct`) is a
+                    // candidate too, so `optimal` is never worse.
                     Some(ts) => {
                         let repaired = scan(p, limits, &best, &b, true, period);
                         let direct = scan(p, limits, &p.cap, &p.cap_bound, true, period);
-                        let scanned = scan_schedule(p, limits, period);
+                        let scanned = scan_converged(p, limits, &seed, &seed_bounds, true, period);
                         let time = |v: &[f64]| arc_time_on_grid(p, v, limits, ts);
-                        [direct, scanned].into_iter().fold(repaired, |a, c| {
-                            if time(&c.0) < time(&a.0) {
-                                c
-                            } else {
-                                a
-                            }
-                        })
+                        std::iter::once(direct)
+                            .chain(scanned)
+                            .fold(repaired, |a, c| if time(&c.0) < time(&a.0) { c } else { a })
                     }
                     None => (best, b),
                 }
