@@ -2,7 +2,7 @@
 //! sequencer never divides by zero or turns a bad file into NaN.
 
 use crate::error::{fmt_num, At, PlanIssue};
-use crate::model::{ElstModel, Machine, MACHINE_FORMAT};
+use crate::model::{poly, ElstModel, Machine, MACHINE_FORMAT};
 use crate::validate::ENERGY_RANGE_MEV;
 
 /// Gantry limits arcsim accepts. They span every real gantry (V 1–10 deg/s, A 0.1–5 deg/s²,
@@ -125,8 +125,7 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
                 // Every possible upward step must get a usable time: the polynomial's extremes
                 // on the whole range of steps, found exactly (at the ends and where it turns).
                 let span = ENERGY_RANGE_MEV.1 - ENERGY_RANGE_MEV.0;
-                let (min_at, min) = poly_extreme(up_coeffs_s, 0.0, span, |a, b| a < b);
-                let (max_at, max) = poly_extreme(up_coeffs_s, 0.0, span, |a, b| a > b);
+                let ((min_at, min), (max_at, max)) = poly_min_max(up_coeffs_s, 0.0, span);
                 if !(min.is_finite() && min >= 0.0) {
                     m.push(
                         "elst.up_coeffs_s",
@@ -159,9 +158,13 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
     m.issues
 }
 
-/// Value of the polynomial `Σ c[i] x^i`.
-fn poly(c: &[f64], x: f64) -> f64 {
-    c.iter().rev().fold(0.0, |acc, k| acc * x + k)
+/// Coefficients of the derivative of the polynomial `Σ c[i] x^i`.
+fn derivative(c: &[f64]) -> Vec<f64> {
+    c.iter()
+        .enumerate()
+        .skip(1)
+        .map(|(i, k)| i as f64 * k)
+        .collect()
 }
 
 /// Real roots of the polynomial `c` in `[a, b]`, ascending: between consecutive turning points
@@ -176,13 +179,8 @@ fn poly_roots(c: &[f64], a: f64, b: f64) -> Vec<f64> {
     if c.len() < 2 {
         return Vec::new();
     }
-    let deriv: Vec<f64> = c[1..]
-        .iter()
-        .enumerate()
-        .map(|(i, k)| (i + 1) as f64 * k)
-        .collect();
     let mut cuts = vec![a];
-    cuts.extend(poly_roots(&deriv, a, b));
+    cuts.extend(poly_roots(&derivative(c), a, b));
     cuts.push(b);
     let mut roots = Vec::new();
     for w in cuts.windows(2) {
@@ -211,23 +209,21 @@ fn poly_roots(c: &[f64], a: f64, b: f64) -> Vec<f64> {
     roots
 }
 
-/// The extreme value of the polynomial on `[a, b]` in the sense of `better` (`<`: minimum), and
-/// where it is: at an end or at a root of the derivative.
-fn poly_extreme(c: &[f64], a: f64, b: f64, better: impl Fn(f64, f64) -> bool) -> (f64, f64) {
-    let deriv: Vec<f64> = c
-        .iter()
-        .enumerate()
-        .skip(1)
-        .map(|(i, k)| i as f64 * k)
-        .collect();
-    let mut best = (a, poly(c, a));
-    for x in poly_roots(&deriv, a, b).into_iter().chain([b]) {
+/// The lowest and the highest value of the polynomial on `[a, b]`, each with where it is: at an
+/// end or at a root of the derivative. A NaN anywhere is reported as both.
+fn poly_min_max(c: &[f64], a: f64, b: f64) -> ((f64, f64), (f64, f64)) {
+    let start = (a, poly(c, a));
+    let (mut min, mut max) = (start, start);
+    for x in poly_roots(&derivative(c), a, b).into_iter().chain([b]) {
         let y = poly(c, x);
-        if y.is_nan() || better(y, best.1) {
-            best = (x, y);
+        if y.is_nan() || y < min.1 {
+            min = (x, y);
+        }
+        if y.is_nan() || y > max.1 {
+            max = (x, y);
         }
     }
-    best
+    (min, max)
 }
 
 struct Checker<'a> {

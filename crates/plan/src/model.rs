@@ -165,6 +165,11 @@ pub enum ElstModel {
     },
 }
 
+/// Value of the polynomial `Σ c[i] x^i` (Horner's scheme, highest power first).
+pub(crate) fn poly(c: &[f64], x: f64) -> f64 {
+    c.iter().rev().fold(0.0, |acc, k| acc * x + k)
+}
+
 /// Energies closer than this (MeV) count as the same energy: no switch needed beyond `same_s`.
 pub const SAME_ENERGY_TOLERANCE_MEV: f64 = 1e-6;
 
@@ -183,10 +188,7 @@ impl ElstModel {
         } else {
             match self {
                 ElstModel::Constant { up_s, .. } => *up_s,
-                // Horner's scheme, highest power first.
-                ElstModel::Polynomial { up_coeffs_s, .. } => {
-                    up_coeffs_s.iter().rev().fold(0.0, |acc, c| acc * de + c)
-                }
+                ElstModel::Polynomial { up_coeffs_s, .. } => poly(up_coeffs_s, de),
             }
         }
     }
