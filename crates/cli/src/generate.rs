@@ -26,7 +26,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let json = to_json(&plan);
     match args.output {
         Some(path) => {
-            crate::output::check_outputs(&[], &[("--output", &path)])?;
+            crate::output::check_outputs(&[], &[("--output", Some(&path))])?;
             crate::output::write_file(&path, json.as_bytes())?;
             let control_points = plan.arcs.iter().map(|a| a.control_points.len()).sum();
             let layers = plan

@@ -19,20 +19,9 @@ pub struct Args {
 /// Converts the plan, writes the JSON and prints a summary (to standard error when the JSON goes to
 /// standard output).
 pub fn run(args: Args) -> Result<(), CliError> {
-    if let Some(path) = &args.output {
-        output::check_outputs(&[&args.input], &[("--output", path)])?;
-    }
+    output::check_outputs(&[&args.input], &[("--output", args.output.as_deref())])?;
     let bytes = crate::input::read_input(&args.input)?;
-    let stem = args
-        .input
-        .file_stem()
-        .filter(|_| args.input.as_os_str() != "-")
-        .map(|s| s.to_string_lossy().into_owned());
-    let plan = arcsim_dicom::read_rt_ion_plan_from_bytes_named(
-        &bytes,
-        stem.as_deref().unwrap_or(arcsim_dicom::DEFAULT_PLAN_NAME),
-    )
-    .map_err(|e| dicom_error(&args.input, e))?;
+    let plan = crate::input::dicom_plan(&args.input, &bytes)?;
     let json = arcsim_plan::to_json(&plan);
     let summary = summary(&plan);
     match &args.output {

@@ -86,6 +86,20 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
+/// The DICOM RT Ion Plan in `bytes` (read from `path`), named after the file's stem when it has
+/// neither RTPlanLabel nor RTPlanName.
+pub fn dicom_plan(path: &Path, bytes: &[u8]) -> Result<ArcPlan, CliError> {
+    let stem = path
+        .file_stem()
+        .filter(|_| path.as_os_str() != "-")
+        .map(|s| s.to_string_lossy().into_owned());
+    arcsim_dicom::read_rt_ion_plan_from_bytes_named(
+        bytes,
+        stem.as_deref().unwrap_or(arcsim_dicom::DEFAULT_PLAN_NAME),
+    )
+    .map_err(|e| crate::import::dicom_error(path, e))
+}
+
 /// [`load_plan`], with the SHA-256 of the bytes read (to tell edited files apart in results).
 pub fn load_plan_hashed(path: &Path) -> Result<(ArcPlan, String), CliError> {
     let dicom_extension = path
@@ -95,16 +109,7 @@ pub fn load_plan_hashed(path: &Path) -> Result<(ArcPlan, String), CliError> {
     let bytes = read_input(path)?;
     let digest = sha256_hex(&bytes);
     if dicom_extension || arcsim_dicom::has_dicom_magic(&bytes) {
-        let stem = path
-            .file_stem()
-            .filter(|_| path.as_os_str() != "-")
-            .map(|s| s.to_string_lossy().into_owned());
-        return arcsim_dicom::read_rt_ion_plan_from_bytes_named(
-            &bytes,
-            stem.as_deref().unwrap_or(arcsim_dicom::DEFAULT_PLAN_NAME),
-        )
-        .map(|plan| (plan, digest))
-        .map_err(|e| crate::import::dicom_error(path, e));
+        return dicom_plan(path, &bytes).map(|plan| (plan, digest));
     }
     let name = input_name(path);
     let text = String::from_utf8(bytes).map_err(|e| {

@@ -71,17 +71,17 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
-/// Checks every output (`flag`, path) before any work: its directory exists and takes a new file,
-/// it is not a directory, it is not one of `inputs` (which would be overwritten) and no two outputs
-/// are the same file.
-pub fn check_outputs(inputs: &[&Path], outputs: &[(&str, &Path)]) -> Result<(), CliError> {
+/// Checks every output given (`flag`, path; `None`: the flag was not given) before any work: its
+/// directory exists and takes a new file, it is not a directory, it is not one of `inputs` (which
+/// would be overwritten) and no two outputs are the same file.
+pub fn check_outputs(inputs: &[&Path], outputs: &[(&str, Option<&Path>)]) -> Result<(), CliError> {
     let inputs: Vec<PathBuf> = inputs
         .iter()
         .filter(|p| p.as_os_str() != "-")
         .filter_map(|p| p.canonicalize().ok())
         .collect();
     let mut seen: Vec<(PathBuf, &str)> = Vec::new();
-    for &(flag, path) in outputs {
+    for (flag, path) in outputs.iter().filter_map(|&(f, p)| p.map(|p| (f, p))) {
         let shown = path.display();
         if path.file_name().is_none() || path.as_os_str() == "-" {
             return Err(CliError::usage(format!(

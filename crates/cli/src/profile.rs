@@ -275,9 +275,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if let Some(batch) = &args.batch {
         return run_batch(batch, args.out.as_deref(), args.reverse.into());
     }
-    if let Some(path) = &args.csv {
-        crate::output::check_outputs(&[], &[("--csv", path)])?;
-    }
+    crate::output::check_outputs(&[], &[("--csv", args.csv.as_deref())])?;
     let need = |v: Option<f64>, name: &str| {
         v.ok_or_else(|| CliError::usage(format!("--{name} is required")))
     };
@@ -378,9 +376,7 @@ fn parse_row(
 }
 
 fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Result<(), CliError> {
-    if let Some(out) = out {
-        crate::output::check_outputs(&[input], &[("--out", out)])?;
-    }
+    crate::output::check_outputs(&[input], &[("--out", out)])?;
     let text = crate::input::read_text(input)?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let mut lines = text

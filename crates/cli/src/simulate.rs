@@ -417,15 +417,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let inputs: Vec<&Path> = std::iter::once(args.plan.as_path())
         .chain(args.machine.as_deref())
         .collect();
-    let outputs: Vec<(&str, &Path)> = [
-        ("--json", args.json.as_deref()),
-        ("--csv", args.csv.as_deref()),
-        ("--rrd", args.rrd.as_deref()),
-    ]
-    .into_iter()
-    .filter_map(|(flag, p)| p.map(|p| (flag, p)))
-    .collect();
-    crate::output::check_outputs(&inputs, &outputs)?;
+    crate::output::check_outputs(
+        &inputs,
+        &[
+            ("--json", args.json.as_deref()),
+            ("--csv", args.csv.as_deref()),
+            ("--rrd", args.rrd.as_deref()),
+        ],
+    )?;
     let (plan, plan_sha256) = load_plan_hashed(&args.plan)?;
     let (machine, machine_sha256) = load_machine_hashed(args.machine.as_deref())?;
     let mut warnings =

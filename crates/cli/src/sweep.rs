@@ -89,15 +89,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
             )));
         }
     }
-    let outputs: Vec<(&str, &Path)> = [
-        ("--out", args.out.as_deref()),
-        ("--json", args.json.as_deref()),
-        ("--rrd", args.rrd.as_deref()),
-    ]
-    .into_iter()
-    .filter_map(|(flag, p)| p.map(|p| (flag, p)))
-    .collect();
-    crate::output::check_outputs(&[&args.sweep], &outputs)?;
+    crate::output::check_outputs(
+        &[&args.sweep],
+        &[
+            ("--out", args.out.as_deref()),
+            ("--json", args.json.as_deref()),
+            ("--rrd", args.rrd.as_deref()),
+        ],
+    )?;
 
     let sweep = load(&args.sweep)?;
     // No more threads than combinations: each would only wait.
@@ -251,7 +250,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
 pub fn merge(args: MergeArgs) -> Result<(), CliError> {
     let mut inputs_and_sweep: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
     inputs_and_sweep.extend(args.sweep.as_deref());
-    crate::output::check_outputs(&inputs_and_sweep, &[("--out", &args.out)])?;
+    crate::output::check_outputs(&inputs_and_sweep, &[("--out", Some(&args.out))])?;
     let inputs = args
         .inputs
         .iter()

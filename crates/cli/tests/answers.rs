@@ -5,34 +5,14 @@
 #[path = "../../dicom/tests/fixtures/mod.rs"]
 mod fixtures;
 
+mod common;
+
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
 use serde_json::Value;
 
-fn arcsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_arcsim"))
-        .args(args)
-        .current_dir(repo())
-        .output()
-        .expect("run arcsim")
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
-
-fn out(o: &Output) -> (String, String) {
-    (
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
+use common::{arcsim, path_str as s, repo, text as out};
 
 fn json_of(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).expect("result")).expect("json")
@@ -358,16 +338,12 @@ fn one_cause_one_message() {
 #[test]
 fn sweep_ties_no_effect_and_limit_columns() {
     let dir = fixtures::temp_dir();
-    let sweep = serde_json::json!({
-        "format": "arcsim-sweep/1",
-        "name": "ties",
-        "plans": [s(&repo().join("plans/lung.json"))],
-        "machine": s(&repo().join("scenarios/machine-atom.json")),
-        "axes": { "jerk_deg_per_s3": [0.5, 1], "speed_deg_per_s": [3, 5, 6] },
-        "schedules": ["scan"]
-    });
-    let path = dir.join("ties.json");
-    std::fs::write(&path, sweep.to_string()).unwrap();
+    let path = common::sweep_file(
+        &dir,
+        "ties",
+        "plans/lung.json",
+        serde_json::json!({ "jerk_deg_per_s3": [0.5, 1], "speed_deg_per_s": [3, 5, 6] }),
+    );
     let csv = dir.join("ties.csv");
     let o = arcsim(&["sweep", s(&path), "--out", s(&csv)]);
     let (stdout, stderr) = out(&o);

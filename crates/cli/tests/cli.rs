@@ -4,27 +4,9 @@
 #[path = "../../dicom/tests/fixtures/mod.rs"]
 mod fixtures;
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn arcsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_arcsim"))
-        .args(args)
-        .current_dir(repo())
-        .output()
-        .expect("run arcsim")
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn text(o: &Output) -> (String, String) {
-    (
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
+use common::{arcsim, repo, text};
 
 fn total_of(stdout: &str) -> f64 {
     let line = stdout
@@ -364,11 +346,7 @@ fn simulate_free_and_constant_motion() {
         "free",
     ]);
     assert_eq!(bad.status.code(), Some(1));
-    assert!(text_of_err(&bad).contains("free arc ends need free motion"));
-}
-
-fn text_of_err(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
+    assert!(common::stderr(&bad).contains("free arc ends need free motion"));
 }
 
 /// `--help` explains the summaries' terms (issue "Answers a physicist can read").
@@ -463,16 +441,12 @@ fn generate_plan_to_a_file_says_what_it_wrote() {
 #[test]
 fn one_plan_sweep_banner_is_singular() {
     let dir = fixtures::temp_dir();
-    let sweep = dir.join("one.json");
-    let text_of_sweep = serde_json::json!({
-        "format": "arcsim-sweep/1",
-        "name": "one",
-        "plans": [repo().join("plans/prostate.json").to_str().expect("utf-8")],
-        "machine": repo().join("scenarios/machine-atom.json").to_str().expect("utf-8"),
-        "axes": { "jerk_deg_per_s3": [0.5] },
-        "schedules": ["scan"]
-    });
-    std::fs::write(&sweep, text_of_sweep.to_string()).expect("write sweep");
+    let sweep = common::sweep_file(
+        &dir,
+        "one",
+        "plans/prostate.json",
+        serde_json::json!({ "jerk_deg_per_s3": [0.5] }),
+    );
     let o = arcsim(&["sweep", sweep.to_str().unwrap(), "--threads", "1"]);
     let (_, err) = text(&o);
     assert!(o.status.success(), "{err}");

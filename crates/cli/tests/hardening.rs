@@ -5,36 +5,14 @@
 #[path = "../../dicom/tests/fixtures/mod.rs"]
 mod fixtures;
 
+mod common;
+
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_arcsim"));
-    c.current_dir(repo());
-    c
-}
-
-fn arcsim(args: &[&str]) -> Output {
-    bin().args(args).output().expect("run arcsim")
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn path_str(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
+use common::{arcsim, bin, path_str, repo, stderr, stdout};
 
 /// A sweep file of the prostate plan with `scan` over the given jerks (× accelerations).
 fn small_sweep(dir: &Path, name: &str, jerks: &[f64]) -> PathBuf {
@@ -42,19 +20,12 @@ fn small_sweep(dir: &Path, name: &str, jerks: &[f64]) -> PathBuf {
 }
 
 fn sweep_file(dir: &Path, name: &str, jerks: &[f64], accels: &[f64]) -> PathBuf {
-    let plan = repo().join("plans/prostate.json");
-    let machine = repo().join("scenarios/machine-atom.json");
-    let text = serde_json::json!({
-        "format": "arcsim-sweep/1",
-        "name": name,
-        "plans": [plan.to_str().expect("utf-8")],
-        "machine": machine.to_str().expect("utf-8"),
-        "axes": { "jerk_deg_per_s3": jerks, "accel_deg_per_s2": accels },
-        "schedules": ["scan"]
-    });
-    let path = dir.join(format!("{name}.json"));
-    std::fs::write(&path, text.to_string()).expect("write sweep");
-    path
+    common::sweep_file(
+        dir,
+        name,
+        "plans/prostate.json",
+        serde_json::json!({ "jerk_deg_per_s3": jerks, "accel_deg_per_s2": accels }),
+    )
 }
 
 #[test]

@@ -6,10 +6,11 @@
 //! `probe_bounded` runs for `ARCSIM_PROBE_SECONDS` (default 45 s) in the normal test suite;
 //! `probe_long` (ignored) runs for 20 minutes: `cargo test -p arcsim --test probe -- --ignored`.
 
+mod common;
 #[path = "../../dicom/tests/fixtures/mod.rs"]
 mod fixtures;
 
-use std::path::{Path, PathBuf};
+use common::repo;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -98,10 +99,6 @@ struct Target {
     text: bool,
     /// The command, with `{}` for the mutated file and `{out}` for an output path.
     args: &'static [&'static str],
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 fn read(rel: &str) -> Vec<u8> {

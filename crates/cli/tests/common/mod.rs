@@ -1,0 +1,54 @@
+//! What the CLI test files share: running the binary from the repository root as a user would,
+//! its output as text, and small sweep files.
+#![allow(dead_code)] // each test file uses its own part
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The `arcsim` binary, to run in the repository root.
+pub fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_arcsim"));
+    c.current_dir(repo());
+    c
+}
+
+pub fn arcsim(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run arcsim")
+}
+
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// (standard output, standard error)
+pub fn text(o: &Output) -> (String, String) {
+    (stdout(o), stderr(o))
+}
+
+pub fn path_str(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// Writes `DIR/NAME.json`: a `scan` sweep of one bundled plan (`plan`, relative to the
+/// repository) on the ATOM machine over `axes`.
+pub fn sweep_file(dir: &Path, name: &str, plan: &str, axes: serde_json::Value) -> PathBuf {
+    let text = serde_json::json!({
+        "format": "arcsim-sweep/1",
+        "name": name,
+        "plans": [path_str(&repo().join(plan))],
+        "machine": path_str(&repo().join("scenarios/machine-atom.json")),
+        "axes": axes,
+        "schedules": ["scan"]
+    });
+    let path = dir.join(format!("{name}.json"));
+    std::fs::write(&path, text.to_string()).expect("write sweep");
+    path
+}
