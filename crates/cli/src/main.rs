@@ -10,6 +10,7 @@ mod import;
 mod input;
 mod output;
 mod profile;
+mod report;
 mod simulate;
 mod sweep;
 mod validate;

@@ -200,3 +200,31 @@ pub fn write_via_path(
         }
     }
 }
+
+/// Checks an output directory given with `flag` before any work: it is a directory, or it does
+/// not exist yet and its parent does (it is created when written).
+pub fn check_output_dir(flag: &str, dir: Option<&Path>) -> Result<(), CliError> {
+    let Some(dir) = dir else {
+        return Ok(());
+    };
+    let shown = dir.display();
+    if dir.exists() {
+        if !dir.is_dir() {
+            return Err(CliError::usage(format!(
+                "{flag} {shown}: is a file; expected a directory"
+            )));
+        }
+        return Ok(());
+    }
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        return Err(CliError::usage(format!(
+            "{flag} {shown}: directory {} does not exist",
+            parent.display()
+        )));
+    }
+    Ok(())
+}

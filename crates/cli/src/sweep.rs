@@ -35,6 +35,13 @@ pub struct Args {
     /// Write the rows for the Rerun viewer (.rrd) when the run ends (also after Ctrl-C).
     #[arg(long)]
     rrd: Option<PathBuf>,
+    /// Write a static report (one self-contained HTML file: heatmaps of the delivery time over
+    /// J x A at each V, sensitivities, breakdowns) when the run completes.
+    #[arg(long, value_name = "FILE.html")]
+    report: Option<PathBuf>,
+    /// Write the report's figures as SVG files into this directory (created if missing).
+    #[arg(long, value_name = "DIR")]
+    plot: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -49,6 +56,15 @@ pub struct MergeArgs {
     /// the whole sweep (as an unsharded run does).
     #[arg(long)]
     sweep: Option<PathBuf>,
+    /// Write the whole sweep for the Rerun viewer (.rrd), as `sweep --rrd` does (needs --sweep).
+    #[arg(long, requires = "sweep")]
+    rrd: Option<PathBuf>,
+    /// Write the whole sweep's static report, as `sweep --report` does (needs --sweep).
+    #[arg(long, requires = "sweep", value_name = "FILE.html")]
+    report: Option<PathBuf>,
+    /// Write the report's figures as SVG files into this directory (needs --sweep).
+    #[arg(long, requires = "sweep", value_name = "DIR")]
+    plot: Option<PathBuf>,
 }
 
 /// Set by Ctrl-C: the run stops after the rows in progress and writes what it has.
@@ -95,8 +111,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ("--out", args.out.as_deref()),
             ("--json", args.json.as_deref()),
             ("--rrd", args.rrd.as_deref()),
+            ("--report", args.report.as_deref()),
         ],
     )?;
+    crate::output::check_output_dir("--plot", args.plot.as_deref())?;
 
     let sweep = load(&args.sweep)?;
     // No more threads than combinations: each would only wait.
@@ -217,13 +235,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
             Shard::ALL => format!("sweep {}", ev.sweep().name),
             _ => format!("sweep {} (shard {shard})", ev.sweep().name),
         };
-        crate::output::write_via_path(path, |tmp| {
-            arcsim_viewer::save_sweep(tmp, &title, &rows)
-                .map_err(|e| CliError::failed(format!("--rrd {}: {e}", path.display())))
-        })?;
+        write_rrd(path, &title, &rows, summary.as_ref())?;
     }
     match summary {
         Some(s) => {
+            crate::report::write(&ev, &rows, &s, args.report.as_deref(), args.plot.as_deref())?;
             crate::output::print(&s.to_table());
             Ok(())
         }
@@ -233,6 +249,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
                 .flatten()
                 .map(|p| p.display().to_string())
                 .collect();
+            if args.report.is_some() || args.plot.is_some() {
+                eprintln!("report: not written (the run did not complete)");
+            }
             let saved = if saved.is_empty() {
                 String::new()
             } else {
@@ -247,10 +266,32 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
 }
 
+/// The sweep's Rerun recording, with the summary tables in its Summary tab when there is one.
+fn write_rrd(
+    path: &Path,
+    title: &str,
+    rows: &[Row],
+    summary: Option<&arcsim_evaluator::Summary>,
+) -> Result<(), CliError> {
+    let text = summary.map(|s| format!("```\n{}```\n", s.to_table()));
+    crate::output::write_via_path(path, |tmp| {
+        arcsim_viewer::save_sweep(tmp, title, rows, text.as_deref())
+            .map_err(|e| CliError::failed(format!("--rrd {}: {e}", path.display())))
+    })
+}
+
 pub fn merge(args: MergeArgs) -> Result<(), CliError> {
     let mut inputs_and_sweep: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
     inputs_and_sweep.extend(args.sweep.as_deref());
-    crate::output::check_outputs(&inputs_and_sweep, &[("--out", Some(&args.out))])?;
+    crate::output::check_outputs(
+        &inputs_and_sweep,
+        &[
+            ("--out", Some(&args.out)),
+            ("--rrd", args.rrd.as_deref()),
+            ("--report", args.report.as_deref()),
+        ],
+    )?;
+    crate::output::check_output_dir("--plot", args.plot.as_deref())?;
     let inputs = args
         .inputs
         .iter()
@@ -263,17 +304,36 @@ pub fn merge(args: MergeArgs) -> Result<(), CliError> {
     let merged = merge_csv(&inputs, sweep.as_ref().map(|s| s.combinations())).map_err(failed)?;
     // With the sweep file, every row is read back against it (a shard of another sweep fails
     // here) before anything is written; then the summary of the whole run.
-    let table = match sweep {
+    let whole = match sweep {
         Some(sweep) => {
             let ev = Evaluator::new(sweep).map_err(failed)?;
             let rows = ev
                 .rows_from_csv(&args.out.display().to_string(), &merged)
                 .map_err(failed)?;
-            Some(ev.summarize(&rows).to_table())
+            let summary = ev.summarize(&rows);
+            Some((ev, rows, summary))
         }
         None => None,
     };
     crate::output::write_file(&args.out, merged.as_bytes())?;
+    if let Some((ev, rows, summary)) = &whole {
+        if let Some(path) = &args.rrd {
+            write_rrd(
+                path,
+                &format!("sweep {}", ev.sweep().name),
+                rows,
+                Some(summary),
+            )?;
+        }
+        crate::report::write(
+            ev,
+            rows,
+            summary,
+            args.report.as_deref(),
+            args.plot.as_deref(),
+        )?;
+    }
+    let table = whole.map(|(_, _, summary)| summary.to_table());
     eprintln!(
         "merged {}: {} -> {}",
         crate::count(inputs.len(), "file"),

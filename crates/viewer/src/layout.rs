@@ -5,15 +5,15 @@
 //! plot on a 60 s window around the time cursor instead of the whole delivery.
 
 use rerun::blueprint::components::{
-    ColumnShare, ContainerKind, IncludedContent, PanelState, PlayState, QueryExpression,
+    ColumnShare, ContainerKind, Corner2D, IncludedContent, PanelState, PlayState, QueryExpression,
     RootContainer, RowShare, TimelineName, ViewClass,
 };
 use rerun::components::Name;
 use rerun::datatypes::{Float32, TimeRange, TimeRangeBoundary};
 use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg};
 use rerun::external::re_sdk_types::blueprint::archetypes::{
-    ContainerBlueprint, PanelBlueprint, TimeAxis, TimePanelBlueprint, ViewBlueprint, ViewContents,
-    ViewportBlueprint,
+    ContainerBlueprint, PanelBlueprint, PlotLegend, TimeAxis, TimePanelBlueprint, ViewBlueprint,
+    ViewContents, ViewportBlueprint,
 };
 use rerun::{ApplicationId, RecordingStream, RecordingStreamBuilder};
 
@@ -26,9 +26,15 @@ enum Node {
         class: &'static str,
         name: String,
         origin: String,
+        /// A time series' x range (timeline values); `None`: the whole timeline.
+        x_range: Option<(i64, i64)>,
+        /// A time series' legend corner; `None`: the viewer's default.
+        legend: Option<Corner2D>,
     },
     Container {
         kind: ContainerKind,
+        /// The tab title when the container is a tab.
+        name: Option<String>,
         shares: Vec<f32>,
         children: Vec<Node>,
     },
@@ -39,6 +45,8 @@ fn view(class: &'static str, name: &str, origin: &str) -> Node {
         class,
         name: name.to_owned(),
         origin: origin.to_owned(),
+        x_range: None,
+        legend: None,
     }
 }
 
@@ -49,8 +57,38 @@ fn series(name: &str, origin: &str) -> Node {
 fn container(kind: ContainerKind, shares: &[f32], children: Vec<Node>) -> Node {
     Node::Container {
         kind,
+        name: None,
         shares: shares.to_vec(),
         children,
+    }
+}
+
+fn named(node: Node, title: &str) -> Node {
+    match node {
+        Node::Container {
+            kind,
+            shares,
+            children,
+            ..
+        } => Node::Container {
+            kind,
+            name: Some(title.to_owned()),
+            shares,
+            children,
+        },
+        Node::View {
+            class,
+            origin,
+            x_range,
+            legend,
+            ..
+        } => Node::View {
+            class,
+            name: title.to_owned(),
+            origin,
+            x_range,
+            legend,
+        },
     }
 }
 
@@ -115,6 +153,8 @@ fn log_node(bp: &RecordingStream, node: &Node, next_id: &mut u8) -> Result<Strin
             class,
             name,
             origin,
+            x_range,
+            legend,
         } => {
             let path = format!("view/{}", uuid_string(&id));
             bp.log(
@@ -128,19 +168,32 @@ fn log_node(bp: &RecordingStream, node: &Node, next_id: &mut u8) -> Result<Strin
                     .with_space_origin(origin.as_str()),
             )?;
             if *class == "TimeSeries" {
-                let everything = TimeRange {
-                    start: TimeRangeBoundary::Infinite,
-                    end: TimeRangeBoundary::Infinite,
+                let range = match x_range {
+                    Some((lo, hi)) => TimeRange {
+                        start: TimeRangeBoundary::Absolute((*lo).into()),
+                        end: TimeRangeBoundary::Absolute((*hi).into()),
+                    },
+                    None => TimeRange {
+                        start: TimeRangeBoundary::Infinite,
+                        end: TimeRangeBoundary::Infinite,
+                    },
                 };
                 bp.log(
                     format!("{path}/TimeAxis"),
-                    &TimeAxis::new().with_view_range(everything),
+                    &TimeAxis::new().with_view_range(range),
                 )?;
+                if let Some(corner) = legend {
+                    bp.log(
+                        format!("{path}/PlotLegend"),
+                        &PlotLegend::new().with_corner(*corner).with_visible(true),
+                    )?;
+                }
             }
             Ok(path)
         }
         Node::Container {
             kind,
+            name,
             shares,
             children,
         } => {
@@ -156,6 +209,9 @@ fn log_node(bp: &RecordingStream, node: &Node, next_id: &mut u8) -> Result<Strin
                 ContainerKind::Vertical => arch.with_row_shares(shares.map(RowShare)),
                 _ => arch,
             };
+            if let Some(name) = name {
+                arch = arch.with_display_name(Name(name.as_str().into()));
+            }
             bp.log(path.as_str(), &arch)?;
             Ok(path)
         }
@@ -163,11 +219,12 @@ fn log_node(bp: &RecordingStream, node: &Node, next_id: &mut u8) -> Result<Strin
 }
 
 /// The blueprint messages of layout `root` for application `app_id`: panels collapsed
-/// (more room for the views), `timeline` selected and paused.
+/// (more room for the views), `timeline` selected, time in state `play`.
 fn blueprint_msgs(
     app_id: ApplicationId,
     root: &Node,
     timeline: &str,
+    play: PlayState,
 ) -> Result<Vec<LogMsg>, ViewerError> {
     let (bp, storage) = RecordingStreamBuilder::new(app_id)
         .send_properties(false)
@@ -194,7 +251,7 @@ fn blueprint_msgs(
         &TimePanelBlueprint::new()
             .with_state(PanelState::Collapsed)
             .with_timeline(TimelineName(timeline.into()))
-            .with_play_state(PlayState::Paused),
+            .with_play_state(play),
     )?;
     Ok(storage.take())
 }
@@ -205,13 +262,23 @@ pub fn send_delivery_blueprint(rec: &RecordingStream) -> Result<(), ViewerError>
     send_blueprint(rec, &delivery_layout(), TIME)
 }
 
-/// Sends layout `root` into `rec` as the active blueprint.
+/// Sends layout `root` into `rec` as the active blueprint, paused.
 fn send_blueprint(rec: &RecordingStream, root: &Node, timeline: &str) -> Result<(), ViewerError> {
+    send_blueprint_playing(rec, root, timeline, PlayState::Paused)
+}
+
+/// Sends layout `root` into `rec` as the active blueprint, time in state `play`.
+fn send_blueprint_playing(
+    rec: &RecordingStream,
+    root: &Node,
+    timeline: &str,
+    play: PlayState,
+) -> Result<(), ViewerError> {
     let app_id = rec.store_info().map_or_else(
         || ApplicationId::from(crate::DELIVERY_APP_ID),
         |i| i.application_id().clone(),
     );
-    let msgs = blueprint_msgs(app_id, root, timeline)?;
+    let msgs = blueprint_msgs(app_id, root, timeline, play)?;
     if let Some(blueprint_id) = msgs.first().map(|m| m.store_id().clone()) {
         rec.send_blueprint(
             msgs,
@@ -225,24 +292,66 @@ fn send_blueprint(rec: &RecordingStream, root: &Node, timeline: &str) -> Result<
     Ok(())
 }
 
-/// A sweep's layout: one plot per (plan, schedule) origin above the row log, on `timeline`.
+/// One plot of a sweep: delivery time against one limit.
+pub(crate) struct SweepPlot {
+    pub title: String,
+    pub origin: String,
+    /// The x range shown (values of the sweep's plot timeline).
+    pub x_range: (i64, i64),
+    /// Lines in the plot (legend entries).
+    pub lines: usize,
+}
+
+/// One plan of a sweep: a row of plots per schedule.
+pub(crate) struct SweepTab {
+    pub plan: String,
+    pub rows: Vec<Vec<SweepPlot>>,
+}
+
+/// A sweep's layout: a tab per plan, in it a row of plots per schedule (legends top right,
+/// where each plot's x range leaves room for them; each row as tall as its longest legend needs);
+/// then a tab with the summary document and one with the row log.
 pub(crate) fn send_sweep_blueprint(
     rec: &RecordingStream,
-    plots: &[(String, String)],
+    tabs: &[SweepTab],
+    summary_origin: &str,
     log_origin: &str,
-    timeline: &str,
 ) -> Result<(), ViewerError> {
-    let views: Vec<Node> = plots
+    let mut children: Vec<Node> = tabs
         .iter()
-        .map(|(name, origin)| series(name, origin))
+        .map(|tab| {
+            let rows: Vec<Node> = tab
+                .rows
+                .iter()
+                .filter(|r| !r.is_empty())
+                .map(|plots| {
+                    let views: Vec<Node> = plots
+                        .iter()
+                        .map(|p| Node::View {
+                            class: "TimeSeries",
+                            name: p.title.clone(),
+                            origin: p.origin.clone(),
+                            x_range: Some(p.x_range),
+                            legend: Some(Corner2D::RightTop),
+                        })
+                        .collect();
+                    container(ContainerKind::Horizontal, &[], views)
+                })
+                .collect();
+            let shares: Vec<f32> = tab
+                .rows
+                .iter()
+                .filter(|r| !r.is_empty())
+                .map(|r| r.iter().map(|p| p.lines).max().unwrap_or(1).max(3) as f32)
+                .collect();
+            named(container(ContainerKind::Vertical, &shares, rows), &tab.plan)
+        })
         .collect();
-    let root = container(
-        ContainerKind::Vertical,
-        &[4.0, 1.0],
-        vec![
-            container(ContainerKind::Grid, &[], views),
-            view("TextLog", "Combinations", log_origin),
-        ],
-    );
-    send_blueprint(rec, &root, timeline)
+    children.push(named(
+        view("TextDocument", "Summary", summary_origin),
+        "Summary",
+    ));
+    children.push(named(view("TextLog", "Rows", log_origin), "Rows"));
+    let root = container(ContainerKind::Tabs, &[], children);
+    send_blueprint_playing(rec, &root, crate::sweep::SWEEP_X, PlayState::Following)
 }

@@ -5,7 +5,8 @@
 //! with a default layout (blueprint). Output goes to an `.rrd` file ([`save_delivery`]), to a
 //! newly spawned viewer ([`spawn_delivery`], needs the `rerun` binary on `PATH`) or to a running
 //! viewer over gRPC ([`connect_delivery`]); [`log_delivery`] logs into any recording stream.
-//! [`save_sweep`] writes the rows of an `arcsim-evaluator` sweep (total time per combination).
+//! [`save_sweep`] writes the rows of an `arcsim-evaluator` sweep: per plan a tab of plots of the
+//! delivery time against each swept limit, one line per setting of the other limits.
 //!
 //! Every entity is logged on two timelines: `time` (a duration timeline, seconds from the start
 //! of delivery) and `angle_cdeg` (a sequence timeline holding the signed gantry angle in
@@ -23,7 +24,7 @@ pub use error::ViewerError;
 pub use layout::send_delivery_blueprint;
 pub use output::{connect_delivery, save_delivery, spawn_delivery, DELIVERY_APP_ID};
 pub use sweep::{
-    save_sweep, COMBINATION, SWEEP_ACCEL, SWEEP_APP_ID, SWEEP_JERK, SWEEP_ROWS, SWEEP_SPEED,
+    save_sweep, COMBINATION, MAX_LINES, SWEEP_APP_ID, SWEEP_ROWS, SWEEP_SUMMARY, SWEEP_X,
 };
 
 /// The Rerun SDK this crate logs with (re-exported so callers need no direct dependency).

@@ -47,6 +47,8 @@ struct Rrd {
     static_entities: Vec<String>,
     blueprint_chunks: usize,
     blueprint_activated: bool,
+    /// Display names of the blueprint's views and containers (plot titles, tab names).
+    blueprint_names: Vec<String>,
 }
 
 fn read_rrd(path: &Path) -> Rrd {
@@ -56,13 +58,25 @@ fn read_rrd(path: &Path) -> Rrd {
         static_entities: vec![],
         blueprint_chunks: 0,
         blueprint_activated: false,
+        blueprint_names: vec![],
     };
+    use rerun::external::re_sdk_types::blueprint::archetypes::{ContainerBlueprint, ViewBlueprint};
+    let names = [
+        ViewBlueprint::descriptor_display_name().component,
+        ContainerBlueprint::descriptor_display_name().component,
+    ];
     for msg in DecoderApp::decode_eager(BufReader::new(file)).expect("rrd header") {
         match msg.expect("rrd message") {
             LogMsg::ArrowMsg(store, arrow) => {
                 let chunk = Chunk::from_arrow_msg(&arrow).expect("chunk");
                 if store.kind() == StoreKind::Blueprint {
                     rrd.blueprint_chunks += 1;
+                    for name in names {
+                        for batch in chunk.iter_slices::<String>(name) {
+                            rrd.blueprint_names
+                                .extend(batch.into_iter().map(|s| s.to_string()));
+                        }
+                    }
                 } else {
                     let path = chunk.entity_path().to_string();
                     if chunk.is_static() {
@@ -403,18 +417,11 @@ fn bad_inputs_are_errors() {
     assert!(matches!(err, Err(ViewerError::Save { .. })), "{err:?}");
 }
 
-#[test]
-fn sweep_round_trip() {
+/// A sweep row of plan `plans/prostate.json` under `scan` at J `j`, A `a`, V 5, with `total`
+/// (`None`: infeasible).
+fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluator::Row {
     use arcsim_evaluator::{Outcome, Row, Setting, Status};
     use arcsim_sequencer::{Breakdown, LimiterCounts};
-    let setting = |j: f64| Setting {
-        jerk_deg_per_s3: j,
-        accel_deg_per_s2: 0.5,
-        speed_deg_per_s: 5.0,
-        elst_up_s: None,
-        elst_down_s: None,
-        window_deg: None,
-    };
     let outcome = |total_s: f64| Outcome {
         total_s,
         breakdown: Breakdown {
@@ -427,18 +434,25 @@ fn sweep_round_trip() {
         violations: 0,
         margins: None,
     };
-    let row = |index: usize, j: f64, outcome: Option<Outcome>| Row {
+    Row {
         index,
         plan: "plans/prostate.json".into(),
         schedule: arcsim_evaluator::RunMode::constant(Schedule::Scan),
-        setting: setting(j),
-        status: if outcome.is_some() {
+        setting: Setting {
+            jerk_deg_per_s3: j,
+            accel_deg_per_s2: a,
+            speed_deg_per_s: 5.0,
+            elst_up_s: None,
+            elst_down_s: None,
+            window_deg: None,
+        },
+        status: if total.is_some() {
             Status::Ok
         } else {
             Status::Infeasible
         },
-        outcome,
-        message: if outcome.is_some() {
+        outcome: total.map(outcome),
+        message: if total.is_some() {
             String::new()
         } else {
             "no feasible timeline".into()
@@ -448,49 +462,103 @@ fn sweep_round_trip() {
             elst_down_s: 0.5,
             window_deg: 1.0,
         },
-    };
+    }
+}
+
+#[test]
+fn sweep_round_trip() {
+    let row = sweep_row;
+    // J varies fastest, as in a sweep; the row at J 0.5, A 0.5 is infeasible.
     let rows = [
-        row(0, 0.25, Some(outcome(300.0))),
-        row(1, 0.5, None),
-        row(2, 1.0, Some(outcome(250.0))),
+        row(0, 0.25, 0.5, Some(300.0)),
+        row(1, 0.5, 0.5, None),
+        row(2, 1.0, 0.5, Some(250.0)),
+        row(3, 0.25, 1.0, Some(290.0)),
+        row(4, 0.5, 1.0, Some(260.0)),
+        row(5, 1.0, 1.0, Some(240.0)),
     ];
     let path = out_path("sweep.rrd");
-    arcsim_viewer::save_sweep(&path, "sweep", &rows).expect("save sweep");
+    arcsim_viewer::save_sweep(&path, "sweep", &rows, Some("summary table")).expect("save sweep");
     let rrd = read_rrd(&path);
-    assert!(rrd.blueprint_chunks > 0);
+    assert!(rrd.blueprint_chunks > 0 && rrd.blueprint_activated);
 
+    let x = TimelineName::from_static_str(arcsim_viewer::SWEEP_X);
     let combination = TimelineName::from_static_str(arcsim_viewer::COMBINATION);
-    let jerk = TimelineName::from_static_str(arcsim_viewer::SWEEP_JERK);
-    let speed = TimelineName::from_static_str(arcsim_viewer::SWEEP_SPEED);
     let scalars = rerun::Scalars::descriptor_scalars().component;
-    let mut logged = vec![];
-    for chunk in rrd
-        .chunks("sweep/plans_prostate_json/scan/times")
-        .iter()
-        .filter(|c| !c.is_static())
-    {
-        let times = |name: &TimelineName| {
-            chunk
-                .timelines()
-                .get(name)
-                .unwrap_or_else(|| panic!("{name} timeline"))
-                .times_raw()
-                .to_vec()
-        };
-        let (index, j, v) = (times(&combination), times(&jerk), times(&speed));
-        for (k, values) in chunk.iter_slices::<f64>(scalars).enumerate() {
-            logged.push((index[k], j[k], v[k], values.to_vec()));
+    // (x, combination index, total) of one line, in x order.
+    let line = |entity: &str| {
+        let mut points = vec![];
+        for chunk in rrd.chunks(entity).iter().filter(|c| !c.is_static()) {
+            let times = |name: &TimelineName| {
+                chunk
+                    .timelines()
+                    .get(name)
+                    .unwrap_or_else(|| panic!("{entity}: {name} timeline"))
+                    .times_raw()
+                    .to_vec()
+            };
+            let (xs, index) = (times(&x), times(&combination));
+            for (k, values) in chunk.iter_slices::<f64>(scalars).enumerate() {
+                assert_eq!(values.len(), 1, "{entity}: one scalar per row");
+                points.push((xs[k], index[k], values[0]));
+            }
         }
-    }
-    logged.sort_by_key(|r| r.0);
-    // Infeasible row 1 is left out; J and V are on their own timelines in thousandths.
+        points.sort_by_key(|p| p.0);
+        points
+    };
+    // Against J (in hundredths: 0.25 needs two decimals), one line per A; the infeasible row
+    // is left out.
+    let origin = "sweep/plans_prostate.json/scan";
     assert_eq!(
-        logged,
-        vec![
-            (0, 250, 5000, vec![300.0, 30.0, 130.0, 140.0]),
-            (2, 1000, 5000, vec![250.0, 30.0, 130.0, 90.0])
-        ]
+        line(&format!("{origin}/vs_J/00_A_0.5__V_5")),
+        vec![(25, 0, 300.0), (100, 2, 250.0)]
     );
+    assert_eq!(
+        line(&format!("{origin}/vs_J/01_A_1__V_5")),
+        vec![(25, 3, 290.0), (50, 4, 260.0), (100, 5, 240.0)]
+    );
+    // Against A (in tenths), one line per J.
+    assert_eq!(
+        line(&format!("{origin}/vs_A/00_J_0.25__V_5")),
+        vec![(5, 0, 300.0), (10, 3, 290.0)]
+    );
+    assert_eq!(
+        line(&format!("{origin}/vs_A/01_J_0.5__V_5")),
+        vec![(10, 4, 260.0)]
+    );
+    // V has one value: no plot against it.
+    assert!(
+        !rrd.entities.keys().any(|k| k.contains("vs_V")),
+        "{:?}",
+        rrd.entities.keys()
+    );
+
+    // Plot titles name the x axis's unit; the plan is a tab, then Summary and Rows.
+    for name in [
+        "scan: total (s) vs J (x: J in 0.01 °/s³)",
+        "scan: total (s) vs A (x: A in 0.1 °/s²)",
+        "plans/prostate.json",
+        "Summary",
+        "Rows",
+    ] {
+        assert!(
+            rrd.blueprint_names.iter().any(|n| n == name),
+            "no {name:?} in {:?}",
+            rrd.blueprint_names
+        );
+    }
+
+    let document = rerun::TextDocument::descriptor_text().component;
+    let summary: Vec<String> = rrd
+        .chunks(arcsim_viewer::SWEEP_SUMMARY)
+        .iter()
+        .flat_map(|c| {
+            c.iter_slices::<String>(document)
+                .flat_map(|r| r.into_iter().map(|s| s.to_string()))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    assert!(summary.iter().all(|s| s == "summary table") && !summary.is_empty());
 
     let text = rerun::TextLog::descriptor_text().component;
     let lines: Vec<String> = rrd
@@ -502,11 +570,53 @@ fn sweep_round_trip() {
                 .collect::<Vec<_>>()
         })
         .collect();
-    assert_eq!(lines.len(), 3);
+    assert_eq!(lines.len(), 6);
     assert!(
         lines
             .iter()
             .any(|l| l.starts_with("#1 ") && l.contains("infeasible: no feasible timeline")),
         "{lines:?}"
+    );
+}
+
+/// A plot keeps at most `MAX_LINES` lines, spread over the other limit's values, ends included,
+/// and says so in its title.
+#[test]
+fn sweep_plots_keep_their_legends_short() {
+    let accels: Vec<f64> = (1..=20).map(|k| k as f64 * 0.1).collect();
+    let mut rows = vec![];
+    for &a in &accels {
+        for j in [0.5, 1.0] {
+            rows.push(sweep_row(rows.len(), j, a, Some(300.0 - 10.0 * j - a)));
+        }
+    }
+    let path = out_path("sweep-thin.rrd");
+    arcsim_viewer::save_sweep(&path, "thin", &rows, None).expect("save sweep");
+    let rrd = read_rrd(&path);
+    let lines: Vec<&String> = rrd
+        .entities
+        .keys()
+        .filter(|k| k.contains("/vs_J/"))
+        .collect();
+    assert_eq!(lines.len(), arcsim_viewer::MAX_LINES, "{lines:?}");
+    for end in [
+        "/00_A_0.1__V_5",
+        &format!("/{:02}_A_2__V_5", arcsim_viewer::MAX_LINES - 1),
+    ] {
+        assert!(lines.iter().any(|l| l.ends_with(end)), "{end} in {lines:?}");
+    }
+    let title = format!(
+        "scan: total (s) vs J (x: J in 0.1 °/s³; {} of 20 lines)",
+        arcsim_viewer::MAX_LINES
+    );
+    assert!(
+        rrd.blueprint_names.contains(&title),
+        "{title:?} not in {:?}",
+        rrd.blueprint_names
+    );
+    // Against A, two lines (one per J): all of them.
+    assert_eq!(
+        rrd.entities.keys().filter(|k| k.contains("/vs_A/")).count(),
+        2
     );
 }
