@@ -1,8 +1,7 @@
 //! `arcsim import PLAN.dcm [-o plan.json]`: convert a DICOM RT Ion Plan into the native plan format.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use arcsim_dicom::DicomImportError;
 use arcsim_plan::{ArcPlan, RotationDirection};
 
 use crate::{output, CliError};
@@ -40,11 +39,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     }
     Ok(())
-}
-
-/// A failed DICOM import as a CLI error (exit 1), prefixed with the file name.
-pub fn dicom_error(path: &Path, err: DicomImportError) -> CliError {
-    CliError::failed(format!("{}: {err}", crate::input::input_name(path)))
 }
 
 /// "plan NAME: 2 arcs, ..." then one line per arc: direction, angle range, control points, layers,

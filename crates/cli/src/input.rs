@@ -9,10 +9,7 @@ use arcsim_plan::{ArcPlan, Machine, PlanError};
 
 use crate::CliError;
 
-/// The ATOM machine, built into the binary so commands work without a `--machine` file.
-pub const DEFAULT_MACHINE_JSON: &str = include_str!("../../../scenarios/machine-atom.json");
-/// Name the built-in machine goes by in messages.
-pub const DEFAULT_MACHINE_SOURCE: &str = "built-in scenarios/machine-atom.json";
+pub use arcsim_app::{sha256_hex, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE};
 
 /// Largest input file read (bytes): far above any real plan (a 1,000-beam DICOM plan is tens of
 /// MB), low enough that a wrong file (or an endless stream) is refused before memory runs out.
@@ -77,27 +74,18 @@ pub fn load_plan(path: &Path) -> Result<ArcPlan, CliError> {
     load_plan_hashed(path).map(|(plan, _)| plan)
 }
 
-/// SHA-256 of some bytes, as lowercase hex.
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    use sha2::{Digest, Sha256};
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
+/// The file stem a DICOM plan without RTPlanLabel or RTPlanName is named after.
+fn stem(path: &Path) -> Option<String> {
+    path.file_stem()
+        .filter(|_| path.as_os_str() != "-")
+        .map(|s| s.to_string_lossy().into_owned())
 }
 
 /// The DICOM RT Ion Plan in `bytes` (read from `path`), named after the file's stem when it has
 /// neither RTPlanLabel nor RTPlanName.
 pub fn dicom_plan(path: &Path, bytes: &[u8]) -> Result<ArcPlan, CliError> {
-    let stem = path
-        .file_stem()
-        .filter(|_| path.as_os_str() != "-")
-        .map(|s| s.to_string_lossy().into_owned());
-    arcsim_dicom::read_rt_ion_plan_from_bytes_named(
-        bytes,
-        stem.as_deref().unwrap_or(arcsim_dicom::DEFAULT_PLAN_NAME),
-    )
-    .map_err(|e| crate::import::dicom_error(path, e))
+    arcsim_app::plan_from_bytes(&input_name(path), stem(path).as_deref(), true, bytes)
+        .map_err(|e| CliError::failed(e.to_string()))
 }
 
 /// [`load_plan`], with the SHA-256 of the bytes read (to tell edited files apart in results).
@@ -108,19 +96,14 @@ pub fn load_plan_hashed(path: &Path) -> Result<(ArcPlan, String), CliError> {
         .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"));
     let bytes = read_input(path)?;
     let digest = sha256_hex(&bytes);
-    if dicom_extension || arcsim_dicom::has_dicom_magic(&bytes) {
-        return dicom_plan(path, &bytes).map(|plan| (plan, digest));
-    }
-    let name = input_name(path);
-    let text = String::from_utf8(bytes).map_err(|e| {
-        CliError::failed(format!(
-            "{name}: neither a DICOM file nor UTF-8 text (invalid byte at offset {}); expected an arcsim-plan/1 JSON file or a DICOM RT Ion Plan",
-            e.utf8_error().valid_up_to()
-        ))
-    })?;
-    arcsim_plan::parse_plan(&text, &name)
-        .map(|plan| (plan, digest))
-        .map_err(plan_error)
+    arcsim_app::plan_from_bytes(
+        &input_name(path),
+        stem(path).as_deref(),
+        dicom_extension,
+        &bytes,
+    )
+    .map(|plan| (plan, digest))
+    .map_err(|e| CliError::failed(e.to_string()))
 }
 
 /// Loads the machine file at `path` (`-`: standard input), or the built-in ATOM machine when
@@ -139,9 +122,9 @@ pub fn load_machine_hashed(path: Option<&Path>) -> Result<(Machine, String), Cli
         ),
     };
     let digest = sha256_hex(text.as_bytes());
-    arcsim_plan::parse_machine(&text, &name)
+    arcsim_app::machine_from_text(&name, &text)
         .map(|m| (m, digest))
-        .map_err(plan_error)
+        .map_err(|e| CliError::failed(e.to_string()))
 }
 
 /// Name of a machine input in messages and results.

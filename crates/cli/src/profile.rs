@@ -3,9 +3,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use arcsim_planner::{
-    discretize, exact_duration, min_time, Limits, Move, PlannerError, Profile, Reversal,
-};
+use arcsim_planner::{Limits, Move, PlannerError, Profile, Reversal};
 use serde::Serialize;
 
 use crate::CliError;
@@ -115,44 +113,24 @@ fn classify(err: PlannerError) -> Outcome {
 }
 
 fn solve(spec: &MoveSpec) -> Outcome {
-    let limits = match Limits::with_decel(
-        spec.jerk,
-        spec.accel,
-        spec.decel.unwrap_or(spec.accel),
-        spec.vel,
-    ) {
-        Ok(l) => l,
-        Err(e) => return classify(e),
+    let request = arcsim_app::MoveRequest {
+        mv: spec.mv,
+        jerk_deg_per_s3: spec.jerk,
+        accel_deg_per_s2: spec.accel,
+        decel_deg_per_s2: spec.decel,
+        speed_deg_per_s: spec.vel,
+        min_duration_s: spec.min_duration,
+        period_s: spec.period,
+        reverse: spec.reverse,
     };
-    let profile = match spec.min_duration {
-        Some(t) => {
-            if spec.reverse == Reversal::Allow {
-                return Outcome::Error(
-                    "min_duration keeps the speed in [0, V]: use reverse = forbid".into(),
-                );
-            }
-            exact_duration(spec.mv, &limits, t)
-        }
-        None => min_time(spec.mv, &limits, spec.reverse),
-    };
-    let profile = match profile {
-        Ok(p) => p,
-        Err(e) => return classify(e),
-    };
-    match spec.period {
-        None => Outcome::Ok(Box::new(Solved {
-            profile,
-            limits,
-            added_time_s: None,
+    match request.solve() {
+        Ok(s) => Outcome::Ok(Box::new(Solved {
+            profile: s.profile,
+            limits: s.limits,
+            added_time_s: s.added_time_s,
         })),
-        Some(ts) => match discretize(&profile, ts, &limits) {
-            Ok(d) => Outcome::Ok(Box::new(Solved {
-                profile: d.profile,
-                limits,
-                added_time_s: Some(d.added_time),
-            })),
-            Err(e) => classify(e),
-        },
+        Err(arcsim_app::MoveError::Planner(e)) => classify(e),
+        Err(e) => Outcome::Error(e.to_string()),
     }
 }
 

@@ -4,8 +4,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use arcsim_sequencer::{simulate, ArcEnds, Delivery, Limiter, Motion, Options, Schedule};
-use serde::Serialize;
+use arcsim_sequencer::{simulate, ArcEnds, Delivery, Limiter, Motion, Schedule};
 
 use crate::input::{load_machine_hashed, load_plan_hashed};
 use crate::CliError;
@@ -110,42 +109,6 @@ pub struct Args {
     /// in ms or limits in rad/s) instead of warning about them.
     #[arg(long)]
     strict: bool,
-}
-
-/// The options a result was computed with, as given or defaulted.
-#[derive(Serialize)]
-struct OptionsOut {
-    schedule: &'static str,
-    motion: &'static str,
-    arc_ends: &'static str,
-    /// The servo period used (s): `--period`, else the machine's; `null`: continuous time.
-    servo_period_s: Option<f64>,
-    strict: bool,
-}
-
-#[derive(Serialize)]
-struct JsonOut<'a> {
-    format: &'static str,
-    /// Version of arcsim that computed the result.
-    arcsim_version: &'static str,
-    plan: String,
-    plan_file: String,
-    /// SHA-256 of the plan file's bytes.
-    plan_sha256: String,
-    machine: String,
-    /// The machine file, or the built-in one.
-    machine_file: String,
-    /// SHA-256 of the machine file's text (of the built-in JSON without --machine).
-    machine_sha256: String,
-    /// The whole machine model used: every limit, the ELST and beam models.
-    machine_model: &'a arcsim_plan::Machine,
-    options: OptionsOut,
-    /// Values outside their field's plausible range (likely unit slips).
-    warnings: &'a [arcsim_plan::Warning],
-    /// Remarks on how the options applied (e.g. `prescribed` without prescribed speeds).
-    notes: &'a [String],
-    #[serde(flatten)]
-    delivery: &'a Delivery,
 }
 
 fn min_sec(t: f64) -> String {
@@ -430,64 +393,18 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let mut warnings =
         crate::input::plausibility(&plan, &args.plan, &machine, args.machine.as_deref());
     if let Some(ts) = args.period {
-        let (lo, hi) = arcsim_plan::SERVO_PERIOD_RANGE_S;
-        if !(ts.is_finite() && (lo..=hi).contains(&ts)) {
-            return Err(CliError::usage(format!(
-                "--period {}: expected a servo period from {} to {} s",
-                arcsim_plan::fmt_num(ts),
-                arcsim_plan::fmt_num(lo),
-                arcsim_plan::fmt_num(hi)
-            )));
-        }
-    }
-    if let Some(ts) = args.period.filter(|ts| !(1e-4..=0.1).contains(ts)) {
-        let w = arcsim_plan::Warning {
-            field: "--period".into(),
-            value: ts,
-            message: format!(
-                "{} s is outside the plausible 0.0001–0.1 s of a servo period{}",
-                arcsim_plan::fmt_num(ts),
-                if ts > 0.1 {
-                    "; given in milliseconds? the option is in seconds"
-                } else {
-                    ""
-                }
-            ),
-        };
-        warnings.push(w);
+        let warning =
+            arcsim_app::check_period(ts, "--period").map_err(|e| CliError::usage(e.to_string()))?;
+        warnings.extend(warning);
     }
     crate::input::report_warnings(&warnings, args.strict)?;
-    let mut notes = Vec::new();
-    let prescribes = plan
-        .arcs
-        .iter()
-        .flat_map(|a| &a.control_points)
-        .any(|cp| cp.required_speed_deg_per_s.is_some());
-    if args.schedule == ScheduleArg::Prescribed && !prescribes {
-        notes.push("the plan prescribes no speeds (no required_speed_deg_per_s), so `prescribed` gives the same speeds as `scan`".to_string());
-    }
-    let period = args.period.or(machine.servo_period_s);
-    let motion = match args.motion {
-        Some(m) => m.into(),
-        None if period.is_some() => {
-            notes.push("a servo period applies, so the motion is constant speed per layer (free motion is continuous-time only)".to_string());
-            Motion::Constant
-        }
-        None if matches!(
-            args.schedule,
-            ScheduleArg::Prescribed | ScheduleArg::StepAndShoot
-        ) =>
-        {
-            Motion::Constant
-        }
-        None => Motion::Free,
-    };
-    let opts = Options {
-        servo_period_s: args.period,
-        motion,
+    let request = arcsim_app::SimulateRequest {
+        schedule: args.schedule.into(),
+        motion: args.motion.map(Motion::from),
         arc_ends: args.arc_ends.into(),
-        ..Options::new(args.schedule.into())
+        period_s: args.period,
     };
+    let (opts, notes) = request.options(&plan, &machine);
     for n in &notes {
         eprintln!("note: {n}");
     }
@@ -505,29 +422,23 @@ pub fn run(args: Args) -> Result<(), CliError> {
     crate::output::print(&summary(&delivery, &plan.name, &machine.name));
 
     if let Some(path) = &args.json {
-        let out = JsonOut {
-            format: "arcsim-result/1",
-            arcsim_version: env!("CARGO_PKG_VERSION"),
-            plan: plan.name.clone(),
-            plan_file: crate::input::input_name(&args.plan),
-            plan_sha256,
-            machine: machine.name.clone(),
-            machine_file: crate::input::machine_name(args.machine.as_deref()),
-            machine_sha256,
-            machine_model: &machine,
-            options: OptionsOut {
-                schedule: delivery.schedule.name(),
-                motion: delivery.motion.name(),
-                arc_ends: delivery.arc_ends.name(),
-                servo_period_s: delivery.servo_period_s,
-                strict: args.strict,
+        let from = arcsim_app::Provenance {
+            plan_source: arcsim_app::Source {
+                file: crate::input::input_name(&args.plan),
+                sha256: plan_sha256,
+            },
+            machine: &machine,
+            machine_source: arcsim_app::Source {
+                file: crate::input::machine_name(args.machine.as_deref()),
+                sha256: machine_sha256,
             },
             warnings: &warnings,
             notes: &notes,
-            delivery: &delivery,
+            strict: args.strict,
         };
-        let text =
-            serde_json::to_string_pretty(&out).map_err(|e| CliError::failed(e.to_string()))?;
+        let text = arcsim_app::ResultDocument::new(&plan, &from, &delivery)
+            .to_json()
+            .map_err(|e| CliError::failed(e.to_string()))?;
         crate::output::write_file(path, text.as_bytes())?;
     }
     if let Some(path) = &args.csv {

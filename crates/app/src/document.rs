@@ -1,0 +1,98 @@
+//! The result document of a simulation (`arcsim-result/1`, `simulate --json`).
+
+use arcsim_plan::{ArcPlan, Machine, Warning};
+use arcsim_sequencer::Delivery;
+use serde::Serialize;
+
+/// Format tag of [`ResultDocument`].
+pub const RESULT_FORMAT: &str = "arcsim-result/1";
+
+/// The options a result was computed with, as given or defaulted.
+#[derive(Debug, Clone, Serialize)]
+pub struct OptionsOut {
+    pub schedule: &'static str,
+    pub motion: &'static str,
+    pub arc_ends: &'static str,
+    /// The servo period used (s): the option, else the machine's; `null`: continuous time.
+    pub servo_period_s: Option<f64>,
+    pub strict: bool,
+}
+
+/// A simulation's result with what produced it: the plan and machine (names, files, SHA-256 of
+/// the bytes read), the options, warnings and notes, then the delivery itself.
+#[derive(Debug, Serialize)]
+pub struct ResultDocument<'a> {
+    pub format: &'static str,
+    /// Version of arcsim that computed the result.
+    pub arcsim_version: &'static str,
+    pub plan: String,
+    pub plan_file: String,
+    /// SHA-256 of the plan file's bytes.
+    pub plan_sha256: String,
+    pub machine: String,
+    /// The machine file, or the built-in one.
+    pub machine_file: String,
+    /// SHA-256 of the machine file's text (of the built-in JSON without a machine file).
+    pub machine_sha256: String,
+    /// The whole machine model used: every limit, the ELST and beam models.
+    pub machine_model: &'a Machine,
+    pub options: OptionsOut,
+    /// Values outside their field's plausible range (likely unit slips).
+    pub warnings: &'a [Warning],
+    /// Remarks on how the options applied (e.g. `prescribed` without prescribed speeds).
+    pub notes: &'a [String],
+    #[serde(flatten)]
+    pub delivery: &'a Delivery,
+}
+
+/// Where a plan or machine came from: its name in messages (a path) and the SHA-256 of its bytes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Source {
+    pub file: String,
+    pub sha256: String,
+}
+
+/// What a result is computed from besides the plan: the machine, where both came from, and the
+/// checks and notes of the run.
+#[derive(Debug, Clone)]
+pub struct Provenance<'a> {
+    pub plan_source: Source,
+    pub machine: &'a Machine,
+    pub machine_source: Source,
+    pub warnings: &'a [Warning],
+    pub notes: &'a [String],
+    /// Whether implausible values were refused (`--strict`).
+    pub strict: bool,
+}
+
+impl<'a> ResultDocument<'a> {
+    /// The document of `delivery`, computed for `plan` as `from` says.
+    pub fn new(plan: &ArcPlan, from: &Provenance<'a>, delivery: &'a Delivery) -> Self {
+        ResultDocument {
+            format: RESULT_FORMAT,
+            arcsim_version: env!("CARGO_PKG_VERSION"),
+            plan: plan.name.clone(),
+            plan_file: from.plan_source.file.clone(),
+            plan_sha256: from.plan_source.sha256.clone(),
+            machine: from.machine.name.clone(),
+            machine_file: from.machine_source.file.clone(),
+            machine_sha256: from.machine_source.sha256.clone(),
+            machine_model: from.machine,
+            options: OptionsOut {
+                schedule: delivery.schedule.name(),
+                motion: delivery.motion.name(),
+                arc_ends: delivery.arc_ends.name(),
+                servo_period_s: delivery.servo_period_s,
+                strict: from.strict,
+            },
+            warnings: from.warnings,
+            notes: from.notes,
+            delivery,
+        }
+    }
+
+    /// The document as pretty-printed JSON, as `simulate --json` writes it.
+    pub fn to_json(&self) -> Result<String, serde_json::Error> {
+        serde_json::to_string_pretty(self)
+    }
+}

@@ -1,0 +1,26 @@
+//! # arcsim-app
+//!
+//! What the `arcsim` command does around the engine, as a library, so that every front end (the
+//! CLI, the Python package) reads the same files the same way and writes the same result:
+//!
+//! - [`plan_from_bytes`]: a plan file is native JSON or a DICOM RT Ion Plan, told apart by content
+//!   ("DICM" after the 128-byte preamble) or a `.dcm`/`.dicom` extension, not by trust in the name;
+//! - [`machine_from_text`] and [`builtin_machine`]: machine models, the ATOM machine built in;
+//! - [`SimulateRequest::options`]: `simulate`'s defaults (free motion unless a servo period applies
+//!   or the schedule is `prescribed`/`step-and-shoot`) and the notes they give rise to;
+//! - [`check_period`]: a servo period's range and plausibility;
+//! - [`ResultDocument`]: the `arcsim-result/1` JSON document of a simulation;
+//! - [`MoveRequest`]: one planner move with `arcsim profile`'s options.
+
+mod document;
+mod inputs;
+mod moves;
+mod request;
+
+pub use document::{OptionsOut, Provenance, ResultDocument, Source, RESULT_FORMAT};
+pub use inputs::{
+    builtin_machine, machine_from_text, plan_from_bytes, read_plan_file, sha256_hex, AppError,
+    DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
+};
+pub use moves::{MoveError, MoveRequest, SolvedMove};
+pub use request::{check_period, SimulateRequest};

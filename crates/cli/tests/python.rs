@@ -1,0 +1,116 @@
+//! The Python package end to end: builds the wheel with maturin into a fresh virtual environment
+//! (maturin, numpy, pandas, pytest and dask from the package index), then runs the pytest suite
+//! `python/tests` against this build of the `arcsim` command. Without Python or the package
+//! index the test says so and passes, except under CI (`CI` set), where that is a failure.
+
+mod common;
+#[path = "../../dicom/tests/fixtures/mod.rs"]
+mod fixtures;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// What the environment installs: the versions the package is built and tested with.
+const PACKAGES: &[&str] = &["maturin==1.16.0", "numpy", "pandas", "pytest", "dask[bag]"];
+
+fn skip_or_fail(why: &str) {
+    if std::env::var_os("CI").is_some() {
+        panic!("CI: the Python tests cannot run: {why}");
+    }
+    eprintln!("NOTICE: Python tests skipped: {why}");
+}
+
+fn run(cmd: &mut Command) -> Result<String, String> {
+    let shown = format!("{cmd:?}");
+    let out = cmd
+        .output()
+        .map_err(|e| format!("{shown}: cannot start: {e}"))?;
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    if out.status.success() {
+        Ok(text)
+    } else {
+        Err(format!("{shown} failed:\n{text}"))
+    }
+}
+
+fn wheel_in(dir: &Path) -> Option<PathBuf> {
+    std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.extension().is_some_and(|e| e == "whl"))
+}
+
+#[test]
+fn python_package_passes_its_pytest_suite() {
+    let repo = common::repo();
+    let python = std::env::var("ARCSIM_PYTHON").unwrap_or_else(|_| "python3".into());
+    if let Err(e) = run(Command::new(&python).arg("--version")) {
+        return skip_or_fail(&e);
+    }
+    let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("python");
+    let venv = work.join("venv");
+    let dist = work.join("dist");
+    let _ = std::fs::remove_dir_all(&dist);
+    let _ = std::fs::remove_dir_all(&venv);
+    std::fs::create_dir_all(&work).expect("work dir");
+    if let Err(e) = run(Command::new(&python).args(["-m", "venv"]).arg(&venv)) {
+        return skip_or_fail(&e);
+    }
+    let bin = venv.join("bin");
+    let pip = |args: &[&str]| {
+        run(Command::new(bin.join("python"))
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--disable-pip-version-check",
+            ])
+            .args(args))
+    };
+    if let Err(e) = pip(PACKAGES) {
+        return skip_or_fail(&e);
+    }
+    // The wheel, built from this checkout with the dev profile (so it shares its dependencies'
+    // build with `cargo build`; maturin's `cargo rustc` would build a test harness with the
+    // `test` profile), stripped of debug information (else it is over 600 MB).
+    run(Command::new(bin.join("maturin"))
+        .current_dir(&repo)
+        .args([
+            "build",
+            "--profile",
+            "dev",
+            "--strip",
+            "-m",
+            "crates/python/Cargo.toml",
+            "-o",
+        ])
+        .arg(&dist)
+        .arg("-i")
+        .arg(bin.join("python")))
+    .unwrap_or_else(|e| panic!("{e}"));
+    let wheel = wheel_in(&dist).expect("maturin wrote a wheel");
+    pip(&["--no-deps", wheel.to_str().expect("utf-8 path")]).unwrap_or_else(|e| panic!("{e}"));
+
+    let dcm = fixtures::write_bytes("python-arc.dcm", &fixtures::dynamic_arc_plan().to_bytes());
+    let out = Command::new(bin.join("python"))
+        .current_dir(&repo)
+        .args(["-m", "pytest", "-q", "-rs", "python/tests"])
+        .env("ARCSIM_BIN", env!("CARGO_BIN_EXE_arcsim"))
+        .env("ARCSIM_TEST_DICOM", &dcm)
+        .output()
+        .expect("run pytest");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{text}");
+    assert!(out.status.success(), "pytest failed:\n{text}");
+    // Every test ran except the ones that need data this machine may lack.
+    assert!(!text.contains("dask is not installed"), "{text}");
+}

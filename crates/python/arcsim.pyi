@@ -1,0 +1,242 @@
+"""arcsim: proton-arc delivery on a jerk-limited gantry, from Python.
+
+Plans and machines are read as the `arcsim` command reads them, results equal the command's
+(`Delivery.to_json()` is `arcsim simulate --json`), and every long computation releases the GIL.
+Units are in the names: degrees, seconds, MeV.
+"""
+
+from os import PathLike
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+_Floats = Union[float, Sequence[float], npt.NDArray[np.float64]]
+_Path = Union[str, "PathLike[str]"]
+
+class PlanError(ValueError):
+    """A plan or machine that cannot be read or is invalid (the message says where)."""
+
+class SweepError(ValueError):
+    """A sweep file (or dict) that cannot be read or is invalid."""
+
+class ProfileError(ValueError):
+    """A move with invalid input or no feasible profile."""
+
+class SimulationError(RuntimeError):
+    """The sequencer found no feasible delivery (or failed to verify one)."""
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a sweep; `result` holds the rows finished before it."""
+
+    result: "SweepResult"
+
+class Plan:
+    """A validated arc plan, with the file it came from."""
+
+    @staticmethod
+    def from_arrays(
+        angles_deg: _Floats,
+        irradiation_times_s: _Floats,
+        energies_mev: _Floats,
+        window_deg: Optional[_Floats] = None,
+        switching_times_s: Optional[_Floats] = None,
+        direction: str = "CW",
+        name: str = "plan from arrays",
+    ) -> "Plan":
+        """A one-arc plan, one entry per energy layer in delivery order (consecutive layers at one
+        angle share a control point). `window_deg`: one value or one per layer (None: the
+        machine's default); `switching_times_s`: one per transition, overriding the machine's
+        ELST; `direction`: "CW" (angle increases) or "CC". Raises PlanError."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def file(self) -> str:
+        """The path as given, or how the plan was built."""
+    @property
+    def sha256(self) -> str:
+        """SHA-256 of the file's bytes (of the plan's JSON when built in memory)."""
+    @property
+    def arcs(self) -> int: ...
+    @property
+    def layers(self) -> int: ...
+    def to_json(self) -> str:
+        """The plan as arcsim-plan/1 JSON."""
+
+def load_plan(path: _Path) -> Plan:
+    """arcsim-plan/1 JSON or a DICOM RT Ion Plan (recognised by content). Raises PlanError."""
+
+class Machine:
+    """A gantry and beam model (arcsim-machine/1)."""
+
+    @staticmethod
+    def atom() -> "Machine":
+        """The built-in ATOM machine (scenarios/machine-atom.json), simulate's default."""
+    def with_limits(
+        self,
+        jerk: Optional[float] = None,
+        accel: Optional[float] = None,
+        speed: Optional[float] = None,
+        decel: Optional[float] = None,
+    ) -> "Machine":
+        """A copy with other gantry limits (deg/s³, deg/s², deg/s). Raises PlanError."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def file(self) -> str: ...
+    @property
+    def jerk(self) -> float:
+        """J (deg/s³)."""
+    @property
+    def accel(self) -> float:
+        """A (deg/s²)."""
+    @property
+    def decel(self) -> float:
+        """Deceleration limit (deg/s²); A unless the machine sets its own."""
+    @property
+    def speed(self) -> float:
+        """V (deg/s)."""
+    @property
+    def servo_period_s(self) -> Optional[float]: ...
+    @property
+    def default_window_deg(self) -> float: ...
+    def to_json(self) -> str: ...
+
+def load_machine(path: _Path) -> Machine:
+    """An arcsim-machine/1 JSON file. Raises PlanError."""
+
+class Delivery:
+    """A simulated delivery: what `arcsim simulate` computes."""
+
+    @property
+    def total_s(self) -> float: ...
+    @property
+    def breakdown(self) -> Dict[str, float]:
+        """beam_on_s, energy_switching_s, lost_s (what the gantry adds beyond the other two)."""
+    @property
+    def limiter_counts(self) -> Dict[str, int]: ...
+    @property
+    def margins(self) -> Optional[Dict[str, Any]]: ...
+    @property
+    def lost_time(self) -> Dict[str, Any]: ...
+    @property
+    def options(self) -> Tuple[str, str, str]:
+        """(schedule, motion, arc ends) used."""
+    @property
+    def warnings(self) -> List[str]: ...
+    @property
+    def notes(self) -> List[str]: ...
+    @property
+    def layers(self) -> Dict[str, Any]:
+        """One entry per layer, as columns (numpy arrays; lists for text)."""
+    @property
+    def transitions(self) -> Dict[str, Any]:
+        """One entry per transition, as columns."""
+    def to_pandas(self, table: str = "layers") -> Any:
+        """`layers` or `transitions` as a pandas DataFrame (needs pandas)."""
+    def timeline(self, dt: float = 0.01) -> Dict[str, npt.NDArray[Any]]:
+        """t_s, angle_deg, speed_deg_per_s, accel_deg_per_s2, jerk_deg_per_s3, energy_mev (NaN
+        with the beam off), beam_on (bool), layer (-1 with the beam off), every dt s."""
+    def save_rrd(self, path: _Path, dt: float = 0.02) -> None:
+        """The delivery for the Rerun viewer, as `simulate --rrd` writes it."""
+    def to_json(self) -> str:
+        """The result document, equal to `arcsim simulate --json` for the same inputs."""
+
+def simulate(
+    plan: Plan,
+    machine: Optional[Machine] = None,
+    schedule: str = "optimal",
+    period_s: Optional[float] = None,
+    motion: Optional[str] = None,
+    arc_ends: str = "rest",
+    strict: bool = False,
+) -> Delivery:
+    """`arcsim simulate`: schedule "optimal", "scan", "prescribed" or "step-and-shoot"; motion
+    "free", "constant" or None (the command's default); period_s a servo period. Raises
+    PlanError, SimulationError."""
+
+def schedule_arrays(
+    irradiation_times_s: _Floats,
+    switching_times_s: _Floats,
+    spacing_deg: float,
+    max_window_deg: float,
+    jerk: float,
+    accel: float,
+    speed: float,
+    decel: Optional[float] = None,
+    schedule: str = "optimal",
+) -> Tuple[float, npt.NDArray[np.float64]]:
+    """ATOM-style: total time (s) and constant layer speeds (deg/s) of one arc."""
+
+class Profile:
+    """A jerk-limited move."""
+
+    @property
+    def duration_s(self) -> float: ...
+    @property
+    def servo_added_time_s(self) -> Optional[float]: ...
+    @property
+    def peak_speed_deg_per_s(self) -> float: ...
+    @property
+    def phases(self) -> Dict[str, npt.NDArray[np.float64]]:
+        """start_s, duration_s, jerk_deg_per_s3 of each constant-jerk phase."""
+    def sample(self, t: _Floats) -> Dict[str, npt.NDArray[np.float64]]:
+        """position_deg, speed_deg_per_s, accel_deg_per_s2, jerk_deg_per_s3 at times t."""
+
+def profile(
+    distance: float,
+    v_start: float,
+    v_end: float,
+    jerk: float,
+    accel: float,
+    vel: float,
+    decel: Optional[float] = None,
+    min_duration: Optional[float] = None,
+    period_s: Optional[float] = None,
+    reverse: str = "forbid",
+) -> Profile:
+    """`arcsim profile`: the minimum-time move (exactly min_duration long when given, phases on
+    the servo period when given). Raises ProfileError."""
+
+def profile_batch(
+    distance: _Floats,
+    v_start: _Floats,
+    v_end: _Floats,
+    jerk: _Floats,
+    accel: _Floats,
+    vel: _Floats,
+    decel: Optional[_Floats] = None,
+    min_duration: Optional[_Floats] = None,
+    period_s: Optional[float] = None,
+    reverse: str = "forbid",
+) -> Dict[str, Any]:
+    """Many moves in parallel: duration_s (NaN where none), ok, peak_speed_deg_per_s, error."""
+
+class SweepResult:
+    """A sweep's rows and summary."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def combinations(self) -> int: ...
+    @property
+    def complete(self) -> bool: ...
+    @property
+    def rows(self) -> Dict[str, Any]:
+        """The rows as columns."""
+    def to_pandas(self) -> Any: ...
+    @property
+    def summary(self) -> Optional[Dict[str, Any]]: ...
+    def summary_table(self) -> Optional[str]: ...
+    def to_json(self) -> str:
+        """Rows and summary as `arcsim sweep --json` writes them."""
+
+def sweep(
+    sweep: Union[_Path, Dict[str, Any]],
+    threads: Optional[int] = None,
+    progress: bool = True,
+) -> SweepResult:
+    """`arcsim sweep`: a sweep file or dict, in parallel with the GIL released. Ctrl-C raises
+    SweepInterrupted with the finished rows. Raises SweepError."""

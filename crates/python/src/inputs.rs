@@ -1,0 +1,352 @@
+//! Plans and machines: read from files as the CLI reads them, or built in memory.
+
+use std::path::PathBuf;
+
+use arcsim_app::{sha256_hex, Source, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE};
+use arcsim_plan::{ArcPlan, ControlPoint, EnergyLayer, RotationDirection};
+use numpy::PyReadonlyArray1;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyAny;
+
+use crate::PlanError;
+
+fn plan_err(e: impl std::fmt::Display) -> PyErr {
+    PlanError::new_err(e.to_string())
+}
+
+/// A validated arc plan, with the file it came from (name and SHA-256 of its bytes).
+#[pyclass(frozen, module = "arcsim")]
+pub struct Plan {
+    pub plan: ArcPlan,
+    pub source: Source,
+}
+
+/// An array argument as a Vec: a numpy float array or any sequence of numbers.
+fn floats(name: &str, x: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    if let Ok(a) = x.extract::<PyReadonlyArray1<'_, f64>>() {
+        return Ok(a.as_array().to_vec());
+    }
+    x.extract::<Vec<f64>>().map_err(|_| {
+        PyValueError::new_err(format!(
+            "{name}: expected a 1-D array or sequence of numbers"
+        ))
+    })
+}
+
+/// One value for every layer, or one per layer.
+fn per_layer(name: &str, x: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>> {
+    if let Ok(v) = x.extract::<f64>() {
+        return Ok(vec![v; n]);
+    }
+    let v = floats(name, x)?;
+    if v.len() != n {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected one value or {n} (one per layer), got {}",
+            v.len()
+        )));
+    }
+    Ok(v)
+}
+
+#[pymethods]
+impl Plan {
+    /// A one-arc plan from arrays, one entry per energy layer in delivery order: consecutive
+    /// layers at the same angle share a control point. `window_deg`: one value or one per layer
+    /// (`None`: the machine's default); `switching_times_s`: one per transition (layer k → k+1),
+    /// overriding the machine's ELST; `direction`: "CW" (angle increases) or "CC".
+    #[staticmethod]
+    #[pyo3(signature = (angles_deg, irradiation_times_s, energies_mev, window_deg=None, switching_times_s=None, direction="CW", name="plan from arrays"))]
+    pub(crate) fn from_arrays(
+        angles_deg: &Bound<'_, PyAny>,
+        irradiation_times_s: &Bound<'_, PyAny>,
+        energies_mev: &Bound<'_, PyAny>,
+        window_deg: Option<&Bound<'_, PyAny>>,
+        switching_times_s: Option<&Bound<'_, PyAny>>,
+        direction: &str,
+        name: &str,
+    ) -> PyResult<Plan> {
+        let angles = floats("angles_deg", angles_deg)?;
+        let n = angles.len();
+        if n == 0 {
+            return Err(PyValueError::new_err(
+                "angles_deg: expected at least one layer",
+            ));
+        }
+        let times = per_layer("irradiation_times_s", irradiation_times_s, n)?;
+        let energies = per_layer("energies_mev", energies_mev, n)?;
+        let windows = window_deg
+            .map(|w| per_layer("window_deg", w, n))
+            .transpose()?;
+        let switching = switching_times_s
+            .map(|s| floats("switching_times_s", s))
+            .transpose()?;
+        if let Some(s) = &switching {
+            if s.len() + 1 != n {
+                return Err(PyValueError::new_err(format!(
+                    "switching_times_s: expected one per transition ({}), got {}",
+                    n - 1,
+                    s.len()
+                )));
+            }
+        }
+        let direction = match direction {
+            "CW" | "cw" => RotationDirection::Cw,
+            "CC" | "cc" | "CCW" | "ccw" => RotationDirection::Cc,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "direction: expected \"CW\" or \"CC\", got {other:?}"
+                )))
+            }
+        };
+        let mut cps: Vec<ControlPoint> = Vec::new();
+        for k in 0..n {
+            let layer = EnergyLayer {
+                energy_mev: energies[k],
+                spots: None,
+                irradiation_time_s: Some(times[k]),
+                switching_time_s: match (&switching, k) {
+                    (Some(s), k) if k > 0 => Some(s[k - 1]),
+                    _ => None,
+                },
+            };
+            match cps.last_mut() {
+                Some(cp) if cp.angle_deg == angles[k] => cp.layers.push(layer),
+                _ => cps.push(ControlPoint {
+                    angle_deg: angles[k],
+                    required_speed_deg_per_s: None,
+                    window_deg: windows.as_ref().map(|w| w[k]),
+                    layers: vec![layer],
+                }),
+            }
+        }
+        let plan = ArcPlan {
+            format: arcsim_plan::PLAN_FORMAT.to_string(),
+            name: name.to_string(),
+            description: None,
+            arcs: vec![arcsim_plan::Arc {
+                direction,
+                control_points: cps,
+            }],
+        };
+        // Through the plan format's own reader, so every check (and message) is the files'.
+        let json = arcsim_plan::to_json(&plan);
+        let plan = arcsim_plan::parse_plan(&json, "Plan.from_arrays").map_err(plan_err)?;
+        Ok(Plan {
+            plan,
+            source: Source {
+                file: "Plan.from_arrays".into(),
+                sha256: sha256_hex(json.as_bytes()),
+            },
+        })
+    }
+
+    /// The plan's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.plan.name
+    }
+
+    /// Where the plan came from: the path as given, or how it was built.
+    #[getter]
+    fn file(&self) -> &str {
+        &self.source.file
+    }
+
+    /// SHA-256 of the plan file's bytes (of its JSON when built in memory).
+    #[getter]
+    fn sha256(&self) -> &str {
+        &self.source.sha256
+    }
+
+    /// Number of arcs.
+    #[getter]
+    fn arcs(&self) -> usize {
+        self.plan.arcs.len()
+    }
+
+    /// Number of energy layers over all arcs.
+    #[getter]
+    fn layers(&self) -> usize {
+        self.plan
+            .arcs
+            .iter()
+            .flat_map(|a| &a.control_points)
+            .map(|cp| cp.layers.len())
+            .sum()
+    }
+
+    /// The plan as arcsim-plan/1 JSON (what `arcsim import` writes).
+    fn to_json(&self) -> String {
+        arcsim_plan::to_json(&self.plan)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Plan({:?}: {} arc(s), {} layer(s), from {})",
+            self.plan.name,
+            self.arcs(),
+            self.layers(),
+            self.source.file
+        )
+    }
+}
+
+/// Reads a plan: arcsim-plan/1 JSON or a DICOM RT Ion Plan (recognised by content, as the CLI
+/// does). Raises PlanError with the located problems.
+#[pyfunction]
+pub fn load_plan(path: PathBuf) -> PyResult<Plan> {
+    let (plan, sha256) = arcsim_app::read_plan_file(&path).map_err(plan_err)?;
+    Ok(Plan {
+        plan,
+        source: Source {
+            file: path.display().to_string(),
+            sha256,
+        },
+    })
+}
+
+/// A gantry and beam model (arcsim-machine/1), with the file it came from.
+#[pyclass(frozen, module = "arcsim")]
+pub struct Machine {
+    pub machine: arcsim_plan::Machine,
+    pub source: Source,
+}
+
+impl Machine {
+    pub fn builtin() -> Machine {
+        Machine {
+            machine: arcsim_app::builtin_machine(),
+            source: Source {
+                file: DEFAULT_MACHINE_SOURCE.into(),
+                sha256: sha256_hex(DEFAULT_MACHINE_JSON.as_bytes()),
+            },
+        }
+    }
+}
+
+#[pymethods]
+impl Machine {
+    /// The ATOM machine built into arcsim (scenarios/machine-atom.json), the default of simulate.
+    #[staticmethod]
+    fn atom() -> Machine {
+        Machine::builtin()
+    }
+
+    /// A copy with other gantry limits (deg/s³, deg/s², deg/s; `decel` only for a machine with a
+    /// separate deceleration limit), checked as a machine file's are.
+    #[pyo3(signature = (jerk=None, accel=None, speed=None, decel=None))]
+    fn with_limits(
+        &self,
+        jerk: Option<f64>,
+        accel: Option<f64>,
+        speed: Option<f64>,
+        decel: Option<f64>,
+    ) -> PyResult<Machine> {
+        let mut m = self.machine.clone();
+        let g = &mut m.gantry;
+        if let Some(j) = jerk {
+            g.max_jerk_deg_per_s3 = j;
+        }
+        if let Some(a) = accel {
+            g.max_accel_deg_per_s2 = a;
+        }
+        if let Some(v) = speed {
+            g.max_speed_deg_per_s = v;
+        }
+        if let Some(d) = decel {
+            g.max_decel_deg_per_s2 = Some(d);
+        }
+        let text =
+            serde_json::to_string_pretty(&m).map_err(|e| PlanError::new_err(e.to_string()))?;
+        let file = format!("{} (with_limits)", self.source.file);
+        let machine = arcsim_plan::parse_machine(&text, &file).map_err(plan_err)?;
+        Ok(Machine {
+            machine,
+            source: Source {
+                file,
+                sha256: sha256_hex(text.as_bytes()),
+            },
+        })
+    }
+
+    #[getter]
+    fn name(&self) -> &str {
+        &self.machine.name
+    }
+
+    /// The machine file as given, or the built-in one.
+    #[getter]
+    fn file(&self) -> &str {
+        &self.source.file
+    }
+
+    /// Jerk limit J (deg/s³).
+    #[getter]
+    fn jerk(&self) -> f64 {
+        self.machine.gantry.max_jerk_deg_per_s3
+    }
+
+    /// Acceleration limit A (deg/s²).
+    #[getter]
+    fn accel(&self) -> f64 {
+        self.machine.gantry.max_accel_deg_per_s2
+    }
+
+    /// Deceleration limit (deg/s²): A unless the machine sets its own.
+    #[getter]
+    fn decel(&self) -> f64 {
+        let g = &self.machine.gantry;
+        g.max_decel_deg_per_s2.unwrap_or(g.max_accel_deg_per_s2)
+    }
+
+    /// Speed limit V (deg/s).
+    #[getter]
+    fn speed(&self) -> f64 {
+        self.machine.gantry.max_speed_deg_per_s
+    }
+
+    /// Servo period (s), or None for continuous time.
+    #[getter]
+    fn servo_period_s(&self) -> Option<f64> {
+        self.machine.servo_period_s
+    }
+
+    /// Window width (deg) of control points that give none.
+    #[getter]
+    fn default_window_deg(&self) -> f64 {
+        self.machine.default_window_deg
+    }
+
+    /// The machine as arcsim-machine/1 JSON.
+    fn to_json(&self) -> PyResult<String> {
+        serde_json::to_string_pretty(&self.machine).map_err(|e| PlanError::new_err(e.to_string()))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Machine({:?}: J {}, A {}, V {}, from {})",
+            self.machine.name,
+            self.jerk(),
+            self.accel(),
+            self.speed(),
+            self.source.file
+        )
+    }
+}
+
+/// Reads a machine model (arcsim-machine/1 JSON). Raises PlanError with the located problems.
+#[pyfunction]
+pub fn load_machine(path: PathBuf) -> PyResult<Machine> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| PlanError::new_err(format!("{name}: cannot read: {e}")))?;
+    let machine = arcsim_app::machine_from_text(&name, &text).map_err(plan_err)?;
+    Ok(Machine {
+        machine,
+        source: Source {
+            file: name,
+            sha256: sha256_hex(text.as_bytes()),
+        },
+    })
+}

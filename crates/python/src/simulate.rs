@@ -1,0 +1,416 @@
+//! `simulate`: one plan on one machine, with the GIL released; the result as attributes, columns,
+//! a sampled timeline, a Rerun recording and the CLI's JSON document.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::PathBuf;
+
+use arcsim_app::{Provenance, ResultDocument, SimulateRequest, Source};
+use arcsim_plan::Warning;
+use arcsim_sequencer::{ArcEnds, Motion, Schedule, SequenceError};
+use numpy::IntoPyArray;
+use pyo3::exceptions::{PyRuntimeError, PyUserWarning, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyAny, PyDict};
+
+use crate::convert::{columns, data_frame, serde_to_py};
+use crate::inputs::{Machine, Plan};
+use crate::{PlanError, SimulationError};
+
+fn schedule_of(name: &str) -> PyResult<Schedule> {
+    match name {
+        "scan" => Ok(Schedule::Scan),
+        "optimal" => Ok(Schedule::Optimal),
+        "prescribed" => Ok(Schedule::Prescribed),
+        "step-and-shoot" | "step_and_shoot" => Ok(Schedule::StepAndShoot),
+        other => Err(PyValueError::new_err(format!(
+            "schedule: expected \"optimal\", \"scan\", \"prescribed\" or \"step-and-shoot\", got {other:?}"
+        ))),
+    }
+}
+
+fn motion_of(name: Option<&str>) -> PyResult<Option<Motion>> {
+    match name {
+        None => Ok(None),
+        Some("free") => Ok(Some(Motion::Free)),
+        Some("constant") => Ok(Some(Motion::Constant)),
+        Some(other) => Err(PyValueError::new_err(format!(
+            "motion: expected \"free\", \"constant\" or None, got {other:?}"
+        ))),
+    }
+}
+
+fn arc_ends_of(name: &str) -> PyResult<ArcEnds> {
+    match name {
+        "rest" => Ok(ArcEnds::Rest),
+        "free" => Ok(ArcEnds::Free),
+        other => Err(PyValueError::new_err(format!(
+            "arc_ends: expected \"rest\" or \"free\", got {other:?}"
+        ))),
+    }
+}
+
+/// A simulated delivery: what `arcsim simulate` computes.
+#[pyclass(frozen, module = "arcsim")]
+pub struct Delivery {
+    delivery: arcsim_sequencer::Delivery,
+    plan: arcsim_plan::ArcPlan,
+    plan_source: Source,
+    machine: arcsim_plan::Machine,
+    machine_source: Source,
+    warnings: Vec<Warning>,
+    notes: Vec<String>,
+    strict: bool,
+}
+
+#[pymethods]
+impl Delivery {
+    /// Total delivery time (s).
+    #[getter]
+    fn total_s(&self) -> f64 {
+        self.delivery.total_s
+    }
+
+    /// Where the time goes: {"beam_on_s", "energy_switching_s", "lost_s"} (s); lost_s is what
+    /// the gantry adds beyond the other two.
+    #[getter]
+    fn breakdown<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        serde_to_py(py, &self.delivery.breakdown)
+    }
+
+    /// How many layer speeds and transitions each limit set (dict).
+    #[getter]
+    fn limiter_counts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        serde_to_py(py, &self.delivery.limiter_counts)
+    }
+
+    /// The tightest speed, acceleration and jerk against their limits, and where (dict, or None
+    /// without a timeline).
+    #[getter]
+    fn margins<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        serde_to_py(py, &self.delivery.margins)
+    }
+
+    /// Lost time by cause and place, and the costliest transitions (dict).
+    #[getter]
+    fn lost_time<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        serde_to_py(py, &self.delivery.lost_time)
+    }
+
+    /// Schedule, motion and arc ends used, e.g. ("optimal", "free", "rest").
+    #[getter]
+    fn options(&self) -> (&'static str, &'static str, &'static str) {
+        (
+            self.delivery.schedule.name(),
+            self.delivery.motion.name(),
+            self.delivery.arc_ends.name(),
+        )
+    }
+
+    /// Plausibility warnings of the inputs (also issued as Python warnings).
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.warnings.iter().map(ToString::to_string).collect()
+    }
+
+    /// Notes on how the options applied.
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.notes.clone()
+    }
+
+    /// One entry per energy layer in delivery order, as columns (dict of numpy arrays / lists).
+    #[getter]
+    fn layers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        records(py, &self.delivery.layers)
+    }
+
+    /// One entry per transition (beam-off move), as columns.
+    #[getter]
+    fn transitions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        records(py, &self.delivery.transitions)
+    }
+
+    /// `layers` (default) or `transitions` as a pandas DataFrame (needs pandas).
+    #[pyo3(signature = (table="layers"))]
+    fn to_pandas<'py>(&self, py: Python<'py>, table: &str) -> PyResult<Bound<'py, PyAny>> {
+        let cols = match table {
+            "layers" => self.layers(py)?,
+            "transitions" => self.transitions(py)?,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "table: expected \"layers\" or \"transitions\", got {other:?}"
+                )))
+            }
+        };
+        data_frame(py, cols)
+    }
+
+    /// The gantry sampled every `dt` s (and at the end): numpy arrays `t_s`, `angle_deg`,
+    /// `speed_deg_per_s`, `accel_deg_per_s2`, `jerk_deg_per_s3`, `energy_mev` (NaN while the
+    /// beam is off), `beam_on` (bool), `layer` (delivery-order index, -1 while the beam is off).
+    #[pyo3(signature = (dt=0.01))]
+    fn timeline<'py>(&self, py: Python<'py>, dt: f64) -> PyResult<Bound<'py, PyDict>> {
+        let tl = self
+            .delivery
+            .timeline
+            .as_ref()
+            .ok_or_else(|| PyRuntimeError::new_err("no timeline was built"))?;
+        if !(dt.is_finite() && dt > 0.0) || tl.duration_s() / dt > 5e7 {
+            return Err(PyValueError::new_err(format!(
+                "dt {dt}: expected a finite number > 0 giving at most 5e7 samples"
+            )));
+        }
+        let samples = py.detach(|| tl.samples(dt));
+        let layer: Vec<Option<usize>> = samples.iter().map(|(t, _)| tl.beam_layer_at(*t)).collect();
+        let d = PyDict::new(py);
+        let col = |f: fn(&arcsim_sequencer::GantryState) -> f64| -> Vec<f64> {
+            samples.iter().map(|(_, s)| f(s)).collect()
+        };
+        d.set_item(
+            "t_s",
+            samples
+                .iter()
+                .map(|s| s.0)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
+        d.set_item("angle_deg", col(|s| s.angle_deg).into_pyarray(py))?;
+        d.set_item(
+            "speed_deg_per_s",
+            col(|s| s.speed_deg_per_s).into_pyarray(py),
+        )?;
+        d.set_item(
+            "accel_deg_per_s2",
+            col(|s| s.accel_deg_per_s2).into_pyarray(py),
+        )?;
+        d.set_item(
+            "jerk_deg_per_s3",
+            col(|s| s.jerk_deg_per_s3).into_pyarray(py),
+        )?;
+        let energy: Vec<f64> = layer
+            .iter()
+            .map(|l| l.map_or(f64::NAN, |l| self.delivery.layers[l].energy_mev))
+            .collect();
+        d.set_item("energy_mev", energy.into_pyarray(py))?;
+        let on: Vec<bool> = layer.iter().map(Option::is_some).collect();
+        d.set_item("beam_on", on.into_pyarray(py))?;
+        let index: Vec<i64> = layer.iter().map(|l| l.map_or(-1, |l| l as i64)).collect();
+        d.set_item("layer", index.into_pyarray(py))?;
+        Ok(d)
+    }
+
+    /// Writes the delivery for the Rerun viewer (.rrd), sampled every `dt` s, as
+    /// `simulate --rrd` does.
+    #[pyo3(signature = (path, dt=0.02))]
+    fn save_rrd(&self, py: Python<'_>, path: PathBuf, dt: f64) -> PyResult<()> {
+        let opts = arcsim_viewer::ViewerOptions { sample_dt_s: dt };
+        py.detach(|| arcsim_viewer::save_delivery(&path, &self.plan.name, &self.delivery, &opts))
+            .map_err(|e| PyRuntimeError::new_err(format!("{}: {e}", path.display())))
+    }
+
+    /// The result document, equal to what `arcsim simulate --json` writes for the same inputs.
+    fn to_json(&self) -> PyResult<String> {
+        let from = Provenance {
+            plan_source: self.plan_source.clone(),
+            machine: &self.machine,
+            machine_source: self.machine_source.clone(),
+            warnings: &self.warnings,
+            notes: &self.notes,
+            strict: self.strict,
+        };
+        ResultDocument::new(&self.plan, &from, &self.delivery)
+            .to_json()
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    }
+
+    fn __repr__(&self) -> String {
+        let (s, m, _) = self.options();
+        format!(
+            "Delivery({:?}: {:.3} s, {s}, {m} motion, {} layers)",
+            self.plan.name,
+            self.delivery.total_s,
+            self.delivery.layers.len()
+        )
+    }
+}
+
+fn records<'py>(py: Python<'py>, rows: &[impl serde::Serialize]) -> PyResult<Bound<'py, PyDict>> {
+    let values: Vec<serde_json::Value> = rows
+        .iter()
+        .map(serde_json::to_value)
+        .collect::<Result<_, _>>()
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    columns(py, &values, &[])
+}
+
+/// Runs the sequencer with the GIL released; a panic (a bug) becomes SimulationError.
+fn run(
+    py: Python<'_>,
+    plan: &arcsim_plan::ArcPlan,
+    machine: &arcsim_plan::Machine,
+    opts: &arcsim_sequencer::Options,
+) -> PyResult<arcsim_sequencer::Delivery> {
+    let result = py.detach(|| {
+        catch_unwind(AssertUnwindSafe(|| {
+            arcsim_sequencer::simulate(plan, machine, opts)
+        }))
+    });
+    match result {
+        Ok(Ok(d)) => Ok(d),
+        Ok(Err(e @ SequenceError::Plan(_))) => Err(PlanError::new_err(e.to_string())),
+        Ok(Err(e)) => Err(SimulationError::new_err(e.to_string())),
+        Err(_) => Err(SimulationError::new_err(
+            "the simulation panicked (a bug in arcsim)",
+        )),
+    }
+}
+
+/// Simulates `plan` on `machine` (default: the built-in ATOM machine) as `arcsim simulate` does:
+/// `schedule` "optimal" (default), "scan", "prescribed" or "step-and-shoot"; `motion` "free"
+/// (default for optimal and scan in continuous time), "constant" or None for the CLI's default;
+/// `period_s` a servo period overriding the machine's; `strict` refuses implausible values
+/// (likely unit slips) instead of warning. The GIL is released while it runs.
+#[pyfunction]
+#[pyo3(signature = (plan, machine=None, schedule="optimal", period_s=None, motion=None, arc_ends="rest", strict=false))]
+#[allow(clippy::too_many_arguments)]
+pub fn simulate(
+    py: Python<'_>,
+    plan: &Bound<'_, Plan>,
+    machine: Option<&Bound<'_, Machine>>,
+    schedule: &str,
+    period_s: Option<f64>,
+    motion: Option<&str>,
+    arc_ends: &str,
+    strict: bool,
+) -> PyResult<Delivery> {
+    let plan = plan.get();
+    let builtin;
+    let machine = match machine {
+        Some(m) => m.get(),
+        None => {
+            builtin = Machine::builtin();
+            &builtin
+        }
+    };
+    let mut warnings = arcsim_plan::plan_warnings(&plan.plan, &plan.source.file);
+    warnings.extend(arcsim_plan::machine_warnings(
+        &machine.machine,
+        &machine.source.file,
+    ));
+    if let Some(ts) = period_s {
+        let w = arcsim_app::check_period(ts, "period_s")
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        warnings.extend(w);
+    }
+    if strict && !warnings.is_empty() {
+        let lines: Vec<String> = warnings.iter().map(|w| format!("  {w}")).collect();
+        return Err(PlanError::new_err(format!(
+            "strict: {} implausible value(s) (a unit slip?):\n{}",
+            warnings.len(),
+            lines.join("\n")
+        )));
+    }
+    for w in &warnings {
+        PyErr::warn(
+            py,
+            &py.get_type::<PyUserWarning>(),
+            &std::ffi::CString::new(w.to_string()).unwrap_or_default(),
+            1,
+        )?;
+    }
+    let request = SimulateRequest {
+        schedule: schedule_of(schedule)?,
+        motion: motion_of(motion)?,
+        arc_ends: arc_ends_of(arc_ends)?,
+        period_s,
+    };
+    let (opts, notes) = request.options(&plan.plan, &machine.machine);
+    let delivery = run(py, &plan.plan, &machine.machine, &opts)?;
+    Ok(Delivery {
+        delivery,
+        plan: plan.plan.clone(),
+        plan_source: plan.source.clone(),
+        machine: machine.machine.clone(),
+        machine_source: machine.source.clone(),
+        warnings,
+        notes,
+        strict,
+    })
+}
+
+/// ATOM-style entry point: one arc of layers `irradiation_times_s` (s) at `spacing_deg` apart,
+/// `switching_times_s` (one per transition, s) between them, each layer's sweep within
+/// `max_window_deg`, on a gantry with limits `jerk`, `accel`, `speed` (and `decel`, default
+/// `accel`), irradiated at one constant speed per layer (ATOM's model). Returns (total time in
+/// s, layer speeds in deg/s as a numpy array).
+#[pyfunction]
+#[pyo3(signature = (irradiation_times_s, switching_times_s, spacing_deg, max_window_deg, jerk, accel, speed, decel=None, schedule="optimal"))]
+#[allow(clippy::too_many_arguments)]
+pub fn schedule_arrays<'py>(
+    py: Python<'py>,
+    irradiation_times_s: &Bound<'py, PyAny>,
+    switching_times_s: &Bound<'py, PyAny>,
+    spacing_deg: f64,
+    max_window_deg: f64,
+    jerk: f64,
+    accel: f64,
+    speed: f64,
+    decel: Option<f64>,
+    schedule: &str,
+) -> PyResult<(f64, Bound<'py, numpy::PyArray1<f64>>)> {
+    let times: Vec<f64> = irradiation_times_s.extract().or_else(|_| {
+        irradiation_times_s
+            .extract::<numpy::PyReadonlyArray1<'_, f64>>()
+            .map(|a| a.as_array().to_vec())
+    })?;
+    if !(spacing_deg.is_finite() && spacing_deg > 0.0) {
+        return Err(PyValueError::new_err(format!(
+            "spacing_deg {spacing_deg}: expected a finite number > 0"
+        )));
+    }
+    let angles: Vec<f64> = (0..times.len()).map(|k| k as f64 * spacing_deg).collect();
+    let plan = Plan::from_arrays_impl(&angles, &times, max_window_deg, switching_times_s)?;
+    let base = Machine::builtin();
+    let mut m = base.machine.clone();
+    m.gantry.max_jerk_deg_per_s3 = jerk;
+    m.gantry.max_accel_deg_per_s2 = accel;
+    m.gantry.max_speed_deg_per_s = speed;
+    m.gantry.max_decel_deg_per_s2 = decel;
+    let text = serde_json::to_string(&m).map_err(|e| PlanError::new_err(e.to_string()))?;
+    let machine = arcsim_plan::parse_machine(&text, "schedule_arrays limits")
+        .map_err(|e| PlanError::new_err(e.to_string()))?;
+    let opts = arcsim_sequencer::Options {
+        motion: Motion::Constant,
+        ..arcsim_sequencer::Options::new(schedule_of(schedule)?)
+    };
+    let d = run(py, &plan, &machine, &opts)?;
+    let speeds: Vec<f64> = d.layers.iter().map(|l| l.speed_deg_per_s).collect();
+    Ok((d.total_s, speeds.into_pyarray(py)))
+}
+
+impl Plan {
+    /// The one-arc plan of [`schedule_arrays`]: one layer per control point, nominal 100 MeV
+    /// (no ELST model applies: every switch has its time).
+    fn from_arrays_impl(
+        angles: &[f64],
+        times: &[f64],
+        window: f64,
+        switching: &Bound<'_, PyAny>,
+    ) -> PyResult<arcsim_plan::ArcPlan> {
+        let py = switching.py();
+        let angles = angles.to_vec().into_pyarray(py);
+        let times = times.to_vec().into_pyarray(py);
+        let energies = 100.0f64.into_pyobject(py)?;
+        let window = window.into_pyobject(py)?;
+        let plan = Plan::from_arrays(
+            angles.as_any(),
+            times.as_any(),
+            energies.as_any(),
+            Some(window.as_any()),
+            Some(switching),
+            "CW",
+            "schedule_arrays",
+        )?;
+        Ok(plan.plan)
+    }
+}

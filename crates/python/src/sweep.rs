@@ -1,0 +1,223 @@
+//! `sweep`: a sweep file (or the same as a dict) evaluated in parallel with the GIL released;
+//! Ctrl-C stops it after the rows in progress and raises `SweepInterrupted` with those rows.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use arcsim_evaluator::{Evaluator, Results, Row, Summary, Sweep, RESULTS_FORMAT};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyAny, PyDict};
+
+use crate::convert::{columns, data_frame, serde_to_py};
+use crate::{SweepError, SweepInterrupted};
+
+/// A sweep's rows and summary.
+#[pyclass(frozen, module = "arcsim")]
+pub struct SweepResult {
+    name: String,
+    combinations: usize,
+    rows: Vec<Row>,
+    summary: Option<Summary>,
+}
+
+#[pymethods]
+impl SweepResult {
+    /// The sweep's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Combinations in the whole sweep.
+    #[getter]
+    fn combinations(&self) -> usize {
+        self.combinations
+    }
+
+    /// Whether every combination was evaluated (False after Ctrl-C).
+    #[getter]
+    fn complete(&self) -> bool {
+        self.rows.len() == self.combinations
+    }
+
+    /// The rows as columns (dict of numpy arrays / lists): `index`, `plan`, `schedule`, `status`,
+    /// `message`, the setting's limits, `total_s`, `speedup`, `breakdown.*`, `limiter_counts.*`
+    /// (margins as `margins.*` when the sweep asks for them). Limits the setting keeps from the
+    /// base machine are NaN.
+    #[getter]
+    fn rows<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let values: Vec<serde_json::Value> = self
+            .rows
+            .iter()
+            .map(serde_json::to_value)
+            .collect::<Result<_, _>>()
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        columns(py, &values, &["setting.", "outcome."])
+    }
+
+    /// The rows as a pandas DataFrame (needs pandas).
+    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        data_frame(py, self.rows(py)?)
+    }
+
+    /// The summary (per plan and schedule: base total, fastest setting, sensitivities, cheapest
+    /// change reaching the target) as a dict; None after Ctrl-C.
+    #[getter]
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        serde_to_py(py, &self.summary)
+    }
+
+    /// The summary tables as `arcsim sweep` prints them; None after Ctrl-C.
+    fn summary_table(&self) -> Option<String> {
+        self.summary.as_ref().map(Summary::to_table)
+    }
+
+    /// Rows and summary as `arcsim sweep --json` writes them.
+    fn to_json(&self) -> PyResult<String> {
+        let results = Results {
+            format: RESULTS_FORMAT,
+            sweep: self.name.clone(),
+            combinations: self.combinations,
+            shard: None,
+            complete: self.complete(),
+            rows: &self.rows,
+            summary: self.summary.as_ref(),
+        };
+        serde_json::to_string_pretty(&results).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "SweepResult({:?}: {} of {} combinations)",
+            self.name,
+            self.rows.len(),
+            self.combinations
+        )
+    }
+}
+
+fn plan_loader(p: &Path) -> Result<arcsim_plan::ArcPlan, String> {
+    arcsim_app::read_plan_file(p)
+        .map(|(plan, _)| plan)
+        .map_err(|e| e.to_string())
+}
+
+/// Loads a sweep from a path, or from a dict in the sweep-file format (paths in it relative to
+/// the current directory).
+fn load(spec: &Bound<'_, PyAny>) -> PyResult<Sweep> {
+    let py = spec.py();
+    let sweep = if let Ok(path) = spec.extract::<PathBuf>() {
+        Sweep::load_with(&path, &plan_loader)
+    } else if spec.is_instance_of::<PyDict>() {
+        let text: String = py
+            .import("json")?
+            .call_method1("dumps", (spec,))?
+            .extract()?;
+        let here = std::env::current_dir().map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Sweep::from_text(&text, "sweep dict", &here, &plan_loader)
+    } else {
+        return Err(PyValueError::new_err(
+            "expected a sweep file path or a dict in the sweep-file format",
+        ));
+    };
+    sweep.map_err(|e| SweepError::new_err(e.to_string()))
+}
+
+/// Evaluates a sweep (a path to an arcsim-sweep/1 file, or the same as a dict) on `threads`
+/// worker threads (default: one per core), with a progress bar on a terminal when `progress`.
+/// The GIL is released while it runs. Ctrl-C stops after the rows in progress and raises
+/// SweepInterrupted (a KeyboardInterrupt) whose `result` holds the finished rows.
+#[pyfunction]
+#[pyo3(signature = (sweep, threads=None, progress=true))]
+pub fn sweep(
+    py: Python<'_>,
+    sweep: &Bound<'_, PyAny>,
+    threads: Option<usize>,
+    progress: bool,
+) -> PyResult<SweepResult> {
+    let spec = load(sweep)?;
+    if threads.is_some_and(|n| !(1..=256).contains(&n)) {
+        return Err(PyValueError::new_err("threads: expected 1 to 256"));
+    }
+    let n_threads = threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .min(spec.combinations().max(1));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(n_threads)
+        .build()
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start worker threads: {e}")))?;
+    let name = spec.name.clone();
+    let ev = py
+        .detach(|| pool.install(|| Evaluator::new(spec)))
+        .map_err(|e| SweepError::new_err(e.to_string()))?;
+    let combinations = ev.len();
+    let bar = if progress {
+        indicatif::ProgressBar::new(combinations as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let cancel = AtomicBool::new(false);
+    let mut rows: Vec<Row> = Vec::new();
+    let mut interrupt: Option<PyErr> = None;
+    let outcome = py.detach(|| {
+        std::thread::scope(|s| {
+            let worker = s.spawn(|| {
+                pool.install(|| {
+                    ev.run(&(0..combinations), &cancel, |chunk| {
+                        rows.extend_from_slice(chunk);
+                        bar.inc(chunk.len() as u64);
+                        Ok(())
+                    })
+                })
+            });
+            // Signals reach Python only on the thread that called: look for them while the
+            // workers run.
+            while !worker.is_finished() {
+                std::thread::sleep(Duration::from_millis(50));
+                if interrupt.is_none() {
+                    if let Err(e) = Python::attach(|py| py.check_signals()) {
+                        interrupt = Some(e);
+                        cancel.store(true, Ordering::SeqCst);
+                    }
+                }
+            }
+            worker.join()
+        })
+    });
+    bar.finish_and_clear();
+    match outcome {
+        Ok(Ok(_)) => {}
+        Ok(Err(e)) => return Err(SweepError::new_err(e.to_string())),
+        Err(_) => {
+            return Err(PyRuntimeError::new_err(
+                "the sweep panicked (a bug in arcsim)",
+            ))
+        }
+    }
+    if let Some(e) = interrupt {
+        let result = SweepResult {
+            name,
+            combinations,
+            rows,
+            summary: None,
+        };
+        if e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
+            let err = SweepInterrupted::new_err(format!(
+                "sweep interrupted after {} of {combinations} combinations; .result holds them",
+                result.rows.len()
+            ));
+            err.value(py).setattr("result", Py::new(py, result)?)?;
+            return Err(err);
+        }
+        return Err(e);
+    }
+    let summary = py.detach(|| pool.install(|| ev.summarize(&rows)));
+    Ok(SweepResult {
+        name,
+        combinations,
+        rows,
+        summary: Some(summary),
+    })
+}

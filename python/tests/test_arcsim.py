@@ -1,0 +1,381 @@
+"""The arcsim Python package against the arcsim command: same results, located errors, numpy
+columns, the GIL released, Ctrl-C in sweeps.
+
+Run from the repository root with the wheel installed: ARCSIM_BIN names the `arcsim` binary to
+compare with (the Rust test `crates/cli/tests/python.rs` builds both and runs this suite);
+ARCSIM_TEST_DICOM an RT Ion Plan file to import.
+"""
+
+import _thread
+import json
+import os
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import arcsim
+
+BIN = os.environ.get("ARCSIM_BIN", "target/debug/arcsim")
+ATOM_REFERENCE = Path("../shared/reference/atom-article-cases.json")
+
+
+def cli(*args):
+    """Runs the arcsim command from the repository root; returns (exit code, stdout, stderr)."""
+    p = subprocess.run([BIN, *args], capture_output=True, text=True)
+    return p.returncode, p.stdout, p.stderr
+
+
+def cli_json(tmp_path, *args):
+    out = tmp_path / "result.json"
+    code, _, err = cli(*args, "--json", str(out))
+    assert code == 0, err
+    return json.loads(out.read_text())
+
+
+# (plan, schedule, motion): free motion only where it takes well under a second.
+CASES = [
+    ("plans/prostate.json", "optimal", None),
+    ("plans/prostate.json", "scan", None),
+    ("plans/lung.json", "optimal", "constant"),
+    ("plans/lung.json", "step-and-shoot", None),
+    ("plans/head-neck.json", "scan", "constant"),
+    ("plans/two-arc.json", "optimal", "constant"),
+]
+
+
+@pytest.mark.parametrize("plan,schedule,motion", CASES)
+def test_simulate_equals_the_cli(tmp_path, plan, schedule, motion):
+    args = ["simulate", plan, "--schedule", schedule]
+    if motion:
+        args += ["--motion", motion]
+    expected = cli_json(tmp_path, *args)
+    d = arcsim.simulate(arcsim.load_plan(plan), schedule=schedule, motion=motion)
+    assert d.total_s == pytest.approx(expected["total_s"], rel=1e-12)
+    got = json.loads(d.to_json())
+    assert got == expected
+    assert d.breakdown == expected["breakdown"]
+    assert d.limiter_counts == expected["limiter_counts"]
+    assert d.options == (schedule, expected["options"]["motion"], "rest")
+
+
+def test_machine_file_period_and_limits_equal_the_cli(tmp_path):
+    machine = "scenarios/machine-fast.json"
+    expected = cli_json(
+        tmp_path, "simulate", "plans/two-arc.json", "--machine", machine,
+        "--schedule", "scan", "--period", "0.004",
+    )
+    d = arcsim.simulate(
+        arcsim.load_plan("plans/two-arc.json"), arcsim.load_machine(machine),
+        schedule="scan", period_s=0.004,
+    )
+    assert json.loads(d.to_json()) == expected
+    assert d.notes == expected["notes"] and d.options[1] == "constant"
+
+    faster = arcsim.Machine.atom().with_limits(jerk=1.0, accel=0.75, speed=6)
+    assert (faster.jerk, faster.accel, faster.speed) == (1.0, 0.75, 6.0)
+    mfile = tmp_path / "m.json"
+    mfile.write_text(faster.to_json())
+    expected = cli_json(tmp_path, "simulate", "plans/prostate.json", "--machine", str(mfile),
+                        "--schedule", "scan", "--motion", "constant")
+    d = arcsim.simulate(arcsim.load_plan("plans/prostate.json"), faster, "scan", motion="constant")
+    assert d.total_s == pytest.approx(expected["total_s"], rel=1e-12)
+
+
+def test_dicom_round_trip(tmp_path):
+    dcm = os.environ.get("ARCSIM_TEST_DICOM")
+    if not dcm:
+        pytest.skip("ARCSIM_TEST_DICOM not set (the Rust runner writes a fixture)")
+    plan = arcsim.load_plan(dcm)
+    out = tmp_path / "imported.json"
+    code, _, err = cli("import", dcm, "-o", str(out))
+    assert code == 0, err
+    assert plan.to_json() == out.read_text()
+    again = arcsim.load_plan(out)
+    assert again.to_json() == plan.to_json()
+    a = arcsim.simulate(plan, schedule="scan", motion="constant")
+    b = arcsim.simulate(again, schedule="scan", motion="constant")
+    assert a.total_s == b.total_s
+    expected = cli_json(tmp_path, "simulate", dcm, "--schedule", "scan", "--motion", "constant")
+    assert json.loads(a.to_json()) == expected
+
+
+def test_errors_are_located_python_exceptions(tmp_path):
+    bad = tmp_path / "bad.json"
+    plan = json.loads(Path("plans/prostate.json").read_text())
+    plan["arcs"][0]["control_points"][3]["layers"][0]["energy_mev"] = -5
+    bad.write_text(json.dumps(plan))
+    with pytest.raises(arcsim.PlanError) as e:
+        arcsim.load_plan(bad)
+    code, _, err = cli("validate", str(bad))
+    assert code == 1
+    assert str(e.value) in err  # the CLI's message, word for word
+    assert "control point 3" in str(e.value) and "energy_mev" in str(e.value)
+    assert isinstance(e.value, ValueError)
+
+    with pytest.raises(arcsim.PlanError, match="cannot read"):
+        arcsim.load_plan(tmp_path / "missing.json")
+    with pytest.raises(arcsim.PlanError, match="max_jerk_deg_per_s3"):
+        arcsim.Machine.atom().with_limits(jerk=-1)
+    with pytest.raises(ValueError, match="schedule"):
+        arcsim.simulate(arcsim.load_plan("plans/lung.json"), schedule="fastest")
+    with pytest.raises(ValueError, match="servo period"):
+        arcsim.simulate(arcsim.load_plan("plans/lung.json"), period_s=5.0)
+    with pytest.raises(arcsim.ProfileError):
+        arcsim.profile(2, 1.5, 0.5, 0.5, 0.5, 5)  # too short to slow down
+    with pytest.raises(arcsim.SweepError, match="format"):
+        arcsim.sweep({"format": "nope"})
+    with pytest.raises(ValueError, match="switching_times_s"):
+        arcsim.Plan.from_arrays([0, 2, 4], [1, 1, 1], 100, switching_times_s=[1])
+    # Implausible values: warnings, or an error with strict.
+    slow = arcsim.Machine.atom().with_limits(jerk=500)
+    with pytest.warns(UserWarning, match="jerk"):
+        arcsim.simulate(arcsim.load_plan("plans/lung.json"), slow, "scan", motion="constant")
+    with pytest.raises(arcsim.PlanError, match="strict"):
+        arcsim.simulate(arcsim.load_plan("plans/lung.json"), slow, "scan", strict=True)
+
+
+def test_columns_and_timeline_are_numpy():
+    d = arcsim.simulate(arcsim.load_plan("plans/prostate.json"), schedule="scan", motion="constant")
+    layers = d.layers
+    n = arcsim.load_plan("plans/prostate.json").layers
+    for key, dtype in [("angle_deg", np.float64), ("speed_deg_per_s", np.float64),
+                       ("index", np.int64), ("control_point", np.int64)]:
+        assert layers[key].dtype == dtype and layers[key].shape == (n,), key
+    assert len(layers["transition_limited_by"]) == n
+    assert d.transitions["index"].shape == (n - 1,)
+    # Irradiation times add up to the beam-on time.
+    assert layers["irradiation_s"].sum() == pytest.approx(d.breakdown["beam_on_s"], rel=1e-12)
+
+    tl = d.timeline(dt=0.05)
+    m = len(tl["t_s"])
+    assert all(v.shape == (m,) for v in tl.values())
+    assert tl["beam_on"].dtype == np.bool_ and tl["layer"].dtype == np.int64
+    assert tl["t_s"][-1] == pytest.approx(d.total_s)
+    assert np.all(np.abs(tl["speed_deg_per_s"]) <= 5 + 1e-9)
+    assert np.all(np.isnan(tl["energy_mev"][~tl["beam_on"]]))
+    # While a layer is irradiated (constant motion), the gantry moves at its speed.
+    on = tl["layer"] >= 0
+    assert np.allclose(np.abs(tl["speed_deg_per_s"][on]),
+                       layers["speed_deg_per_s"][tl["layer"][on]], atol=1e-9)
+    pd = pytest.importorskip("pandas")
+    df = d.to_pandas()
+    assert isinstance(df, pd.DataFrame) and len(df) == n
+    assert len(d.to_pandas("transitions")) == n - 1
+
+
+def test_save_rrd(tmp_path):
+    d = arcsim.simulate(arcsim.load_plan("plans/lung.json"), schedule="scan", motion="constant")
+    path = tmp_path / "lung.rrd"
+    d.save_rrd(path)
+    assert path.read_bytes()[:4] == b"RRF2"
+
+
+def test_gil_is_released_while_simulating():
+    plan = arcsim.load_plan("plans/head-neck.json")
+
+    def work():
+        arcsim.simulate(plan, schedule="optimal", motion="constant")
+
+    work()  # warm up
+    # While one thread simulates, this one keeps running Python: it could not if the GIL were
+    # held for the whole simulation.
+    done = threading.Event()
+    worker = threading.Thread(target=lambda: (work(), done.set()))
+    ticks = 0
+    t0 = time.perf_counter()
+    worker.start()
+    while not done.is_set():
+        ticks += 1
+    busy = time.perf_counter() - t0
+    worker.join()
+    t0 = time.perf_counter()
+    for _ in range(ticks):
+        pass
+    alone = time.perf_counter() - t0
+    assert ticks > 1000 and alone > 0.1 * busy, (ticks, alone, busy)
+
+    if (os.cpu_count() or 1) < 2:
+        return
+    # Two at once on two cores: about the time of one if the GIL is released, of two if held.
+    # Best of three trials, generous, for a machine busy with other work.
+    ratios = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        work()
+        work()
+        serial = time.perf_counter() - t0
+        threads = [threading.Thread(target=work) for _ in range(2)]
+        t0 = time.perf_counter()
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        ratios.append((time.perf_counter() - t0) / serial)
+    assert min(ratios) < 0.75, ratios
+
+
+def test_profile_equals_the_cli():
+    code, out, err = cli("profile", "--distance", "4", "--v-start", "1.5", "--v-end", "0.5",
+                         "--jerk", "0.5", "--accel", "0.5", "--vel", "5", "--json")
+    assert code == 0, err
+    expected = json.loads(out)
+    p = arcsim.profile(4, 1.5, 0.5, 0.5, 0.5, 5)
+    assert p.duration_s == expected["duration_s"]
+    assert p.peak_speed_deg_per_s == expected["peak_speed_deg_per_s"]
+    assert np.allclose(p.phases["duration_s"], [ph["duration_s"] for ph in expected["phases"]],
+                       rtol=0, atol=0)
+    end = p.sample(np.array([0.0, p.duration_s]))
+    assert end["position_deg"][1] == pytest.approx(4, abs=1e-9)
+    assert end["speed_deg_per_s"].tolist() == pytest.approx([1.5, 0.5], abs=1e-9)
+    # Sampled speeds integrate to the distance (trapezoid rule, fine grid).
+    t = np.linspace(0, p.duration_s, 20001)
+    s = p.sample(t)
+    v = s["speed_deg_per_s"]
+    assert np.sum((v[1:] + v[:-1]) / 2 * np.diff(t)) == pytest.approx(4, abs=1e-6)
+    timed = arcsim.profile(1.6, 0.3, 0.3, 0.5, 0.5, 5, min_duration=5)
+    assert timed.duration_s == pytest.approx(5, abs=1e-9)
+    grid = arcsim.profile(4, 1.5, 0.5, 0.5, 0.5, 5, period_s=0.004)
+    phases = grid.phases["duration_s"]
+    assert np.allclose(phases / 0.004, np.round(phases / 0.004), atol=1e-6)
+
+
+def test_profile_batch_matches_single_moves():
+    rng = np.random.default_rng(7)
+    n = 2000
+    dist = rng.uniform(0.0, 20.0, n)
+    vs = rng.uniform(0.0, 5.0, n)
+    ve = rng.uniform(0.0, 5.0, n)
+    b = arcsim.profile_batch(dist, vs, ve, 0.5, 0.5, 5.0)
+    assert b["duration_s"].shape == (n,) and b["ok"].dtype == np.bool_
+    assert b["ok"].any() and (~b["ok"]).any()  # some moves are too short to fit
+    for k in range(0, n, 97):
+        if b["ok"][k]:
+            assert arcsim.profile(dist[k], vs[k], ve[k], 0.5, 0.5, 5.0).duration_s == b["duration_s"][k]
+            assert b["error"][k] is None
+        else:
+            assert np.isnan(b["duration_s"][k])
+            with pytest.raises(arcsim.ProfileError) as e:
+                arcsim.profile(dist[k], vs[k], ve[k], 0.5, 0.5, 5.0)
+            assert str(e.value) == b["error"][k]
+    with pytest.raises(ValueError, match="expected 3"):
+        arcsim.profile_batch(np.ones(3), np.zeros(2), 0.0, 0.5, 0.5, 5.0)
+
+
+def test_plan_from_arrays():
+    p = arcsim.Plan.from_arrays([0, 0, 2, 4], [1.0, 0.5, 1.0, 1.0], [120, 118, 116, 114],
+                                window_deg=1.5, switching_times_s=[0.6, 0.6, 2.0])
+    assert p.layers == 4 and p.arcs == 1
+    doc = json.loads(p.to_json())
+    cps = doc["arcs"][0]["control_points"]
+    assert [len(cp["layers"]) for cp in cps] == [2, 1, 1]
+    assert cps[2]["layers"][0]["switching_time_s"] == 2.0
+    d = arcsim.simulate(p, schedule="scan", motion="constant")
+    assert d.breakdown["energy_switching_s"] == pytest.approx(0.6 + 0.6 + 2.0)
+
+
+def test_schedule_arrays_atom_cases():
+    if not ATOM_REFERENCE.exists():
+        if os.environ.get("CI"):
+            pytest.fail(f"CI: {ATOM_REFERENCE} is missing")
+        pytest.skip(f"{ATOM_REFERENCE} not found")
+    ref = json.loads(ATOM_REFERENCE.read_text())
+    for case in ref["cases"]:
+        total, speeds = arcsim.schedule_arrays(
+            case["irradiation_times_s"], case["energy_switch_times_s"],
+            ref["control_point_spacing_deg"], ref["max_window_deg"],
+            jerk=0.5, accel=0.5, speed=5.0, schedule="scan")
+        times = np.array(case["irradiation_times_s"])
+        assert speeds.shape == times.shape
+        assert np.all(speeds <= 5 + 1e-12) and np.all(speeds * times <= ref["max_window_deg"] + 1e-9)
+        assert total > sum(case["irradiation_times_s"]) + sum(case["energy_switch_times_s"])
+        # The same case through the sweep's ATOM loader (placeholder energies): the same total.
+        spec = {
+            "format": "arcsim-sweep/1", "name": "atom",
+            "plans": [{"atom_case": case["name"], "reference": str(ATOM_REFERENCE.resolve())}],
+            "machine": "scenarios/machine-atom.json", "schedules": ["scan"],
+        }
+        rows = arcsim.sweep(spec, progress=False).rows
+        assert rows["total_s"][0] == pytest.approx(total, rel=1e-12)
+
+
+def sweep_dict(n_jerk, schedule="scan"):
+    return {
+        "format": "arcsim-sweep/1",
+        "name": "py",
+        "plans": ["plans/prostate.json", "plans/lung.json"],
+        "machine": "scenarios/machine-atom.json",
+        "axes": {
+            "jerk_deg_per_s3": {"from": 0.25, "to": 2, "steps": n_jerk},
+            "accel_deg_per_s2": [0.5, 1],
+        },
+        "schedules": [schedule],
+    }
+
+
+def test_sweep_equals_the_cli(tmp_path):
+    spec = sweep_dict(3)
+    path = tmp_path / "sweep.json"
+    spec_file = dict(spec, plans=[str(Path(p).resolve()) for p in spec["plans"]],
+                     machine=str(Path(spec["machine"]).resolve()))
+    path.write_text(json.dumps(spec_file))
+    out = tmp_path / "rows.json"
+    code, table, err = cli("sweep", str(path), "--json", str(out), "--threads", "2")
+    assert code == 0, err
+    expected = json.loads(out.read_text())
+    r = arcsim.sweep(path, threads=2, progress=False)
+    assert r.complete and r.combinations == 12
+    got = json.loads(r.to_json())
+    assert got["rows"] == expected["rows"] and got["summary"] == expected["summary"]
+    assert r.summary_table() == table
+    rows = r.rows
+    assert rows["total_s"].dtype == np.float64 and rows["total_s"].shape == (12,)
+    assert rows["jerk_deg_per_s3"].tolist() == [row["setting"]["jerk_deg_per_s3"] for row in expected["rows"]]
+    # The dict form (paths relative to the current directory) gives the same rows, with the
+    # plans named as written.
+    def unnamed(rows):
+        return [dict(r, plan=None) for r in rows]
+
+    from_dict = json.loads(arcsim.sweep(spec, progress=False).to_json())["rows"]
+    assert unnamed(from_dict) == unnamed(expected["rows"])
+    assert from_dict[0]["plan"] == "plans/prostate.json"
+    pd = pytest.importorskip("pandas")
+    assert len(r.to_pandas()) == 12
+
+
+def test_ctrl_c_stops_a_sweep_and_keeps_finished_rows():
+    spec = sweep_dict(400, schedule="optimal")  # 1,600 combinations: far longer than the test
+    timer = threading.Timer(1.0, _thread.interrupt_main)
+    timer.start()
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt) as e:
+        arcsim.sweep(spec, threads=2, progress=False)
+    elapsed = time.perf_counter() - t0
+    assert isinstance(e.value, arcsim.SweepInterrupted)
+    result = e.value.result
+    assert not result.complete and result.combinations == 1600
+    n = len(result.rows["index"])
+    assert n < 1600
+    assert result.rows["index"].tolist() == list(range(n))  # in order, none lost
+    assert elapsed < 30
+
+
+def test_dask_maps_simulate_over_plans_and_settings():
+    db = pytest.importorskip("dask.bag", reason="dask is not installed")
+    plans = ["plans/prostate.json", "plans/lung.json"]
+    jerks = [0.5, 1.0]
+
+    def total(task):
+        plan, jerk = task
+        machine = arcsim.Machine.atom().with_limits(jerk=jerk)
+        return plan, jerk, arcsim.simulate(arcsim.load_plan(plan), machine, "scan",
+                                           motion="constant").total_s
+
+    tasks = [(p, j) for p in plans for j in jerks]
+    got = db.from_sequence(tasks, npartitions=2).map(total).compute(scheduler="threads")
+    assert len(got) == 4
+    for plan, jerk, t in got:
+        assert t == total((plan, jerk))[2]
