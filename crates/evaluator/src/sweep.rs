@@ -132,6 +132,18 @@ impl Axis {
         }
     }
 
+    /// The unit as figures and plot titles print it ("°/s³"; [`Axis::symbol`] has the plain-text
+    /// one of the tables).
+    pub fn unit(self) -> &'static str {
+        match self {
+            Axis::Jerk => "°/s³",
+            Axis::Accel => "°/s²",
+            Axis::Speed => "°/s",
+            Axis::ElstUp | Axis::ElstDown => "s",
+            Axis::Window => "°",
+        }
+    }
+
     /// Short symbol and unit for tables ("J", "deg/s^3").
     pub fn symbol(self) -> (&'static str, &'static str) {
         match self {

@@ -270,6 +270,7 @@ impl Machine {
         })
     }
 
+    /// The machine's name.
     #[getter]
     fn name(&self) -> &str {
         &self.machine.name

@@ -50,6 +50,10 @@ create_exception!(
 #[pymodule]
 fn arcsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    m.add(
+        "__doc__",
+        "arcsim: proton-arc delivery on a jerk-limited gantry (plans, simulate, profiles, sweeps).",
+    )?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("PlanError", py.get_type::<PlanError>())?;
     m.add("SweepError", py.get_type::<SweepError>())?;

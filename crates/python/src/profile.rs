@@ -137,10 +137,16 @@ pub fn profile(
         period_s,
         reverse: reversal(reverse)?,
     };
-    request
-        .solve()
+    solve(&request)
         .map(|solved| Profile { solved })
-        .map_err(|e| ProfileError::new_err(e.to_string()))
+        .map_err(ProfileError::new_err)
+}
+
+/// [`MoveRequest::solve`], a panic (a bug) turned into an error message too.
+fn solve(request: &MoveRequest) -> Result<SolvedMove, String> {
+    std::panic::catch_unwind(|| request.solve())
+        .map_err(|_| "the planner panicked (a bug in arcsim)".to_string())?
+        .map_err(|e: MoveError| e.to_string())
 }
 
 /// A numpy array or a number, broadcast to `n`.
@@ -215,11 +221,11 @@ pub fn profile_batch<'py>(
     let (d, vs, ve, j, a, v) = (&cols[0], &cols[1], &cols[2], &cols[3], &cols[4], &cols[5]);
     let dec = get("decel");
     let mind = get("min_duration");
-    let results: Vec<Result<SolvedMove, MoveError>> = py.detach(|| {
+    let results: Vec<Result<SolvedMove, String>> = py.detach(|| {
         (0..len)
             .into_par_iter()
             .map(|k| {
-                MoveRequest {
+                solve(&MoveRequest {
                     mv: Move {
                         distance: d[k],
                         v_start: vs[k],
@@ -232,8 +238,7 @@ pub fn profile_batch<'py>(
                     min_duration_s: mind.map(|x| x[k]),
                     period_s,
                     reverse,
-                }
-                .solve()
+                })
             })
             .collect()
     });
@@ -256,7 +261,7 @@ pub fn profile_batch<'py>(
     for r in &results {
         match r {
             Ok(_) => errors.append(py.None())?,
-            Err(e) => errors.append(e.to_string())?,
+            Err(e) => errors.append(e)?,
         }
     }
     out.set_item("duration_s", duration.into_pyarray(py))?;

@@ -23,6 +23,26 @@ fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
 
+/// The drawing area of a figure.
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
+/// An SVG document of `size` (px): white, `title` on top, the rest drawn by `draw`.
+fn svg_figure(
+    size: (u32, u32),
+    title: &str,
+    draw: impl FnOnce(&Area<'_>) -> Result<(), String>,
+) -> Result<String, String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let area = root.titled(title, (FONT, 15)).map_err(err)?;
+        draw(&area)?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
 /// The category at tick `x` of a category axis, if `x` is one.
 fn category(x: f64, n: usize) -> Option<usize> {
     let i = x.round();
@@ -76,11 +96,7 @@ pub(crate) fn heatmap(m: &Heatmap) -> Result<String, String> {
     let w = (220 + 84 * nj).clamp(620, 1500) as u32;
     let h = (150 + 46 * na).clamp(320, 1000) as u32;
     let (lo, hi) = scale(m.range);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        let root = root.titled(&m.title, (FONT, 15)).map_err(err)?;
+    svg_figure((w, h), &m.title, |root| {
         let (main, bar) = root.split_horizontally(w - 110);
         let mut chart = ChartBuilder::on(&main)
             .margin(12)
@@ -185,9 +201,8 @@ pub(crate) fn heatmap(m: &Heatmap) -> Result<String, String> {
             )
         }))
         .map_err(err)?;
-        root.present().map_err(err)?;
-    }
-    Ok(svg)
+        Ok(())
+    })
 }
 
 /// One limit's sensitivity.
@@ -209,12 +224,8 @@ pub(crate) fn sensitivity(title: &str, bars: &[SensitivityBar]) -> Result<String
     // Room on both sides for the value printed beside each bar.
     let (x0, x1) = (lo - 0.35 * span, hi + 0.35 * span);
     let (w, h) = (760u32, (110 + 56 * n).max(220) as u32);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        let root = root.titled(title, (FONT, 15)).map_err(err)?;
-        let mut chart = ChartBuilder::on(&root)
+    svg_figure((w, h), title, |root| {
+        let mut chart = ChartBuilder::on(root)
             .margin(12)
             .x_label_area_size(44)
             .y_label_area_size(170)
@@ -271,9 +282,8 @@ pub(crate) fn sensitivity(title: &str, bars: &[SensitivityBar]) -> Result<String
                 .draw_series([Text::new(text, (at + pad, y), style)])
                 .map_err(err)?;
         }
-        root.present().map_err(err)?;
-    }
-    Ok(svg)
+        Ok(())
+    })
 }
 
 /// One setting's breakdown.
@@ -306,13 +316,9 @@ pub(crate) fn breakdown(title: &str, bars: &[Bar]) -> Result<String, String> {
     let n = bars.len();
     let max = bars.iter().map(Bar::total).fold(0.0, f64::max).max(1e-3);
     let (w, h) = (760u32, (120 + 70 * n).max(240) as u32);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        let root = root.titled(title, (FONT, 15)).map_err(err)?;
+    svg_figure((w, h), title, |root| {
         // The x axis runs to 1.5 × the longest bar: the legend sits in that empty strip.
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .margin(12)
             .x_label_area_size(44)
             .y_label_area_size(12)
@@ -387,7 +393,6 @@ pub(crate) fn breakdown(title: &str, bars: &[Bar]) -> Result<String, String> {
             .label_font((FONT, 13))
             .draw()
             .map_err(err)?;
-        root.present().map_err(err)?;
-    }
-    Ok(svg)
+        Ok(())
+    })
 }

@@ -85,17 +85,6 @@ pub struct Report {
     pub sections: Vec<Section>,
 }
 
-/// A limit's unit as the figures print it.
-pub(crate) fn unit(axis: Axis) -> &'static str {
-    match axis {
-        Axis::Jerk => "°/s³",
-        Axis::Accel => "°/s²",
-        Axis::Speed => "°/s",
-        Axis::ElstUp | Axis::ElstDown => "s",
-        Axis::Window => "°",
-    }
-}
-
 /// "J 0.5 → 1 °/s³, A 0.5 → 0.75 °/s²" (`describe_steps` with the figures' units).
 fn describe_change(steps: &[arcsim_evaluator::Step]) -> String {
     if steps.is_empty() {
@@ -109,7 +98,7 @@ fn describe_change(steps: &[arcsim_evaluator::Step]) -> String {
                 s.axis.symbol().0,
                 short(s.from),
                 short(s.to),
-                unit(s.axis)
+                s.axis.unit()
             )
         })
         .collect::<Vec<_>>()
@@ -150,7 +139,7 @@ fn describe_others(key: &[Option<f64>; 3]) -> String {
     OTHER_AXES
         .iter()
         .zip(key)
-        .filter_map(|(a, v)| v.map(|v| format!("{} {} {}", a.symbol().0, short(v), unit(*a))))
+        .filter_map(|(a, v)| v.map(|v| format!("{} {} {}", a.symbol().0, short(v), a.unit())))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -248,7 +237,7 @@ fn section(
                 "{} (base {} {})",
                 s.axis.symbol().0,
                 short(s.base_value),
-                unit(s.axis)
+                s.axis.unit()
             ),
             s_per_10_percent: s.s_per_10_percent,
             no_effect: s.no_effect,

@@ -56,17 +56,6 @@ fn slug(label: &str) -> String {
     s.trim_matches('_').to_owned()
 }
 
-/// A limit's unit as plot titles print it.
-fn unit(axis: Axis) -> &'static str {
-    match axis {
-        Axis::Jerk => "°/s³",
-        Axis::Accel => "°/s²",
-        Axis::Speed => "°/s",
-        Axis::ElstUp | Axis::ElstDown => "s",
-        Axis::Window => "°",
-    }
-}
-
 /// The fewest decimals (0 to 3) that write every value of `values` exactly (to 1e-6 of a step).
 fn decimals(values: &[f64]) -> u32 {
     (0..3)
@@ -292,8 +281,8 @@ pub fn save_sweep(
                 rec.send_columns(entity.as_str(), times, columns)?;
             }
             let x_unit = match d {
-                0 => unit(axis).to_string(),
-                _ => format!("{} {}", short(1.0 / scale), unit(axis)),
+                0 => axis.unit().to_string(),
+                _ => format!("{} {}", short(1.0 / scale), axis.unit()),
             };
             let (lo, hi) = (x_of(values[0]), x_of(values[values.len() - 1]));
             let span = (hi - lo).max(1);
