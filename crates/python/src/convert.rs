@@ -70,10 +70,12 @@ fn flatten(prefix: &str, v: &Value, strip: &[&str], out: &mut Vec<(String, Value
 /// Records (JSON objects, nested ones flattened to dotted keys) as columns in a dict: a column
 /// of numbers is a float64 array (NaN where a record has null), of integers an int64 array when
 /// none is missing, of booleans a bool array; anything else a list.
+/// Columns named in `first` come first, in that order; the others follow in key order.
 pub fn columns<'py>(
     py: Python<'py>,
     records: &[Value],
     strip: &[&str],
+    first: &[&str],
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut keys: Vec<String> = Vec::new();
     let mut flat: Vec<Vec<(String, Value)>> = Vec::with_capacity(records.len());
@@ -87,6 +89,8 @@ pub fn columns<'py>(
         }
         flat.push(f);
     }
+    let rank = |k: &String| first.iter().position(|f| f == k).unwrap_or(first.len());
+    keys.sort_by_key(rank); // stable: the rest keep their order
     let d = PyDict::new(py);
     for k in &keys {
         let values: Vec<Value> = flat

@@ -240,7 +240,7 @@ fn records<'py>(py: Python<'py>, rows: &[impl serde::Serialize]) -> PyResult<Bou
         .map(serde_json::to_value)
         .collect::<Result<_, _>>()
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-    columns(py, &values, &[])
+    columns(py, &values, &[], &["index"])
 }
 
 /// Runs the sequencer with the GIL released; a panic (a bug) becomes SimulationError.

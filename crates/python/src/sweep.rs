@@ -13,6 +13,25 @@ use pyo3::types::{PyAny, PyDict};
 use crate::convert::{columns, data_frame, serde_to_py};
 use crate::{SweepError, SweepInterrupted};
 
+/// The columns a sweep's rows start with (the rest follow in name order).
+const ROW_COLUMNS_FIRST: &[&str] = &[
+    "index",
+    "plan",
+    "schedule",
+    "status",
+    "jerk_deg_per_s3",
+    "accel_deg_per_s2",
+    "speed_deg_per_s",
+    "elst_up_s",
+    "elst_down_s",
+    "window_deg",
+    "total_s",
+    "speedup",
+    "breakdown.beam_on_s",
+    "breakdown.energy_switching_s",
+    "breakdown.lost_s",
+];
+
 /// A sweep's rows and summary.
 #[pyclass(frozen, module = "arcsim")]
 pub struct SweepResult {
@@ -54,7 +73,7 @@ impl SweepResult {
             .map(serde_json::to_value)
             .collect::<Result<_, _>>()
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-        columns(py, &values, &["setting.", "outcome."])
+        columns(py, &values, &["setting.", "outcome."], ROW_COLUMNS_FIRST)
     }
 
     /// The rows as a pandas DataFrame (needs pandas).
