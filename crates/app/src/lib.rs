@@ -23,4 +23,4 @@ pub use inputs::{
     DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
 };
 pub use moves::{MoveError, MoveRequest, SolvedMove};
-pub use request::{check_period, SimulateRequest};
+pub use request::{check_period, plausibility, refuse_implausible, SimulateRequest};

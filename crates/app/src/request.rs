@@ -80,3 +80,30 @@ pub fn check_period(ts: f64, field: &str) -> Result<Option<Warning>, AppError> {
         ),
     }))
 }
+
+/// The plausibility warnings (likely unit slips) of a plan and a machine, named as given.
+pub fn plausibility(
+    plan: &ArcPlan,
+    plan_name: &str,
+    machine: &Machine,
+    machine_name: &str,
+) -> Vec<Warning> {
+    let mut warnings = arcsim_plan::plan_warnings(plan, plan_name);
+    warnings.extend(arcsim_plan::machine_warnings(machine, machine_name));
+    warnings
+}
+
+/// With `option` (e.g. `--strict`) given, implausible values are refused: an error listing every
+/// warning; `Ok` when there are none.
+pub fn refuse_implausible(warnings: &[Warning], option: &str) -> Result<(), AppError> {
+    if warnings.is_empty() {
+        return Ok(());
+    }
+    let lines: Vec<String> = warnings.iter().map(|w| format!("  {w}")).collect();
+    Err(AppError::Option(format!(
+        "{option}: {} implausible value{} (a unit slip?):\n{}",
+        warnings.len(),
+        if warnings.len() == 1 { "" } else { "s" },
+        lines.join("\n")
+    )))
+}

@@ -139,24 +139,19 @@ pub fn plausibility(
     machine: &Machine,
     machine_path: Option<&Path>,
 ) -> Vec<arcsim_plan::Warning> {
-    let mut warnings = arcsim_plan::plan_warnings(plan, &input_name(plan_path));
-    warnings.extend(arcsim_plan::machine_warnings(
+    arcsim_app::plausibility(
+        plan,
+        &input_name(plan_path),
         machine,
         &machine_name(machine_path),
-    ));
-    warnings
+    )
 }
 
 /// Prints warnings to standard error; with `strict`, turns them into an error (exit 1).
 pub fn report_warnings(warnings: &[arcsim_plan::Warning], strict: bool) -> Result<(), CliError> {
-    if strict && !warnings.is_empty() {
-        let lines: Vec<String> = warnings.iter().map(|w| format!("  {w}")).collect();
-        return Err(CliError::failed(format!(
-            "--strict: {} implausible value{} (a unit slip?):\n{}",
-            warnings.len(),
-            if warnings.len() == 1 { "" } else { "s" },
-            lines.join("\n")
-        )));
+    if strict {
+        arcsim_app::refuse_implausible(warnings, "--strict")
+            .map_err(|e| CliError::failed(e.to_string()))?;
     }
     for w in warnings {
         eprintln!("warning: {}", crate::output::printable(&w.to_string()));

@@ -23,7 +23,7 @@ pub struct Plan {
 }
 
 /// An array argument as a Vec: a numpy float array or any sequence of numbers.
-fn floats(name: &str, x: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+pub(crate) fn floats(name: &str, x: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
     if let Ok(a) = x.extract::<PyReadonlyArray1<'_, f64>>() {
         return Ok(a.as_array().to_vec());
     }

@@ -3,12 +3,13 @@
 
 use arcsim_app::{MoveError, MoveRequest, SolvedMove};
 use arcsim_planner::{Move, Reversal};
-use numpy::{IntoPyArray, PyReadonlyArray1};
+use numpy::IntoPyArray;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyAny, PyDict, PyList};
 use rayon::prelude::*;
 
+use crate::inputs::floats;
 use crate::ProfileError;
 
 fn reversal(name: &str) -> PyResult<Reversal> {
@@ -70,15 +71,7 @@ impl Profile {
     /// The state at times `t` (s; a number or numpy array, clamped to the move): numpy arrays
     /// `position_deg`, `speed_deg_per_s`, `accel_deg_per_s2`, `jerk_deg_per_s3`.
     fn sample<'py>(&self, py: Python<'py>, t: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
-        let times: Vec<f64> = match t.extract::<f64>() {
-            Ok(x) => vec![x],
-            Err(_) => match t.extract::<PyReadonlyArray1<'_, f64>>() {
-                Ok(a) => a.as_array().to_vec(),
-                Err(_) => t.extract::<Vec<f64>>().map_err(|_| {
-                    PyValueError::new_err("t: expected a number or a 1-D array of float64")
-                })?,
-            },
-        };
+        let times: Vec<f64> = broadcast("t", t, None)?;
         if times.iter().any(|x| !x.is_finite()) {
             return Err(PyValueError::new_err("t: expected finite times"));
         }
@@ -154,12 +147,7 @@ fn broadcast(name: &str, x: &Bound<'_, PyAny>, n: Option<usize>) -> PyResult<Vec
     if let Ok(v) = x.extract::<f64>() {
         return Ok(vec![v; n.unwrap_or(1)]);
     }
-    let v = match x.extract::<PyReadonlyArray1<'_, f64>>() {
-        Ok(a) => a.as_array().to_vec(),
-        Err(_) => x.extract::<Vec<f64>>().map_err(|_| {
-            PyValueError::new_err(format!("{name}: expected a number or a 1-D float64 array"))
-        })?,
-    };
+    let v = floats(name, x)?;
     match n {
         Some(n) if v.len() != n => Err(PyValueError::new_err(format!(
             "{name}: {} values, expected {n} (the length of the other arrays) or one number",

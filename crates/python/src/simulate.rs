@@ -292,23 +292,20 @@ pub fn simulate(
             &builtin
         }
     };
-    let mut warnings = arcsim_plan::plan_warnings(&plan.plan, &plan.source.file);
-    warnings.extend(arcsim_plan::machine_warnings(
+    let mut warnings = arcsim_app::plausibility(
+        &plan.plan,
+        &plan.source.file,
         &machine.machine,
         &machine.source.file,
-    ));
+    );
     if let Some(ts) = period_s {
         let w = arcsim_app::check_period(ts, "period_s")
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         warnings.extend(w);
     }
-    if strict && !warnings.is_empty() {
-        let lines: Vec<String> = warnings.iter().map(|w| format!("  {w}")).collect();
-        return Err(PlanError::new_err(format!(
-            "strict: {} implausible value(s) (a unit slip?):\n{}",
-            warnings.len(),
-            lines.join("\n")
-        )));
+    if strict {
+        arcsim_app::refuse_implausible(&warnings, "strict")
+            .map_err(|e| PlanError::new_err(e.to_string()))?;
     }
     for w in &warnings {
         PyErr::warn(
@@ -358,11 +355,7 @@ pub fn schedule_arrays<'py>(
     decel: Option<f64>,
     schedule: &str,
 ) -> PyResult<(f64, Bound<'py, numpy::PyArray1<f64>>)> {
-    let times: Vec<f64> = irradiation_times_s.extract().or_else(|_| {
-        irradiation_times_s
-            .extract::<numpy::PyReadonlyArray1<'_, f64>>()
-            .map(|a| a.as_array().to_vec())
-    })?;
+    let times = crate::inputs::floats("irradiation_times_s", irradiation_times_s)?;
     if !(spacing_deg.is_finite() && spacing_deg > 0.0) {
         return Err(PyValueError::new_err(format!(
             "spacing_deg {spacing_deg}: expected a finite number > 0"
