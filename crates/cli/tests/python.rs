@@ -92,6 +92,15 @@ fn python_package_passes_its_pytest_suite() {
         .arg(&dist)
         .arg("-i")
         .arg(bin.join("python")))
+    .map(|log| {
+        // A second build of rerun costs CI ~8 minutes and ~3 GB of disk: the features resolved
+        // for the Python crate alone must match the workspace's (crates/python/Cargo.toml).
+        assert!(
+            !log.contains("Compiling rerun v"),
+            "the wheel build compiled rerun again: its dependency features differ from the \
+             workspace's; compare `cargo tree -e features` for -p arcsim-python and --workspace\n{log}"
+        );
+    })
     .unwrap_or_else(|e| panic!("{e}"));
     let wheel = wheel_in(&dist).expect("maturin wrote a wheel");
     pip(&["--no-deps", wheel.to_str().expect("utf-8 path")]).unwrap_or_else(|e| panic!("{e}"));
