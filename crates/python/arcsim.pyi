@@ -114,7 +114,8 @@ class Delivery:
     def total_s(self) -> float: ...
     @property
     def breakdown(self) -> Dict[str, float]:
-        """beam_on_s, energy_switching_s, lost_s (what the gantry adds beyond the other two)."""
+        """beam_on_s (= spot_irradiation_s + scanning_s), energy_switching_s, lost_s (what the
+        gantry adds beyond beam-on and energy switching)."""
     @property
     def limiter_counts(self) -> Dict[str, int]: ...
     @property
@@ -134,8 +135,13 @@ class Delivery:
     @property
     def transitions(self) -> Dict[str, Any]:
         """One entry per transition, as columns."""
+    @property
+    def spots(self) -> Dict[str, Any]:
+        """One entry per spot delivery (one painting of a spot), as columns: layer_index, arc,
+        control_point, layer, spot, painting, x_mm, y_mm (NaN without positions), mu,
+        t_start_s, t_end_s, angle_start_deg, angle_end_deg; as `simulate --spots` writes them."""
     def to_pandas(self, table: str = "layers") -> Any:
-        """`layers` or `transitions` as a pandas DataFrame (needs pandas)."""
+        """`layers`, `transitions` or `spots` as a pandas DataFrame (needs pandas)."""
     def timeline(self, dt: float = 0.01) -> Dict[str, npt.NDArray[Any]]:
         """t_s, angle_deg, speed_deg_per_s, accel_deg_per_s2, jerk_deg_per_s3, energy_mev (NaN
         with the beam off), beam_on (bool), layer (-1 with the beam off), every dt s."""
@@ -225,7 +231,10 @@ class SweepResult:
     def complete(self) -> bool: ...
     @property
     def rows(self) -> Dict[str, Any]:
-        """The rows as columns."""
+        """The rows as columns: index, plan, schedule, status, the limits (jerk_deg_per_s3 to
+        window_deg, scan_speed_mm_per_s, dose_rate_scale; NaN where the base machine's),
+        total_s, speedup, breakdown.* (beam_on_s = spot_irradiation_s + scanning_s,
+        energy_switching_s, lost_s), limiter_counts.*, message."""
     def to_pandas(self) -> Any: ...
     @property
     def summary(self) -> Optional[Dict[str, Any]]: ...

@@ -9,6 +9,7 @@ ARCSIM_TEST_DICOM an RT Ion Plan file to import.
 import _thread
 import json
 import os
+import signal
 import subprocess
 import threading
 import time
@@ -60,6 +61,25 @@ def test_simulate_equals_the_cli(tmp_path, plan, schedule, motion):
     assert d.breakdown == expected["breakdown"]
     assert d.limiter_counts == expected["limiter_counts"]
     assert d.options == (schedule, expected["options"]["motion"], "rest")
+
+
+def test_spots_equal_the_cli_on_a_scanning_machine(tmp_path):
+    machine = "scenarios/machine-opentps-pbs.json"
+    spots_csv = tmp_path / "spots.csv"
+    expected = cli_json(tmp_path, "simulate", "plans/lung.json", "--machine", machine,
+                        "--motion", "constant", "--spots", str(spots_csv))
+    d = arcsim.simulate(arcsim.load_plan("plans/lung.json"), arcsim.load_machine(machine),
+                        motion="constant")
+    s = d.spots
+    want = expected["spots"]
+    assert len(s["mu"]) == len(want) > 100
+    for key in ("layer_index", "spot", "painting", "x_mm", "mu", "t_start_s", "angle_end_deg"):
+        assert s[key].tolist() == [w[key] for w in want], key
+    lines = spots_csv.read_text().splitlines()
+    assert len(lines) == len(want) + 1
+    b = d.breakdown
+    assert b["spot_irradiation_s"] + b["scanning_s"] == pytest.approx(b["beam_on_s"], rel=1e-12)
+    assert d.to_pandas("spots").shape[0] == len(want)
 
 
 def test_machine_file_period_and_limits_equal_the_cli(tmp_path):
@@ -181,41 +201,23 @@ def test_gil_is_released_while_simulating():
         arcsim.simulate(plan, schedule="optimal", motion="constant")
 
     work()  # warm up
-    # While one thread simulates, this one keeps running Python: it could not if the GIL were
-    # held for the whole simulation.
-    done = threading.Event()
-    worker = threading.Thread(target=lambda: (work(), done.set()))
-    ticks = 0
-    t0 = time.perf_counter()
-    worker.start()
-    while not done.is_set():
-        ticks += 1
-    busy = time.perf_counter() - t0
-    worker.join()
-    t0 = time.perf_counter()
-    for _ in range(ticks):
-        pass
-    alone = time.perf_counter() - t0
-    assert ticks > 1000 and alone > 0.1 * busy, (ticks, alone, busy)
-
-    if (os.cpu_count() or 1) < 2:
-        return
-    # Two at once on two cores: about the time of one if the GIL is released, of two if held.
-    # Best of three trials, generous, for a machine busy with other work.
-    ratios = []
+    # While one thread simulates, this one keeps running Python between its ticks. Were the GIL
+    # held for the whole simulation, one gap between two ticks would last about as long as the
+    # simulation. Timing-free of the machine's load otherwise: best of three trials.
+    worst = []
     for _ in range(3):
-        t0 = time.perf_counter()
-        work()
-        work()
-        serial = time.perf_counter() - t0
-        threads = [threading.Thread(target=work) for _ in range(2)]
-        t0 = time.perf_counter()
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
-        ratios.append((time.perf_counter() - t0) / serial)
-    assert min(ratios) < 0.75, ratios
+        done = threading.Event()
+        worker = threading.Thread(target=lambda: (work(), done.set()))
+        stamps = [time.perf_counter()]
+        worker.start()
+        while not done.is_set():
+            stamps.append(time.perf_counter())
+        worker.join()
+        busy = stamps[-1] - stamps[0]
+        gap = max(b - a for a, b in zip(stamps, stamps[1:]))
+        worst.append((gap / busy, len(stamps)))
+    assert min(w[0] for w in worst) < 0.5, worst
+    assert max(w[1] for w in worst) > 1000, worst
 
 
 def test_profile_equals_the_cli():
@@ -348,11 +350,17 @@ def test_sweep_equals_the_cli(tmp_path):
 
 def test_ctrl_c_stops_a_sweep_and_keeps_finished_rows():
     spec = sweep_dict(400, schedule="optimal")  # 1,600 combinations: far longer than the test
+    # Python installs its Ctrl-C handler only when SIGINT is not ignored at start-up, and a
+    # process started in the background of a shell (as CI may) inherits it ignored.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(1.0, _thread.interrupt_main)
     timer.start()
     t0 = time.perf_counter()
-    with pytest.raises(KeyboardInterrupt) as e:
-        arcsim.sweep(spec, threads=2, progress=False)
+    try:
+        with pytest.raises(KeyboardInterrupt) as e:
+            arcsim.sweep(spec, threads=2, progress=False)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     elapsed = time.perf_counter() - t0
     assert isinstance(e.value, arcsim.SweepInterrupted)
     result = e.value.result

@@ -1,7 +1,7 @@
 //! The result document of a simulation (`arcsim-result/1`, `simulate --json`).
 
 use arcsim_plan::{ArcPlan, Machine, Warning};
-use arcsim_sequencer::Delivery;
+use arcsim_sequencer::{Delivery, SpotRow};
 use serde::Serialize;
 
 /// Format tag of [`ResultDocument`].
@@ -43,6 +43,9 @@ pub struct ResultDocument<'a> {
     pub notes: &'a [String],
     #[serde(flatten)]
     pub delivery: &'a Delivery,
+    /// Every spot delivery with its time and gantry angle (`simulate --spots`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spots: Option<&'a [SpotRow]>,
 }
 
 /// Where a plan or machine came from: its name in messages (a path) and the SHA-256 of its bytes.
@@ -88,7 +91,14 @@ impl<'a> ResultDocument<'a> {
             warnings: from.warnings,
             notes: from.notes,
             delivery,
+            spots: None,
         }
+    }
+
+    /// The document with the per-spot timeline.
+    pub fn with_spots(mut self, spots: &'a [SpotRow]) -> Self {
+        self.spots = Some(spots);
+        self
     }
 
     /// The document as pretty-printed JSON, as `simulate --json` writes it.

@@ -4,7 +4,9 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use arcsim_sequencer::{simulate, ArcEnds, Delivery, Limiter, Motion, Schedule};
+use arcsim_sequencer::{
+    simulate, spot_timeline, ArcEnds, Delivery, Limiter, Motion, Schedule, SpotRow,
+};
 
 use crate::input::{load_machine_hashed, load_plan_hashed};
 use crate::CliError;
@@ -90,6 +92,11 @@ pub struct Args {
     /// Write the full result (summary, per-layer and per-transition rows, margins) as JSON.
     #[arg(long, value_name = "OUT")]
     json: Option<PathBuf>,
+    /// Write every spot delivery as CSV: arc, control point, layer, spot, painting, x and y (mm),
+    /// MU, start and end time (s), gantry angle at start and end (deg). With --json, the JSON
+    /// result also lists them (`spots`).
+    #[arg(long, value_name = "SPOTS.csv")]
+    spots: Option<PathBuf>,
     /// Write the sampled timeline as CSV.
     #[arg(long, value_name = "TIMELINE")]
     csv: Option<PathBuf>,
@@ -165,6 +172,20 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
         b.beam_on_s,
         pct(b.beam_on_s)
     );
+    if b.scanning_s > 0.0 {
+        let _ = writeln!(
+            s,
+            "    spot irradiation {:9.2} s  {:5.1} %",
+            b.spot_irradiation_s,
+            pct(b.spot_irradiation_s)
+        );
+        let _ = writeln!(
+            s,
+            "    between spots    {:9.2} s  {:5.1} %  (scanning, settling, layer overhead)",
+            b.scanning_s,
+            pct(b.scanning_s)
+        );
+    }
     let _ = writeln!(
         s,
         "  energy switching   {:9.2} s  {:5.1} %",
@@ -344,6 +365,32 @@ fn where_lost(s: &mut String, d: &Delivery) {
     }
 }
 
+/// The spot table: one row per spot delivery, columns named with their units.
+fn write_spots_csv(path: &Path, spots: &[SpotRow]) -> Result<(), CliError> {
+    let mut s = String::from("layer_index,arc,control_point,layer,spot,painting,x_mm,y_mm,mu,t_start_s,t_end_s,angle_start_deg,angle_end_deg\n");
+    let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
+    for r in spots {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            r.layer_index,
+            r.arc,
+            r.control_point,
+            r.layer,
+            r.spot,
+            r.painting,
+            opt(r.x_mm),
+            opt(r.y_mm),
+            r.mu,
+            r.t_start_s,
+            r.t_end_s,
+            r.angle_start_deg,
+            r.angle_end_deg
+        );
+    }
+    crate::output::write_file(path, s.as_bytes())
+}
+
 fn write_csv(path: &Path, d: &Delivery, dt: f64) -> Result<(), CliError> {
     let tl = d
         .timeline
@@ -386,6 +433,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ("--json", args.json.as_deref()),
             ("--csv", args.csv.as_deref()),
             ("--rrd", args.rrd.as_deref()),
+            ("--spots", args.spots.as_deref()),
         ],
     )?;
     let (plan, plan_sha256) = load_plan_hashed(&args.plan)?;
@@ -420,6 +468,17 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
     }
     crate::output::print(&summary(&delivery, &plan.name, &machine.name));
+    // The spot timeline for --spots, and for the beam's-eye view of the Rerun outputs.
+    let viewer = args.rrd.is_some() || args.spawn || args.connect.is_some();
+    let spots = match args.spots.is_some() || viewer {
+        true => Some(spot_timeline(&plan, &machine, &delivery).map_err(|e| {
+            CliError::failed(format!(
+                "spot timeline: {}: {e}",
+                crate::input::input_name(&args.plan)
+            ))
+        })?),
+        false => None,
+    };
 
     if let Some(path) = &args.json {
         let from = arcsim_app::Provenance {
@@ -436,16 +495,22 @@ pub fn run(args: Args) -> Result<(), CliError> {
             notes: &notes,
             strict: args.strict,
         };
-        let text = arcsim_app::ResultDocument::new(&plan, &from, &delivery)
-            .to_json()
-            .map_err(|e| CliError::failed(e.to_string()))?;
+        let mut doc = arcsim_app::ResultDocument::new(&plan, &from, &delivery);
+        if let Some(spots) = spots.as_ref().filter(|_| args.spots.is_some()) {
+            doc = doc.with_spots(spots);
+        }
+        let text = doc.to_json().map_err(|e| CliError::failed(e.to_string()))?;
         crate::output::write_file(path, text.as_bytes())?;
     }
     if let Some(path) = &args.csv {
         write_csv(path, &delivery, args.dt)?;
     }
+    if let (Some(path), Some(spots)) = (&args.spots, &spots) {
+        write_spots_csv(path, spots)?;
+    }
     crate::viewer::output(
         &delivery,
+        spots.as_deref().unwrap_or_default(),
         &plan.name,
         args.dt,
         args.rrd.as_deref(),

@@ -2,11 +2,17 @@
 //!
 //! Rules (also in the crate documentation and `docs/dicom-import.md`):
 //! - Every control point whose ScanSpotMetersetWeights sum above 0 is one energy layer.
-//! - Spot MU = weight x BeamMeterset / FinalCumulativeMetersetWeight; with N paintings the spot list is
-//!   repeated N times and every spot delivers MU / N each time (count x N spots, same total MU).
+//! - Spot MU = weight x BeamMeterset / FinalCumulativeMetersetWeight: the spot's total over all
+//!   paintings, rounded to [`MU_RESOLUTION`]. One native spot per DICOM spot, in the file's order.
+//! - NumberOfPaintings N > 1 becomes `spots.paintings = N` (absent when 1); the spot list is not
+//!   repeated: the beam model delivers MU / N per spot in each of the N passes.
+//! - ScanSpotPositionMap (x, y pairs in mm) becomes `spots.positions_mm`, one `[x, y]` per spot in the
+//!   file's order, rounded to [`POSITION_RESOLUTION_MM`]; absent for a layer whose control point has
+//!   no map (the `per_mu` beam model does not need positions).
 //! - Consecutive layers at the same gantry angle form one native control point; a new angle starts a new one.
 //! - A DYNAMIC beam is one arc; it is split where its rotation reverses. Consecutive STATIC beams (by
-//!   BeamNumber) form one arc while the angle keeps progressing in one direction.
+//!   BeamNumber) form one arc while the angle keeps progressing in one direction; each is delivered
+//!   at rest (its control points get `window_deg: 0`), the gantry moving only between beams.
 
 use arcsim_plan::{Arc, ArcPlan, ControlPoint, EnergyLayer, RotationDirection, Spots, PLAN_FORMAT};
 
@@ -31,7 +37,7 @@ pub(crate) fn to_arc_plan(plan: &IonPlan, fallback_name: &str) -> ArcPlan {
                         }
                     }
                     arcs.extend(statics.take().map(ArcBuilder::finish));
-                    let mut arc = ArcBuilder::new(angle, rotation);
+                    let mut arc = ArcBuilder::new(angle, rotation).at_rest();
                     arc.push(0.0, angle, layer);
                     statics = Some(arc);
                 }
@@ -132,25 +138,41 @@ fn beam_layers(beam: &IonBeam) -> impl Iterator<Item = (f64, Rotation, EnergyLay
 /// digits and read back exactly, also with serde_json's default (not round-trip exact) float parser.
 pub const MU_RESOLUTION: f64 = 1e-9;
 
-/// One native energy layer: per-spot MU, the spot list repeated once per painting.
+/// Spot positions are rounded to this step in mm (a nanometre), for the same reason as
+/// [`MU_RESOLUTION`]: the file's single-precision values (12.3 is stored as 12.300000190734863)
+/// would otherwise print with 17 digits.
+pub const POSITION_RESOLUTION_MM: f64 = 1e-6;
+
+/// `x` rounded to a multiple of `resolution` (whose inverse is a whole number). Dividing the integer
+/// count of steps by the inverse (exact in f64) gives the f64 nearest to the decimal; adding 0 turns
+/// -0 into 0.
+fn round_to(x: f64, resolution: f64) -> f64 {
+    let steps_per_unit = resolution.recip().round();
+    (x * steps_per_unit).round() / steps_per_unit + 0.0
+}
+
+/// One native energy layer: each spot's total MU over all paintings, the paintings, the positions.
 fn native_layer(layer: &IonLayer, mu_per_weight: f64) -> EnergyLayer {
-    let paintings = layer.paintings.max(1);
-    let per_painting = mu_per_weight / f64::from(paintings);
-    // Dividing the integer count of steps by 1e9 (exact in f64) gives the f64 nearest to the decimal.
-    let steps_per_mu = MU_RESOLUTION.recip().round();
-    let once: Vec<f64> = layer
+    let mu: Vec<f64> = layer
         .weights
         .iter()
-        .map(|w| (w * per_painting * steps_per_mu).round() / steps_per_mu)
+        .map(|w| round_to(w * mu_per_weight, MU_RESOLUTION))
         .collect();
-    let mu: Vec<f64> = (0..paintings).flat_map(|_| once.iter().copied()).collect();
+    let positions_mm = layer.positions_mm.as_ref().map(|positions| {
+        positions
+            .iter()
+            .map(|p| p.map(|c| round_to(c, POSITION_RESOLUTION_MM)))
+            .collect()
+    });
     EnergyLayer {
         energy_mev: layer.energy_mev,
-        // The reader bounds spots x paintings by MAX_SPOTS, far below u32::MAX.
         spots: Some(Spots {
+            // The reader bounds the spots of a layer by arcsim_plan::MAX_SPOTS_PER_LAYER.
             count: u32::try_from(mu.len()).unwrap_or(u32::MAX),
             mu: Some(mu),
             total_mu: None,
+            positions_mm,
+            paintings: (layer.paintings > 1).then_some(layer.paintings),
         }),
         irradiation_time_s: None,
         switching_time_s: None,
@@ -189,6 +211,8 @@ struct ArcBuilder {
     declared: Option<RotationDirection>,
     /// Current unwrapped gantry angle.
     angle: f64,
+    /// STATIC beams: each control point is delivered with the gantry at rest (window 0).
+    at_rest: bool,
     control_points: Vec<ControlPoint>,
 }
 
@@ -203,8 +227,15 @@ impl ArcBuilder {
             direction: None,
             declared,
             angle: angle.rem_euclid(360.0),
+            at_rest: false,
             control_points: Vec::new(),
         }
+    }
+
+    /// The builder of STATIC beams: their layers are delivered at rest at the beam's angle.
+    fn at_rest(mut self) -> Self {
+        self.at_rest = true;
+        self
     }
 
     /// Whether a move of `delta` degrees continues this arc (a standstill always does).
@@ -228,7 +259,7 @@ impl ArcBuilder {
             _ => self.control_points.push(ControlPoint {
                 angle_deg: self.angle,
                 required_speed_deg_per_s: None,
-                window_deg: None,
+                window_deg: self.at_rest.then_some(0.0),
                 layers: vec![layer],
             }),
         }

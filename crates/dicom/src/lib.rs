@@ -15,13 +15,18 @@
 //! - **MU.** Spot MU = weight x BeamMeterset / FinalCumulativeMetersetWeight, BeamMeterset (300A,0086)
 //!   taken from the first FractionGroupSequence > ReferencedBeamSequence item whose
 //!   ReferencedBeamNumber is the beam's number; rounded to [`MU_RESOLUTION`] (1e-9 MU) so the JSON
-//!   written from the plan reads back to exactly the same numbers.
-//! - **Paintings.** The weights are the total over all paintings (as DICOM defines them), so with N
-//!   paintings the spot list is repeated N times and each spot delivers MU / N per painting: N x count
-//!   spots, same total MU, N x the spot switches. NumberOfPaintings must be 1 to [`MAX_PAINTINGS`]
-//!   (1000: delivery systems repaint a layer a few to a few dozen times), and the whole plan may hold
-//!   at most [`MAX_SPOTS`] (5,000,000) spots after repainting; both are checked before any spot list
-//!   is repeated, so a corrupt count cannot exhaust memory.
+//!   written from the plan reads back to exactly the same numbers. One native spot per DICOM spot.
+//! - **Positions.** ScanSpotPositionMap (300A,0394), x, y in mm per spot, becomes `spots.positions_mm`
+//!   in the file's spot order, rounded to [`POSITION_RESOLUTION_MM`] (1e-6 mm). It must hold 2 finite
+//!   values per spot, within 10,000 mm ([`arcsim_plan::MAX_SPOT_POSITION_MM`]). A layer whose control
+//!   point has no map gets no positions (the `per_mu` beam model does not need them).
+//! - **Paintings.** The weights are the total over all paintings (as DICOM defines them), so the MU of
+//!   a spot is its total and NumberOfPaintings N becomes `spots.paintings` (absent when 1): the beam
+//!   model delivers MU / N per spot in each of N passes over the spot list, which is not repeated in
+//!   the plan. NumberOfPaintings must be 1 to [`MAX_PAINTINGS`] (1000: delivery systems repaint a
+//!   layer a few to a few dozen times), a layer may hold at most 1,000,000 spots
+//!   ([`arcsim_plan::MAX_SPOTS_PER_LAYER`]) and the whole plan at most [`MAX_SPOTS`] (5,000,000) spot
+//!   deliveries (spot count x paintings, summed over the layers).
 //! - **Single values.** BeamNumber, GantryAngle, NominalBeamEnergy, BeamMeterset and the other
 //!   attributes that hold one number are refused when they hold several (`10\20`), rather than read
 //!   as their first value. Every BeamNumber must be different (the fraction group refers to beams by
@@ -31,7 +36,8 @@
 //! - **Arcs.** Beams are taken in BeamNumber order; setup beams and beams without spots are left out
 //!   (and listed in the plan description). A DYNAMIC beam is one arc, whose direction follows the
 //!   declared rotation of each step (the shortest way where it says NONE); it is split into sub-arcs
-//!   where the rotation reverses. Consecutive STATIC beams are grouped into one arc while the angle
+//!   where the rotation reverses. A STATIC beam is delivered at rest (`window_deg: 0`).
+//!   Consecutive STATIC beams are grouped into one arc while the angle
 //!   keeps progressing in one direction, each step taken the shorter way round (a step of exactly
 //!   180 degrees counts as CW); a static beam at the same angle as the previous one adds layers to its
 //!   control point, and a reversal or a DYNAMIC beam starts a new arc. Without BeamType a beam that
@@ -53,7 +59,7 @@ use std::path::Path;
 use arcsim_plan::ArcPlan;
 use dicom_object::{DefaultDicomObject, InMemDicomObject};
 
-pub use convert::{MU_RESOLUTION, SAME_ANGLE_TOLERANCE_DEG};
+pub use convert::{MU_RESOLUTION, POSITION_RESOLUTION_MM, SAME_ANGLE_TOLERANCE_DEG};
 pub use error::{DicomImportError, Location};
 pub use read::{
     has_dicom_magic, is_dicom_file, MAX_NESTING, MAX_PAINTINGS, MAX_SPOTS, RT_ION_PLAN_STORAGE,

@@ -13,6 +13,8 @@ use dicom_parser::dataset::read::{DataSetReaderOptions, ValueReadStrategy};
 use dicom_parser::dataset::{DataSetReader, DataToken};
 use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
 
+use arcsim_plan::{MAX_SPOTS_PER_LAYER, MAX_SPOT_POSITION_MM};
+
 use crate::error::{DicomImportError, Location};
 
 /// SOP class UID of RT Ion Plan Storage, the only class this crate imports.
@@ -30,14 +32,16 @@ const PREAMBLE_LEN: usize = 128;
 /// is refused before it is parsed.
 pub const MAX_NESTING: usize = 64;
 
-/// Largest NumberOfPaintings (300A,039A) accepted. Delivery systems repaint a layer a few to a few
-/// dozen times; each painting repeats the layer's spot list in the imported plan, so a huge count
-/// from a corrupt file would otherwise turn a few kilobytes into gigabytes of spots.
-pub const MAX_PAINTINGS: u32 = 1000;
+/// Largest NumberOfPaintings (300A,039A) accepted, the native format's limit
+/// ([`arcsim_plan::MAX_PAINTINGS`]). Delivery systems repaint a layer a few to a few dozen times;
+/// each painting is one more pass over the layer's spots when the plan is timed, so a huge count from
+/// a corrupt file would otherwise turn a few kilobytes into billions of spot deliveries.
+pub const MAX_PAINTINGS: u32 = arcsim_plan::MAX_PAINTINGS;
 
-/// Most spots accepted in a plan, counted after repainting (the sum over all energy layers of the
-/// spot count x NumberOfPaintings). Clinical plans have at most a few hundred thousand; this bounds
-/// the memory of the imported plan (about 8 bytes of MU per spot).
+/// Most spot deliveries accepted in a plan: the sum over all energy layers of the spot count x
+/// NumberOfPaintings. Clinical plans have at most a few hundred thousand; this bounds the work of
+/// timing the imported plan (one spot event per delivery). Each layer also holds at most
+/// [`arcsim_plan::MAX_SPOTS_PER_LAYER`] (1,000,000) spots.
 pub const MAX_SPOTS: u64 = 5_000_000;
 
 type Result<T, E = DicomImportError> = std::result::Result<T, E>;
@@ -136,6 +140,9 @@ pub(crate) struct IonLayer {
     pub energy_mev: f64,
     /// ScanSpotMetersetWeights, one per spot; the total over all paintings.
     pub weights: Vec<f64>,
+    /// ScanSpotPositionMap as `[x, y]` in mm, one per spot in the file's order; None when the control
+    /// point has no map.
+    pub positions_mm: Option<Vec<[f64; 2]>>,
     /// NumberOfPaintings: how many times the spot list is delivered.
     pub paintings: u32,
 }
@@ -305,7 +312,7 @@ pub(crate) fn read_ion_plan(ds: &InMemDicomObject) -> Result<IonPlan> {
     };
     // BeamNumber -> index of the first beam with it: the fraction group refers to beams by number.
     let mut numbers: Vec<(i64, usize)> = Vec::with_capacity(beam_items.len());
-    // Spots after repainting, over all the beams imported so far.
+    // Spot deliveries (spots x paintings), over all the beams imported so far.
     let mut spot_total = 0u64;
     for (index, item) in beam_items.iter().enumerate() {
         let at = Location::Beam {
@@ -487,7 +494,10 @@ fn read_control_points(
                     )
                 })?;
         }
-        let weights = read_spots(cp, at)?;
+        let SpotList {
+            weights,
+            positions_mm,
+        } = read_spots(cp, at)?;
         let layer = if weights.iter().sum::<f64>() > 0.0 {
             let energy_mev = energy_mev.ok_or_else(|| {
                 missing(
@@ -499,6 +509,7 @@ fn read_control_points(
             Some(IonLayer {
                 energy_mev,
                 weights,
+                positions_mm,
                 paintings,
             })
         } else {
@@ -513,12 +524,23 @@ fn read_control_points(
     Ok(out)
 }
 
+/// The spots of one control point as read from the file.
+struct SpotList {
+    weights: Vec<f64>,
+    positions_mm: Option<Vec<[f64; 2]>>,
+}
+
 /// Reads and cross-checks a control point's spot count, position map and weights.
-fn read_spots(cp: &InMemDicomObject, at: Location) -> Result<Vec<f64>> {
+fn read_spots(cp: &InMemDicomObject, at: Location) -> Result<SpotList> {
     let count = int_at(cp, NUMBER_OF_SCAN_SPOT_POSITIONS, at)?;
     let weights = floats_at(cp, SCAN_SPOT_METERSET_WEIGHTS, at)?;
     let (count, weights) = match (count, weights) {
-        (None, None) => return Ok(Vec::new()),
+        (None, None) => {
+            return Ok(SpotList {
+                weights: Vec::new(),
+                positions_mm: None,
+            })
+        }
         (None, Some(_)) => {
             return Err(missing(
                 NUMBER_OF_SCAN_SPOT_POSITIONS,
@@ -542,6 +564,13 @@ fn read_spots(cp: &InMemDicomObject, at: Location) -> Result<Vec<f64>> {
             format!("{count}; expected a count of 0 or more"),
         )
     })?;
+    if spots > MAX_SPOTS_PER_LAYER as usize {
+        return Err(invalid(
+            NUMBER_OF_SCAN_SPOT_POSITIONS,
+            at,
+            format!("{count}; expected at most {MAX_SPOTS_PER_LAYER} spots in one energy layer"),
+        ));
+    }
     if weights.len() != spots {
         return Err(DicomImportError::SpotCountMismatch {
             at,
@@ -549,19 +578,9 @@ fn read_spots(cp: &InMemDicomObject, at: Location) -> Result<Vec<f64>> {
             spots,
         });
     }
-    if let Some(map) = floats_at(cp, SCAN_SPOT_POSITION_MAP, at)? {
-        if map.len() != 2 * spots {
-            return Err(DicomImportError::Inconsistent {
-                keyword: SCAN_SPOT_POSITION_MAP.keyword,
-                tag: SCAN_SPOT_POSITION_MAP.tag,
-                at,
-                problem: format!(
-                    "{} values for {spots} spots; expected 2 per spot (x, y)",
-                    map.len()
-                ),
-            });
-        }
-    }
+    let positions_mm = floats_at(cp, SCAN_SPOT_POSITION_MAP, at)?
+        .map(|map| positions(&map, spots, at))
+        .transpose()?;
     if let Some((i, w)) = weights
         .iter()
         .enumerate()
@@ -573,7 +592,41 @@ fn read_spots(cp: &InMemDicomObject, at: Location) -> Result<Vec<f64>> {
             format!("spot {i} has weight {w}; expected a finite weight >= 0"),
         ));
     }
-    Ok(weights)
+    Ok(SpotList {
+        weights,
+        positions_mm,
+    })
+}
+
+/// The `[x, y]` pairs of a ScanSpotPositionMap, checked: 2 values per spot, each finite and within
+/// [`MAX_SPOT_POSITION_MM`] of the isocentre axis.
+fn positions(map: &[f64], spots: usize, at: Location) -> Result<Vec<[f64; 2]>> {
+    if map.len() != 2 * spots {
+        return Err(DicomImportError::Inconsistent {
+            keyword: SCAN_SPOT_POSITION_MAP.keyword,
+            tag: SCAN_SPOT_POSITION_MAP.tag,
+            at,
+            problem: format!(
+                "{} values for {spots} spots; expected 2 per spot (x, y)",
+                map.len()
+            ),
+        });
+    }
+    let pairs: Vec<[f64; 2]> = map.chunks_exact(2).map(|xy| [xy[0], xy[1]]).collect();
+    if let Some((i, [x, y])) = pairs.iter().enumerate().find(|(_, p)| {
+        !p.iter()
+            .all(|c| c.is_finite() && c.abs() <= MAX_SPOT_POSITION_MM)
+    }) {
+        return Err(invalid(
+            SCAN_SPOT_POSITION_MAP,
+            at,
+            format!(
+                "spot {i} is at ({x}, {y}) mm; expected finite coordinates between -{MAX_SPOT_POSITION_MM} \
+                 and {MAX_SPOT_POSITION_MM} mm"
+            ),
+        ));
+    }
+    Ok(pairs)
 }
 
 /// BeamMeterset of the beam numbered `number`, from the first fraction group that references it.

@@ -4,13 +4,13 @@ mod fixtures;
 
 use arcsim_dicom::{
     is_dicom_file, read_rt_ion_plan, read_rt_ion_plan_from_bytes, rt_ion_plan_from_dataset,
-    DicomImportError, MAX_NESTING, MAX_PAINTINGS, MAX_SPOTS,
+    DicomImportError, Location, MAX_NESTING, MAX_PAINTINGS, MAX_SPOTS, POSITION_RESOLUTION_MM,
 };
-use arcsim_plan::{ArcPlan, RotationDirection, PLAN_FORMAT};
+use arcsim_plan::{ArcPlan, RotationDirection, Spots, MAX_SPOTS_PER_LAYER, PLAN_FORMAT};
 use dicom_core::value::PrimitiveValue;
 use dicom_core::{DataElement, VR};
 use dicom_dictionary_std::tags;
-use fixtures::{BeamSpec, Layer, PlanSpec};
+use fixtures::{BeamSpec, Layer, PlanSpec, SpotMap};
 
 const TOL: f64 = 1e-9;
 
@@ -31,6 +31,13 @@ fn import_err(spec: &PlanSpec) -> DicomImportError {
         Ok(_) => panic!("expected an import error"),
         Err(e) => e,
     }
+}
+
+fn spots_of(plan: &ArcPlan, arc: usize, cp: usize, layer: usize) -> &Spots {
+    plan.arcs[arc].control_points[cp].layers[layer]
+        .spots
+        .as_ref()
+        .expect("spots")
 }
 
 fn layer_mu(plan: &ArcPlan, arc: usize, cp: usize, layer: usize) -> Vec<f64> {
@@ -310,7 +317,10 @@ fn rotation_none_takes_the_shortest_way() {
 }
 
 #[test]
-fn paintings_repeat_the_spots_with_the_mu_shared() {
+fn paintings_are_kept_as_a_count_and_each_spot_has_its_total_mu() {
+    // Since issue 12 the spot list is no longer repeated once per painting (it used to give 3 x the
+    // spots, each with MU / 3): the layer keeps one spot per DICOM spot with its total MU and
+    // `paintings` says how many passes the beam model makes over them.
     let layers = fixtures::dynamic_arc_layers(0.0, 2.0, 2);
     let mut beam = BeamSpec::from_layers(1, "DYNAMIC", "CW", 80.0, &layers);
     beam.cps[0].paintings = Some(3);
@@ -318,28 +328,28 @@ fn paintings_repeat_the_spots_with_the_mu_shared() {
     let final_weight = beam.final_weight();
     let plan = import(&PlanSpec::ion("PAINT", vec![beam]), "paint.dcm");
     let w0 = fixtures::weights_of(0);
+    let spots = spots_of(&plan, 0, 0, 0);
+    assert_eq!(
+        spots.count as usize,
+        w0.len(),
+        "one native spot per DICOM spot"
+    );
+    assert_eq!(spots.paintings, Some(3));
     let mu0 = layer_mu(&plan, 0, 0, 0);
-    assert_eq!(
-        mu0.len(),
-        3 * w0.len(),
-        "3 paintings: the spot list three times"
-    );
-    assert_eq!(
-        plan.arcs[0].control_points[0].layers[0]
-            .spots
-            .as_ref()
-            .map(|s| s.count),
-        Some(3 * w0.len() as u32)
-    );
-    for (k, m) in mu0.iter().enumerate() {
-        let w = f64::from(w0[k % w0.len()]);
-        assert!(close(*m, w * 80.0 / final_weight / 3.0), "spot {k}: {m}");
+    assert_eq!(mu0.len(), w0.len());
+    for (k, (m, w)) in mu0.iter().zip(&w0).enumerate() {
+        assert!(
+            close(*m, f64::from(*w) * 80.0 / final_weight),
+            "spot {k}: {m} is the total over the 3 paintings"
+        );
     }
-    assert_eq!(
-        layer_mu(&plan, 0, 1, 0).len(),
-        fixtures::weights_of(1).len()
+    let spots1 = spots_of(&plan, 0, 1, 0);
+    assert_eq!(spots1.count as usize, fixtures::weights_of(1).len());
+    assert_eq!(spots1.paintings, None, "NumberOfPaintings 1 is left out");
+    assert!(
+        close(total_mu(&plan), 80.0),
+        "the MU add up to BeamMeterset"
     );
-    assert!(close(total_mu(&plan), 80.0), "paintings keep the total MU");
 }
 
 #[test]
@@ -680,10 +690,10 @@ fn number_of_paintings_is_bounded() {
     }
     let plan = read_rt_ion_plan_from_bytes(&paint(i64::from(MAX_PAINTINGS)).to_bytes())
         .expect("1000 paintings are accepted");
-    assert_eq!(
-        layer_mu(&plan, 0, 1, 0).len(),
-        1000 * fixtures::weights_of(1).len()
-    );
+    // The spot list is not repeated per painting (issue 12): the count stays the file's.
+    let spots = spots_of(&plan, 0, 1, 0);
+    assert_eq!(spots.count as usize, fixtures::weights_of(1).len());
+    assert_eq!(spots.paintings, Some(MAX_PAINTINGS));
 }
 
 #[test]
@@ -719,8 +729,12 @@ fn spots_after_repainting_are_bounded_plan_wide() {
         "{m}"
     );
     let plan = read_rt_ion_plan_from_bytes(&PlanSpec::ion("SPOTS", vec![beam(1)]).to_bytes())
-        .expect("2.7 million spots are accepted");
-    assert_eq!(layer_mu(&plan, 0, 0, 2).len(), 900_000);
+        .expect("2.7 million spot deliveries are accepted");
+    // 900 spots painted 1,000 times (inherited by the later layers); the list used to be repeated
+    // into 900,000 spots, now the paintings are a count (issue 12).
+    let spots = spots_of(&plan, 0, 0, 2);
+    assert_eq!((spots.count, spots.paintings), (900, Some(MAX_PAINTINGS)));
+    assert_eq!(layer_mu(&plan, 0, 0, 2).len(), 900);
 }
 
 #[test]
@@ -808,4 +822,350 @@ fn several_values_where_one_is_expected_are_refused() {
         "2\\3",
         "IonBeamSequence[1]",
     );
+}
+
+// ---- spot positions and paintings (issue 12) -----------------------------------------------------------
+
+/// Every coordinate of `got` (imported, mm) is the file's single-precision value to the 1e-6 mm of
+/// POSITION_RESOLUTION_MM, in the same order.
+fn assert_positions(got: &[[f64; 2]], want: &[[f32; 2]], what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: one position per spot");
+    for (k, (g, w)) in got.iter().zip(want).enumerate() {
+        for axis in 0..2 {
+            assert!(
+                (g[axis] - f64::from(w[axis])).abs() <= POSITION_RESOLUTION_MM,
+                "{what}, spot {k}: {g:?} vs {w:?} in the file"
+            );
+        }
+    }
+}
+
+/// The dynamic 180-layer arc with its own spot map on every layer and paintings 3 (layers 0-59,
+/// inherited), 1 (60-119) and 7 (120-179).
+fn dynamic_arc_with_maps() -> PlanSpec {
+    let mut spec = fixtures::dynamic_arc_plan();
+    let positions: Vec<Vec<[f32; 2]>> = (0..180).map(fixtures::positions_of).collect();
+    let mut beam = spec.beams.remove(0).with_layer_positions(&positions);
+    beam.cps[0].paintings = Some(3);
+    beam.cps[120].paintings = Some(1);
+    beam.cps[240].paintings = Some(7);
+    spec.beams.push(beam);
+    spec
+}
+
+fn expected_paintings(layer: usize) -> Option<u32> {
+    match layer {
+        0..60 => Some(3),
+        60..120 => None,
+        _ => Some(7),
+    }
+}
+
+#[test]
+fn dynamic_arc_with_spot_maps_has_positions_per_layer_in_file_order() {
+    let spec = dynamic_arc_with_maps();
+    let final_weight = spec.beams[0].final_weight();
+    let plan = import(&spec, "arc-maps.dcm");
+    assert_eq!(plan.arcs.len(), 1);
+    assert_eq!(plan.arcs[0].control_points.len(), 180);
+    for i in 0..180 {
+        let spots = spots_of(&plan, 0, i, 0);
+        let weights = fixtures::weights_of(i);
+        assert_eq!(spots.count as usize, weights.len(), "layer {i}: spot count");
+        assert_eq!(
+            spots.paintings,
+            expected_paintings(i),
+            "layer {i}: paintings"
+        );
+        let positions = spots.positions_mm.as_deref().expect("positions");
+        // positions_of goes back and forth in x and moves 0.1 mm per layer: sorted, shared or
+        // shifted positions would not match.
+        assert_positions(positions, &fixtures::positions_of(i), &format!("layer {i}"));
+        let mu = spots.mu.as_deref().expect("mu");
+        for (m, w) in mu.iter().zip(&weights) {
+            assert!(
+                close(*m, f64::from(*w) * 1234.5 / final_weight),
+                "layer {i}: {m} is the spot's total MU over its paintings"
+            );
+        }
+    }
+    // Single-precision 12.3 (12.300000190734863) imports as 12.3: rounded to 1e-6 mm.
+    assert_eq!(
+        spots_of(&plan, 0, 0, 0).positions_mm.as_ref().unwrap()[0],
+        [-30.0, 12.3]
+    );
+    assert!(close(total_mu(&plan), 1234.5), "{}", total_mu(&plan));
+
+    // The JSON written from the plan reads back to the same positions and paintings.
+    let back =
+        arcsim_plan::parse_plan(&arcsim_plan::to_json(&plan), "arc-maps.json").expect("valid plan");
+    assert_eq!(back, plan);
+}
+
+#[test]
+fn static_beams_with_spot_maps_have_positions_per_layer() {
+    let mut spec = fixtures::static_arc_plan();
+    // The file lists beams 5, 4, ..., 1; the arc follows BeamNumber, and so must the positions.
+    for beam in &mut spec.beams {
+        let i = (beam.number - 1) as usize;
+        beam.set_layer_map(0, SpotMap::of(&fixtures::positions_of(i)));
+        if beam.number == 3 {
+            beam.cps[0].paintings = Some(2);
+        }
+    }
+    let plan = import(&spec, "static-maps.dcm");
+    assert_eq!(plan.arcs.len(), 1);
+    assert_eq!(plan.arcs[0].control_points.len(), 5);
+    for i in 0..5 {
+        let spots = spots_of(&plan, 0, i, 0);
+        assert_eq!(spots.count as usize, fixtures::weights_of(i).len());
+        assert_eq!(
+            spots.paintings,
+            (i == 2).then_some(2),
+            "beam {}: paintings",
+            i + 1
+        );
+        assert_positions(
+            spots.positions_mm.as_deref().expect("positions"),
+            &fixtures::positions_of(i),
+            &format!("beam {}", i + 1),
+        );
+        // Each beam's MU add up to its own BeamMeterset, paintings or not.
+        let sum: f64 = spots.mu.as_ref().unwrap().iter().sum();
+        assert!(close(sum, 100.0 + 10.0 * i as f64), "beam {}: {sum}", i + 1);
+    }
+}
+
+#[test]
+fn a_position_map_of_the_wrong_length_is_located() {
+    // Beam 2 of the two-arc plan, layer 2 (control point 4) has 5 spots: 10 values expected.
+    for len in [9, 12, 2] {
+        let mut spec = fixtures::two_arc_plan();
+        let mut values: Vec<f32> = fixtures::positions_of(2).concat();
+        values.resize(len, 1.5);
+        spec.beams[1].set_layer_map(2, SpotMap::Values(values));
+        let e = import_err(&spec);
+        assert!(
+            matches!(
+                e,
+                DicomImportError::Inconsistent {
+                    keyword: "ScanSpotPositionMap",
+                    tag: tags::SCAN_SPOT_POSITION_MAP,
+                    at: Location::ControlPoint {
+                        beam: 1,
+                        number: Some(2),
+                        control_point: 4
+                    },
+                    ..
+                }
+            ),
+            "{len} values: {e:?}"
+        );
+        let m = message(&e);
+        assert!(
+            m.contains("ScanSpotPositionMap (300A,0394)")
+                && m.contains("IonBeamSequence[1] (BeamNumber 2) > IonControlPointSequence[4]")
+                && m.contains(&format!(
+                    "{len} values for 5 spots; expected 2 per spot (x, y)"
+                )),
+            "{m}"
+        );
+    }
+    // The zero-weight control point that closes a layer is checked too.
+    let mut spec = fixtures::two_arc_plan();
+    spec.beams[0].cps[7].spot_map = SpotMap::Values(vec![0.0; 3]);
+    let e = import_err(&spec);
+    assert!(
+        matches!(
+            e,
+            DicomImportError::Inconsistent {
+                at: Location::ControlPoint {
+                    beam: 0,
+                    number: Some(1),
+                    control_point: 7
+                },
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn a_non_finite_or_far_position_is_located() {
+    // Layer 3 (control points 6 and 7) has 6 spots; spot 4 gets the bad coordinate.
+    for (x, y, shown) in [
+        (-19.5, f32::NAN, "spot 4 is at (-19.5, NaN) mm"),
+        (f32::INFINITY, 2.0, "spot 4 is at (inf, 2) mm"),
+        (1.0, -2.0e4, "spot 4 is at (1, -20000) mm"),
+    ] {
+        let mut spec = fixtures::dynamic_arc_plan();
+        let mut positions = fixtures::positions_of(3);
+        positions[4] = [x, y];
+        spec.beams[0].set_layer_map(3, SpotMap::of(&positions));
+        let e = import_err(&spec);
+        assert!(
+            matches!(
+                e,
+                DicomImportError::InvalidValue {
+                    keyword: "ScanSpotPositionMap",
+                    tag: tags::SCAN_SPOT_POSITION_MAP,
+                    at: Location::ControlPoint {
+                        beam: 0,
+                        number: Some(1),
+                        control_point: 6
+                    },
+                    ..
+                }
+            ),
+            "{shown}: {e:?}"
+        );
+        let m = message(&e);
+        assert!(
+            m.contains("invalid ScanSpotPositionMap (300A,0394)")
+                && m.contains("IonBeamSequence[0] (BeamNumber 1) > IonControlPointSequence[6]")
+                && m.contains(shown)
+                && m.contains("expected finite coordinates between -10000 and 10000 mm"),
+            "{m}"
+        );
+    }
+}
+
+#[test]
+fn a_plan_without_position_maps_imports_without_positions() {
+    let old_style = import(
+        &fixtures::dynamic_arc_plan().without_spot_maps(),
+        "no-maps.dcm",
+    );
+    let mut with_maps = import(&fixtures::dynamic_arc_plan(), "raster-maps.dcm");
+    for cp in &mut with_maps.arcs[0].control_points {
+        let spots = cp.layers[0].spots.as_mut().unwrap();
+        // The builder's default map: spot j at (5 j, -2.5 j) mm.
+        let raster: Vec<[f64; 2]> = (0..spots.count)
+            .map(|j| [5.0 * f64::from(j), -2.5 * f64::from(j)])
+            .collect();
+        assert_eq!(spots.positions_mm.take(), Some(raster));
+    }
+    // Without maps: no positions, and nothing else differs.
+    assert_eq!(old_style, with_maps);
+
+    // Maps on the even layers only: positions on those, none on the others.
+    let mut spec = fixtures::dynamic_arc_plan();
+    for layer in 0..180 {
+        let map = if layer % 2 == 0 {
+            SpotMap::of(&fixtures::positions_of(layer))
+        } else {
+            SpotMap::Absent
+        };
+        spec.beams[0].set_layer_map(layer, map);
+    }
+    let plan = import(&spec, "some-maps.dcm");
+    for layer in 0..180 {
+        let positions = spots_of(&plan, 0, layer, 0).positions_mm.as_deref();
+        match positions {
+            Some(p) if layer % 2 == 0 => {
+                assert_positions(p, &fixtures::positions_of(layer), &format!("layer {layer}"))
+            }
+            None if layer % 2 == 1 => {}
+            other => panic!("layer {layer}: {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn paintings_time_as_the_repeated_spot_list_did_under_per_mu() {
+    // Before issue 12 the importer repeated the spot list once per painting, each spot with
+    // MU / paintings (rounded to 1e-9 MU); the per_mu beam model must time the paintings count the same.
+    let machine = arcsim_plan::parse_machine(
+        r#"{
+            "format": "arcsim-machine/1",
+            "name": "per-mu",
+            "gantry": {"max_speed_deg_per_s": 5.0, "max_accel_deg_per_s2": 0.5, "max_jerk_deg_per_s3": 0.5},
+            "beam": {"s_per_mu": 0.005, "spot_switch_time_s": 0.002, "min_spot_time_s": 0.001},
+            "elst": {"kind": "constant", "up_s": 5.0, "down_s": 0.5, "same_s": 0.0},
+            "default_window_deg": 1.0
+        }"#,
+        "per-mu.json",
+    )
+    .expect("machine");
+    let plan = import(&dynamic_arc_with_maps(), "arc-maps-timing.dcm");
+    let mut expanded = plan.clone();
+    for cp in &mut expanded.arcs[0].control_points {
+        let spots = cp.layers[0].spots.as_mut().unwrap();
+        let n = spots.paintings.take().unwrap_or(1) as usize;
+        let once: Vec<f64> = spots
+            .mu
+            .as_ref()
+            .unwrap()
+            .iter()
+            .map(|m| (m / n as f64 * 1e9).round() / 1e9)
+            .collect();
+        spots.mu = Some(once.repeat(n));
+        spots.count = (once.len() * n) as u32;
+        spots.positions_mm = None;
+    }
+    let new = arcsim_plan::resolve(&plan, &machine).expect("resolves");
+    let old = arcsim_plan::resolve(&expanded, &machine).expect("resolves");
+    let beam_on = |arcs: &[arcsim_plan::ResolvedArc]| -> Vec<f64> {
+        arcs.iter()
+            .flat_map(|a| &a.layers)
+            .map(|l| l.irradiation_s)
+            .collect()
+    };
+    let (new, old) = (beam_on(&new), beam_on(&old));
+    assert_eq!(new.len(), 180);
+    for (i, (a, b)) in new.iter().zip(&old).enumerate() {
+        assert!((a - b).abs() <= 1e-9 * b, "layer {i}: {a} s vs {b} s");
+    }
+    // Layer 150 is painted 7 times: 7 x its spots, each MU / 7 (at least 1 ms), 2 ms apart.
+    let mu = layer_mu(&plan, 0, 150, 0);
+    let seven_passes = 7.0 * mu.iter().map(|m| (m / 7.0 * 0.005).max(0.001)).sum::<f64>()
+        + (7 * mu.len() - 1) as f64 * 0.002;
+    assert!(
+        (new[150] - seven_passes).abs() <= 1e-9 * seven_passes,
+        "{} s vs {seven_passes} s",
+        new[150]
+    );
+}
+
+#[test]
+fn spots_per_layer_are_bounded_not_spots_times_paintings() {
+    let layer = |n: usize| {
+        let layers = [Layer {
+            angle: 0.0,
+            energy: 100.0,
+            weights: vec![1.0; n],
+        }];
+        let mut beam = BeamSpec::from_layers(1, "STATIC", "NONE", 50.0, &layers);
+        beam.cps[0].paintings = Some(5);
+        PlanSpec::ion("BIG", vec![beam]).without_spot_maps()
+    };
+    // Built as a data set: explicit VR files cannot hold more than 16,383 FL values in one element.
+    let e = rt_ion_plan_from_dataset(&layer(MAX_SPOTS_PER_LAYER as usize + 1).dataset())
+        .expect_err("a layer of 1,000,001 spots");
+    assert!(
+        matches!(
+            e,
+            DicomImportError::InvalidValue {
+                keyword: "NumberOfScanSpotPositions",
+                at: Location::ControlPoint {
+                    control_point: 0,
+                    ..
+                },
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(
+        message(&e).contains("1000001; expected at most 1000000 spots in one energy layer"),
+        "{e}"
+    );
+    // 1,000,000 spots painted 5 times: 5,000,000 deliveries, exactly MAX_SPOTS. Repeated into one
+    // list, as before issue 12, they were 5 times the spots one layer may hold.
+    let plan = rt_ion_plan_from_dataset(&layer(MAX_SPOTS_PER_LAYER as usize).dataset())
+        .expect("a million spots painted 5 times");
+    let spots = spots_of(&plan, 0, 0, 0);
+    assert_eq!((spots.count, spots.paintings), (1_000_000, Some(5)));
+    assert_eq!(MAX_SPOTS, 5 * u64::from(spots.count));
 }

@@ -2,13 +2,18 @@
 //! the merge of shard outputs. Numbers are written in Rust's shortest round-trip form, so equal
 //! results give equal bytes; there are no timing fields.
 //!
-//! The limit columns (`jerk_deg_per_s3` to `window_deg`) follow one rule: each holds the value the
-//! combination uses, the swept one or else the base machine's ([`crate::Defaults`]). Two columns
-//! hold the machine's value where the plan can override it: `elst_up_s` and `elst_down_s` (layers
-//! with their own switching time keep it) and `window_deg` when the window is not swept (it is
-//! then the machine's `default_window_deg`, used by the control points without a window of their
-//! own; a swept window replaces every control point's). `elst_up_s` is empty only for a machine
-//! with a polynomial ELST model, which has no single upward time.
+//! The limit columns (`jerk_deg_per_s3` to `dose_rate_scale`) follow one rule: each holds the
+//! value the combination uses, the swept one or else the base machine's ([`crate::Defaults`]).
+//! Two columns hold the machine's value where the plan can override it: `elst_up_s` and
+//! `elst_down_s` (layers with their own switching time keep it) and `window_deg` when the window
+//! is not swept (it is then the machine's `default_window_deg`, used by the control points without
+//! a window of their own; a swept window replaces every control point's). `dose_rate_scale` is 1
+//! when not swept (the machine's own dose rate). A column is empty only where the machine has no
+//! single value: `elst_up_s` for a polynomial ELST model, `scan_speed_mm_per_s` for a `per_mu`
+//! beam model (no scanning speed) or a `scanning` one with separate x and y speeds.
+//!
+//! Tables of an older arcsim ([`CSV_HEADER_V1`]: without the two beam axes and the split of the
+//! beam-on time) still merge (with each other) and read back.
 
 use std::io::Write;
 
@@ -20,8 +25,20 @@ use crate::EvalError;
 
 /// The CSV header line (without the newline).
 pub const CSV_HEADER: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
+scan_speed_mm_per_s,dose_rate_scale,\
+status,total_s,beam_on_s,spot_irradiation_s,scanning_s,energy_switching_s,lost_s,speedup,\
+limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,\
+violations,speed_use,accel_use,jerk_use,window_slack_deg,elst_slack_s,message";
+
+/// The header of an older arcsim's tables: no `scan_speed_mm_per_s`, `dose_rate_scale`,
+/// `spot_irradiation_s` or `scanning_s` columns. Such tables merge (with tables of the same
+/// header; the merged table keeps it) and read back ([`Evaluator::rows_from_csv`]).
+pub const CSV_HEADER_V1: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
 status,total_s,beam_on_s,energy_switching_s,lost_s,speedup,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,\
 violations,speed_use,accel_use,jerk_use,window_slack_deg,elst_slack_s,message";
+
+/// The headers a table may have, the current one first.
+const HEADERS: [&str; 2] = [CSV_HEADER, CSV_HEADER_V1];
 
 /// Writes the header line.
 pub fn write_csv_header(out: &mut impl Write) -> std::io::Result<()> {
@@ -46,6 +63,8 @@ pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
             f.extend([
                 o.total_s.to_string(),
                 o.breakdown.beam_on_s.to_string(),
+                o.breakdown.spot_irradiation_s.to_string(),
+                o.breakdown.scanning_s.to_string(),
                 o.breakdown.energy_switching_s.to_string(),
                 o.breakdown.lost_s.to_string(),
                 opt(o.speedup),
@@ -67,14 +86,14 @@ pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
                 None => f.extend(std::iter::repeat_n(String::new(), 5)),
             }
         }
-        None => f.extend(std::iter::repeat_n(String::new(), 16)),
+        None => f.extend(std::iter::repeat_n(String::new(), 18)),
     }
     f.push(text(&r.message));
     writeln!(out, "{}", f.join(","))
 }
 
-/// The six limit columns of a setting: J, A, V, ELST up, ELST down, window, each the value used.
-fn limit_fields(s: &Setting, defaults: &Defaults) -> [String; 6] {
+/// The limit columns of a setting, in the order of [`Axis::ALL`], each the value used.
+fn limit_fields(s: &Setting, defaults: &Defaults) -> [String; Axis::ALL.len()] {
     Axis::ALL.map(|a| {
         s.get_or(a, defaults)
             .map(|v| v.to_string())
@@ -96,13 +115,17 @@ fn text(s: &str) -> String {
 }
 
 /// Joins shard outputs (`(name, text)` pairs, in any order) into the table a single run writes.
-/// Every input must have the sweep header; indices must not repeat and must cover `0..n` without
-/// gaps, and be exactly `0..expected` when `expected` is given (the sweep's combination count).
+/// Every input must have the sweep header, all the same one ([`CSV_HEADER`], or all an older
+/// arcsim's [`CSV_HEADER_V1`], which the merged table then keeps); indices must not repeat and
+/// must cover `0..n` without gaps, and be exactly `0..expected` when `expected` is given (the
+/// sweep's combination count).
 pub fn merge_csv(
     inputs: &[(String, String)],
     expected: Option<usize>,
 ) -> Result<String, EvalError> {
     let mut rows: Vec<(usize, &str, &str)> = Vec::new();
+    // The header of the first input, and its name.
+    let mut header: Option<(&str, &str)> = None;
     for (name, text) in inputs {
         let merr = |message: String| EvalError::Merge {
             file: name.clone(),
@@ -110,7 +133,24 @@ pub fn merge_csv(
         };
         let mut lines = text.lines();
         match lines.next() {
-            Some(h) if h == CSV_HEADER => {}
+            Some(h) if HEADERS.contains(&h) => match header {
+                None => header = Some((h, name)),
+                Some((first, first_name)) if first != h => {
+                    let which = |h: &str| {
+                        if h == CSV_HEADER {
+                            "the current arcsim sweep CSV header"
+                        } else {
+                            "an older arcsim's header (without the scan_speed_mm_per_s, dose_rate_scale, spot_irradiation_s and scanning_s columns)"
+                        }
+                    };
+                    return Err(merr(format!(
+                        "line 1: {}, but {first_name} has {}; expected the tables of one run",
+                        which(h),
+                        which(first)
+                    )));
+                }
+                Some(_) => {}
+            },
             Some(_) => return Err(merr("line 1: expected the arcsim sweep CSV header".into())),
             None => {
                 return Err(merr(
@@ -163,7 +203,7 @@ pub fn merge_csv(
         }
     }
     let mut out = String::with_capacity(inputs.iter().map(|(_, t)| t.len()).sum());
-    out.push_str(CSV_HEADER);
+    out.push_str(header.map_or(CSV_HEADER, |h| h.0));
     out.push('\n');
     for (_, line, _) in rows {
         out.push_str(line);
@@ -195,19 +235,29 @@ fn split_line(line: &str) -> Vec<String> {
 
 impl Evaluator {
     /// Reads back the rows of a results table of this sweep (e.g. merged shards) to summarise
-    /// them. Each line must match the combination its index names (plan, schedule, and the six
-    /// limit columns as [`write_csv_row`] writes them); margins are not read back (summaries do
-    /// not use them).
+    /// them. Each line must match the combination its index names (plan, schedule, and the limit
+    /// columns as [`write_csv_row`] writes them); margins are not read back (summaries do not use
+    /// them).
+    ///
+    /// Columns are found by their name in the header, which must be [`CSV_HEADER`] or an older
+    /// arcsim's [`CSV_HEADER_V1`]. Such an older table has no beam axes (its rows must be
+    /// combinations that do not sweep them) and no split of the beam-on time: its rows read back
+    /// with `spot_irradiation_s` and `scanning_s` NaN (unknown).
     pub fn rows_from_csv(&self, name: &str, text: &str) -> Result<Vec<Row>, EvalError> {
         let merr = |line: usize, message: String| EvalError::Merge {
             file: name.to_string(),
             message: format!("line {line}: {message}"),
         };
         let mut lines = text.lines();
-        if lines.next() != Some(CSV_HEADER) {
-            return Err(merr(1, "expected the arcsim sweep CSV header".into()));
-        }
-        let columns = CSV_HEADER.split(',').count();
+        let header = match lines.next() {
+            Some(h) if HEADERS.contains(&h) => h,
+            _ => return Err(merr(1, "expected the arcsim sweep CSV header".into())),
+        };
+        let names: Vec<&str> = header.split(',').collect();
+        let columns = names.len();
+        let column = |name: &str| names.iter().position(|n| *n == name);
+        // Every header in HEADERS has these.
+        let at = |name: &str| column(name).unwrap_or_else(|| panic!("column {name}"));
         let defaults = self.sweep().defaults();
         let mut rows = Vec::new();
         for (n, line) in lines.enumerate() {
@@ -220,7 +270,12 @@ impl Evaluator {
                 f[i].parse::<f64>().map_err(|_| {
                     merr(
                         ln,
-                        format!("column {}: expected a number, found {:?}", i + 1, f[i]),
+                        format!(
+                            "column {} ({}): expected a number, found {:?}",
+                            i + 1,
+                            names[i],
+                            f[i]
+                        ),
                     )
                 })
             };
@@ -235,11 +290,16 @@ impl Evaluator {
                 f[i].parse::<usize>().map_err(|_| {
                     merr(
                         ln,
-                        format!("column {}: expected a count, found {:?}", i + 1, f[i]),
+                        format!(
+                            "column {} ({}): expected a count, found {:?}",
+                            i + 1,
+                            names[i],
+                            f[i]
+                        ),
                     )
                 })
             };
-            let index = count(0)?;
+            let index = count(at("index"))?;
             if index >= self.len() {
                 return Err(merr(
                     ln,
@@ -249,9 +309,13 @@ impl Evaluator {
             let (plan, run, setting) = self.combination(index);
             let schedule = self.sweep().runs[run].schedule;
             let label = &self.sweep().plans[plan].label;
-            let mut same = f[1] == *label && f[2] == schedule.name();
-            for (i, axis) in Axis::ALL.into_iter().enumerate() {
-                same &= opt(3 + i)? == setting.get_or(axis, &defaults);
+            let mut same = f[at("plan")] == *label && f[at("schedule")] == schedule.name();
+            for axis in Axis::ALL {
+                same &= match column(axis.field()) {
+                    Some(i) => opt(i)? == setting.get_or(axis, &defaults),
+                    // An older table's combinations leave the axis to the base machine.
+                    None => setting.get(axis).is_none(),
+                };
             }
             if !same {
                 let limits: Vec<String> = Axis::ALL
@@ -278,25 +342,28 @@ impl Evaluator {
                 Status::Error,
             ]
             .into_iter()
-            .find(|s| s.name() == f[9])
-            .ok_or_else(|| merr(ln, format!("unknown status {:?}", f[9])))?;
+            .find(|s| s.name() == f[at("status")])
+            .ok_or_else(|| merr(ln, format!("unknown status {:?}", f[at("status")])))?;
+            let unknown = |name: &str| column(name).map_or(Ok(f64::NAN), num);
             let outcome = if status == Status::Ok {
                 Some(Outcome {
-                    total_s: num(10)?,
+                    total_s: num(at("total_s"))?,
                     breakdown: Breakdown {
-                        beam_on_s: num(11)?,
-                        energy_switching_s: num(12)?,
-                        lost_s: num(13)?,
+                        beam_on_s: num(at("beam_on_s"))?,
+                        spot_irradiation_s: unknown("spot_irradiation_s")?,
+                        scanning_s: unknown("scanning_s")?,
+                        energy_switching_s: num(at("energy_switching_s"))?,
+                        lost_s: num(at("lost_s"))?,
                     },
-                    speedup: opt(14)?,
+                    speedup: opt(at("speedup"))?,
                     limiter_counts: LimiterCounts {
-                        elst: count(15)?,
-                        speed: count(16)?,
-                        accel: count(17)?,
-                        jerk: count(18)?,
-                        none: count(19)?,
+                        elst: count(at("limited_elst"))?,
+                        speed: count(at("limited_speed"))?,
+                        accel: count(at("limited_accel"))?,
+                        jerk: count(at("limited_jerk"))?,
+                        none: count(at("limited_none"))?,
                     },
-                    violations: count(20)?,
+                    violations: count(at("violations"))?,
                     margins: None,
                 })
             } else {
@@ -310,7 +377,7 @@ impl Evaluator {
                 defaults,
                 status,
                 outcome,
-                message: f[26].clone(),
+                message: f[at("message")].clone(),
             });
         }
         Ok(rows)

@@ -2,12 +2,13 @@
 //!
 //! Evaluates many (plan × machine variant × schedule) combinations in parallel and summarises
 //! them: how long each plan takes at each setting of the gantry limits (J, A, V), energy switching
-//! (ELST) and window, what limited it, and which change of the base machine buys how much.
+//! (ELST), window and beam (scanning speed, dose-rate scale), what limited it, and which change of
+//! the base machine buys how much.
 //!
 //! A sweep file (`arcsim-sweep/1`, see [`sweep_file`] and `scenarios/README.md`) names the plans,
 //! the base machine, the axes and the schedules. [`Sweep::load`] reads it, [`Evaluator::new`]
-//! resolves each (plan × ELST/window variant) once, [`Evaluator::run`] evaluates combinations on
-//! the current rayon pool and delivers [`Row`]s in index order (identical for any thread count),
+//! resolves each (plan × ELST/window/beam variant) once, [`Evaluator::run`] evaluates combinations
+//! on the current rayon pool and delivers [`Row`]s in index order (identical for any thread count),
 //! [`Evaluator::summarize`] builds the [`Summary`]. [`Shard`] splits a sweep for a job array and
 //! [`merge_csv`] joins the shards' CSV tables into the single-run table, byte for byte.
 //!
@@ -25,7 +26,7 @@ mod summary;
 mod sweep;
 pub mod sweep_file;
 
-pub use csv::{merge_csv, write_csv_header, write_csv_row, CSV_HEADER};
+pub use csv::{merge_csv, write_csv_header, write_csv_row, CSV_HEADER, CSV_HEADER_V1};
 pub use error::EvalError;
 pub use mode::RunMode;
 pub use run::{Evaluator, Outcome, Row, Status};
@@ -34,7 +35,9 @@ pub use summary::{
     describe_setting, describe_steps, short, table, Change, Entry, Point, Profile, ProfilePoint,
     Sensitivity, Step, Summary, PROFILE_MAX_POINTS, TIE_TOLERANCE,
 };
-pub use sweep::{Axis, Defaults, Grid, Run, Setting, Sweep, SweepPlan, MAX_COMBINATIONS};
+pub use sweep::{
+    Axis, Defaults, Grid, Run, Setting, Sweep, SweepPlan, DOSE_RATE_SCALE_RANGE, MAX_COMBINATIONS,
+};
 pub use sweep_file::{parse_sweep_file, AxisSpec, Scale, Target, SWEEP_FORMAT};
 
 /// Format of the JSON results document ([`Results`]).

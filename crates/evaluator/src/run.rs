@@ -1,5 +1,5 @@
 //! Evaluation: each combination is one `simulate_resolved` call with its own limits, on its
-//! (plan × ELST/window) variant resolved once and kept in a bounded cache. Runs are parallel
+//! (plan × ELST/window/beam) variant resolved once and kept in a bounded cache. Runs are parallel
 //! (rayon, the current pool) and deliver rows in combination order, chunk by chunk, whatever the
 //! thread count. Nothing is allocated per combination ahead of its chunk: the combinations are
 //! decoded from their indices, and a chunk resolves the variants it needs.
@@ -91,7 +91,15 @@ struct Block {
 }
 
 type Resolved = Result<Vec<ResolvedArc>, String>;
-type VariantKey = (usize, Option<u64>, Option<u64>, Option<u64>);
+/// Plan, then the bits of the window, ELST up, ELST down, scanning speed and dose-rate scale.
+type VariantKey = (
+    usize,
+    Option<u64>,
+    Option<u64>,
+    Option<u64>,
+    Option<u64>,
+    Option<u64>,
+);
 type Variants = HashMap<VariantKey, Arc<Resolved>>;
 
 /// Most resolved variants kept between chunks and calls (a chunk resolves whatever it needs on
@@ -105,7 +113,7 @@ pub struct Evaluator {
     defaults: Defaults,
     base_limits: Limits,
     blocks: Vec<Block>,
-    /// Resolved (plan × window × ELST) variants, at most [`VARIANT_CACHE`].
+    /// Resolved (plan × window × ELST × beam) variants, at most [`VARIANT_CACHE`].
     variants: Mutex<Variants>,
 }
 
@@ -115,12 +123,28 @@ fn key(plan: usize, s: &Setting) -> VariantKey {
         s.window_deg.map(f64::to_bits),
         s.elst_up_s.map(f64::to_bits),
         s.elst_down_s.map(f64::to_bits),
+        s.scan_speed_mm_per_s.map(f64::to_bits),
+        s.dose_rate_scale.map(f64::to_bits),
     )
 }
 
-/// The plan and machine of one (window, ELST) variant, resolved.
+/// The plan and machine of one (window, ELST, beam) variant, resolved: the scanning speed and
+/// dose-rate scale applied to a copy of the machine's beam model.
 fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
     let mut m = machine.clone();
+    if let Some(v) = s.scan_speed_mm_per_s {
+        // A sweep refuses a scanning-speed axis on a `per_mu` machine when it is loaded.
+        m.beam = m.beam.with_scan_speed(v).ok_or_else(|| {
+            format!(
+                "machine \"{}\": its beam model has no scanning speed (kind {})",
+                machine.name,
+                machine.beam.kind()
+            )
+        })?;
+    }
+    if let Some(k) = s.dose_rate_scale {
+        m.beam = m.beam.with_dose_rate_scale(k);
+    }
     match &mut m.elst {
         ElstModel::Constant { up_s, down_s, .. } => {
             *up_s = s.elst_up_s.unwrap_or(*up_s);

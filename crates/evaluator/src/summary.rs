@@ -9,9 +9,9 @@
 //!   [`TIE_TOLERANCE`] (relative) of the fastest tie, and ties go to the setting closest to the
 //!   base machine ([`Evaluator::closest_to_base`]): fewest limits changed, then smallest
 //!   `Σ |ln(value / base value)|`, then the lower values in axis order (J, A, V, ELST up, ELST
-//!   down, window), then a grid row before a computed setting, the lower index first. The pick
-//!   depends only on the set of rows, not on their order (so a shard and the merged table agree
-//!   whenever they hold the same tied rows);
+//!   down, window, scanning speed, dose-rate scale), then a grid row before a computed setting,
+//!   the lower index first. The pick depends only on the set of rows, not on their order (so a
+//!   shard and the merged table agree whenever they hold the same tied rows);
 //! - **sensitivity** of the total to each limit L at the base machine, by central finite
 //!   differences: `s_per_10_percent = (T(1.1 L) - T(L / 1.1)) / 2`, the change in total time for a
 //!   +10 % change of L (≈ ln(1.1) · dT/d ln L; negative: raising L saves time), and
@@ -433,9 +433,9 @@ impl Evaluator {
     /// Of tied points (each with its payload), the one closest to the base machine: the fewest
     /// limits changed, then the smallest `Σ |ln(value / base value)|` (within
     /// [`TIE_TOLERANCE`]), then the lower values in axis order (J, A, V, ELST up, ELST down,
-    /// window; a value the setting keeps counts as the base machine's), then a grid row before a
-    /// computed setting and the lower row index first. Depends on the set of points only, not on
-    /// their order. `None` when there are none.
+    /// window, scanning speed, dose-rate scale; a value the setting keeps counts as the base
+    /// machine's), then a grid row before a computed setting and the lower row index first.
+    /// Depends on the set of points only, not on their order. `None` when there are none.
     pub fn closest_to_base<T>(&self, points: Vec<(Point, T)>) -> Option<(Point, T)> {
         let keyed: Vec<((usize, f64), (Point, T))> = points
             .into_iter()
@@ -581,7 +581,8 @@ impl Summary {
         );
         out += &format!(
             "(totals within {TIE_TOLERANCE:e} (relative) of the fastest tie; a tie goes to the setting closest to the base machine:\n \
-             fewest limits changed, then smallest Σ |ln(new/base)|, then lower values in the order J, A, V, ELST up, ELST down, window)\n"
+             fewest limits changed, then smallest Σ |ln(new/base)|, then lower values in the order J, A, V, ELST up, ELST down, window,\n \
+             scan speed, dose rate)\n"
         );
 
         let axes: Vec<Axis> = Axis::ALL
@@ -762,6 +763,8 @@ mod tie_tests {
                 elst_up_s: None,
                 elst_down_s: None,
                 window_deg: None,
+                scan_speed_mm_per_s: None,
+                dose_rate_scale: None,
             },
             total_s,
             speedup: None,

@@ -2,7 +2,7 @@
 //!
 //! Combinations are numbered plan-major: for each plan (in file order, glob matches sorted), for
 //! each schedule entry, every grid point, with the jerk varying fastest, then acceleration, speed,
-//! downward ELST, upward ELST and window (slowest).
+//! downward ELST, upward ELST, window, scanning speed and dose-rate scale (slowest).
 //!
 //! Nothing here is proportional to the number of combinations: a grid keeps its axes as written
 //! (a range is its ends and step count), and [`Grid::setting`] decodes a grid index by mixed radix,
@@ -13,7 +13,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use crate::RunMode;
-use arcsim_plan::{ArcPlan, ElstModel, Machine};
+use arcsim_plan::{ArcPlan, BeamModel, ElstModel, Machine};
 use serde::Serialize;
 
 use crate::sweep_file::{parse_sweep_file, Axes, AxisSpec, PlanSource, Scale, SweepFile, Target};
@@ -42,6 +42,10 @@ pub struct Setting {
     pub elst_up_s: Option<f64>,
     pub elst_down_s: Option<f64>,
     pub window_deg: Option<f64>,
+    /// Scanning speed of a `scanning` beam model (mm/s, both axes).
+    pub scan_speed_mm_per_s: Option<f64>,
+    /// Dose-rate scale: every time per MU of the beam model divided by it (2: twice the dose rate).
+    pub dose_rate_scale: Option<f64>,
 }
 
 /// The base machine's values of the limits a [`Setting`] may leave unset (`None`): what a
@@ -56,6 +60,11 @@ pub struct Defaults {
     /// The machine's default window (deg). Control points with a window of their own keep it
     /// unless the window is swept.
     pub window_deg: f64,
+    /// The scanning speed (mm/s) of a `scanning` beam model with one speed for both axes; `None`
+    /// for a `per_mu` model (no scanning speed) or separate x and y speeds (no single value).
+    pub scan_speed_mm_per_s: Option<f64>,
+    /// The dose-rate scale of the base machine: 1.
+    pub dose_rate_scale: f64,
 }
 
 /// The values of every axis for one schedule entry, kept as written: a range is computed value
@@ -74,6 +83,10 @@ pub struct Grid {
     pub elst_down: Option<AxisSpec>,
     /// Window; `None`: the plan's and machine's (one grid point).
     pub window: Option<AxisSpec>,
+    /// Scanning speed; `None`: the base machine's beam model (one grid point).
+    pub scan_speed: Option<AxisSpec>,
+    /// Dose-rate scale; `None`: the base machine's beam model (one grid point).
+    pub dose_rate_scale: Option<AxisSpec>,
 }
 
 /// One schedule entry: a schedule and its grid.
@@ -108,16 +121,22 @@ pub enum Axis {
     ElstUp,
     ElstDown,
     Window,
+    /// Scanning speed of a `scanning` beam model (mm/s).
+    ScanSpeed,
+    /// Dose-rate scale of the beam model (dimensionless; 2: twice the dose rate).
+    DoseRateScale,
 }
 
 impl Axis {
-    pub const ALL: [Axis; 6] = [
+    pub const ALL: [Axis; 8] = [
         Axis::Jerk,
         Axis::Accel,
         Axis::Speed,
         Axis::ElstUp,
         Axis::ElstDown,
         Axis::Window,
+        Axis::ScanSpeed,
+        Axis::DoseRateScale,
     ];
 
     /// The field name in sweep files and output columns.
@@ -129,6 +148,8 @@ impl Axis {
             Axis::ElstUp => "elst_up_s",
             Axis::ElstDown => "elst_down_s",
             Axis::Window => "window_deg",
+            Axis::ScanSpeed => "scan_speed_mm_per_s",
+            Axis::DoseRateScale => "dose_rate_scale",
         }
     }
 
@@ -141,6 +162,8 @@ impl Axis {
             Axis::Speed => "°/s",
             Axis::ElstUp | Axis::ElstDown => "s",
             Axis::Window => "°",
+            Axis::ScanSpeed => "mm/s",
+            Axis::DoseRateScale => "×",
         }
     }
 
@@ -153,6 +176,8 @@ impl Axis {
             Axis::ElstUp => ("ELST up", "s"),
             Axis::ElstDown => ("ELST down", "s"),
             Axis::Window => ("window", "deg"),
+            Axis::ScanSpeed => ("scan speed", "mm/s"),
+            Axis::DoseRateScale => ("dose rate", "×"),
         }
     }
 }
@@ -167,6 +192,8 @@ impl Setting {
             Axis::ElstUp => self.elst_up_s,
             Axis::ElstDown => self.elst_down_s,
             Axis::Window => self.window_deg,
+            Axis::ScanSpeed => self.scan_speed_mm_per_s,
+            Axis::DoseRateScale => self.dose_rate_scale,
         }
     }
 
@@ -177,6 +204,8 @@ impl Setting {
             Axis::ElstUp => defaults.elst_up_s,
             Axis::ElstDown => Some(defaults.elst_down_s),
             Axis::Window => Some(defaults.window_deg),
+            Axis::ScanSpeed => defaults.scan_speed_mm_per_s,
+            Axis::DoseRateScale => Some(defaults.dose_rate_scale),
             Axis::Jerk | Axis::Accel | Axis::Speed => None,
         })
     }
@@ -190,6 +219,8 @@ impl Setting {
             Axis::ElstUp => self.elst_up_s = Some(value),
             Axis::ElstDown => self.elst_down_s = Some(value),
             Axis::Window => self.window_deg = Some(value),
+            Axis::ScanSpeed => self.scan_speed_mm_per_s = Some(value),
+            Axis::DoseRateScale => self.dose_rate_scale = Some(value),
         }
         self
     }
@@ -204,10 +235,12 @@ impl Grid {
             Axis::ElstUp => self.elst_up.as_ref(),
             Axis::ElstDown => self.elst_down.as_ref(),
             Axis::Window => self.window.as_ref(),
+            Axis::ScanSpeed => self.scan_speed.as_ref(),
+            Axis::DoseRateScale => self.dose_rate_scale.as_ref(),
         }
     }
 
-    /// Number of values of one axis (1 for an absent ELST or window axis).
+    /// Number of values of one axis (1 for an absent ELST, window or beam axis).
     pub fn axis_len(&self, axis: Axis) -> usize {
         self.axis(axis).map_or(1, AxisSpec::len)
     }
@@ -240,8 +273,8 @@ impl Grid {
         self.len() == 0
     }
 
-    /// The setting at grid index `i` (< [`Grid::len`]; jerk fastest, window slowest): `i` read as
-    /// a mixed-radix number whose digits index the axes, each value computed on demand.
+    /// The setting at grid index `i` (< [`Grid::len`]; jerk fastest, dose-rate scale slowest): `i`
+    /// read as a mixed-radix number whose digits index the axes, each value computed on demand.
     pub fn setting(&self, i: usize) -> Setting {
         let mut rest = i;
         let mut digit = |axis: Axis| {
@@ -250,13 +283,16 @@ impl Grid {
             rest /= n;
             d
         };
-        // The digits from the fastest: J, A, V, ELST down, ELST up, window.
+        // The digits from the fastest: J, A, V, ELST down, ELST up, window, scanning speed,
+        // dose-rate scale.
         let j = digit(Axis::Jerk);
         let a = digit(Axis::Accel);
         let v = digit(Axis::Speed);
         let d = digit(Axis::ElstDown);
         let u = digit(Axis::ElstUp);
         let w = digit(Axis::Window);
+        let sc = digit(Axis::ScanSpeed);
+        let r = digit(Axis::DoseRateScale);
         assert!(rest == 0, "grid index {i} of {}", self.len());
         Setting {
             jerk_deg_per_s3: self.jerk.value(j),
@@ -265,6 +301,8 @@ impl Grid {
             elst_up_s: self.value(Axis::ElstUp, u),
             elst_down_s: self.value(Axis::ElstDown, d),
             window_deg: self.value(Axis::Window, w),
+            scan_speed_mm_per_s: self.value(Axis::ScanSpeed, sc),
+            dose_rate_scale: self.value(Axis::DoseRateScale, r),
         }
     }
 
@@ -327,7 +365,7 @@ impl Sweep {
         })
     }
 
-    /// The base machine's setting (its J, A, V; ELST and window as they are).
+    /// The base machine's setting (its J, A, V; ELST, window and beam model as they are).
     pub fn base_setting(&self) -> Setting {
         let g = &self.machine.gantry;
         Setting {
@@ -337,10 +375,13 @@ impl Sweep {
             elst_up_s: None,
             elst_down_s: None,
             window_deg: None,
+            scan_speed_mm_per_s: None,
+            dose_rate_scale: None,
         }
     }
 
-    /// The base machine's value of an axis (ELST up: `None` for a polynomial model).
+    /// The base machine's value of an axis (ELST up: `None` for a polynomial model; scanning
+    /// speed: `None` for a `per_mu` beam model or separate x and y speeds; dose-rate scale: 1).
     pub fn base_value(&self, axis: Axis) -> Option<f64> {
         match axis {
             Axis::ElstUp => match self.machine.elst {
@@ -353,6 +394,8 @@ impl Sweep {
                 }
             },
             Axis::Window => Some(self.machine.default_window_deg),
+            Axis::ScanSpeed => single_scan_speed(&self.machine.beam),
+            Axis::DoseRateScale => Some(1.0),
             other => self.base_setting().get(other),
         }
     }
@@ -365,6 +408,8 @@ impl Sweep {
                 ElstModel::Constant { down_s, .. } | ElstModel::Polynomial { down_s, .. } => down_s,
             },
             window_deg: self.machine.default_window_deg,
+            scan_speed_mm_per_s: single_scan_speed(&self.machine.beam),
+            dose_rate_scale: 1.0,
         }
     }
 
@@ -381,6 +426,18 @@ impl Sweep {
         self.plans
             .len()
             .saturating_mul(self.combinations_per_plan())
+    }
+}
+
+/// The one scanning speed of a beam model: `None` for `per_mu` (no scanning speed) and for
+/// different x and y speeds.
+fn single_scan_speed(beam: &BeamModel) -> Option<f64> {
+    match beam {
+        BeamModel::PerMu(_) => None,
+        BeamModel::Scanning(b) => match b.speeds_mm_per_s() {
+            (x, y) if x == y && x.is_finite() => Some(x),
+            _ => None,
+        },
     }
 }
 
@@ -456,8 +513,18 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
                         format!("machine \"{}\" has a polynomial ELST model; expected a constant one to sweep the upward switching time", machine.name),
                     ));
                 }
+                if axis == Axis::ScanSpeed && matches!(machine.beam, BeamModel::PerMu(_)) {
+                    return Err(EvalError::sweep(
+                        file,
+                        field,
+                        format!("machine \"{}\": its beam model has no scanning speed (kind per_mu); expected a beam model of kind scanning to sweep the scanning speed", machine.name),
+                    ));
+                }
                 let zero_ok = matches!(axis, Axis::ElstUp | Axis::ElstDown);
                 check_axis(a, &field, file, zero_ok)?;
+                if axis == Axis::DoseRateScale {
+                    check_dose_rate_scales(a, &field, file)?;
+                }
                 check_machine_values(a, axis, &field, file, machine)?;
                 if matches!(a, AxisSpec::Range { .. }) && !ranges.iter().any(|(f, _)| *f == field) {
                     ranges.push((field, a.clone()));
@@ -470,6 +537,8 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
             let elst_up = checked(|a| &a.elst_up_s, Axis::ElstUp)?;
             let elst_down = checked(|a| &a.elst_down_s, Axis::ElstDown)?;
             let window = checked(|a| &a.window_deg, Axis::Window)?;
+            let scan_speed = checked(|a| &a.scan_speed_mm_per_s, Axis::ScanSpeed)?;
+            let dose_rate_scale = checked(|a| &a.dose_rate_scale, Axis::DoseRateScale)?;
             let limit = |a: Option<AxisSpec>, base: f64| a.unwrap_or(AxisSpec::Values(vec![base]));
             let grid = Grid {
                 jerk: limit(jerk, g.max_jerk_deg_per_s3),
@@ -478,6 +547,8 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
                 elst_up,
                 elst_down,
                 window,
+                scan_speed,
+                dose_rate_scale,
             };
             Ok(Run {
                 schedule: RunMode {
@@ -574,6 +645,35 @@ fn check_axis(spec: &AxisSpec, field: &str, file: &str, zero_ok: bool) -> Result
     }
 }
 
+/// Accepted dose-rate scales (from a thousandth to a thousand times the base machine's dose rate).
+pub const DOSE_RATE_SCALE_RANGE: (f64, f64) = (1e-3, 1e3);
+
+/// Checks a dose-rate scale axis's values (a list's each, a range's ends) against
+/// [`DOSE_RATE_SCALE_RANGE`]; the scaled beam model is then checked as a machine's
+/// ([`check_machine_values`]).
+fn check_dose_rate_scales(spec: &AxisSpec, field: &str, file: &str) -> Result<(), EvalError> {
+    let (lo, hi) = DOSE_RATE_SCALE_RANGE;
+    let values: Vec<(String, f64)> = match spec {
+        AxisSpec::Values(v) => v
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| (format!("{field}[{i}]"), x))
+            .collect(),
+        AxisSpec::Range { from, to, .. } => vec![
+            (format!("{field}.from"), *from),
+            (format!("{field}.to"), *to),
+        ],
+    };
+    match values.into_iter().find(|(_, x)| !(lo..=hi).contains(x)) {
+        Some((at, x)) => Err(EvalError::sweep(
+            file,
+            at,
+            format!("expected a dose-rate scale from {lo} to {hi} (a factor on the base machine's dose rate), got {x}"),
+        )),
+        None => Ok(()),
+    }
+}
+
 fn twice(x: f64, j: usize, i: usize) -> String {
     format!("value {x} appears twice (positions {j} and {i}); expected distinct values")
 }
@@ -660,6 +760,13 @@ fn check_machine_values(
                 ElstModel::Polynomial { down_s, .. } => *down_s = x,
             },
             Axis::Window => m.default_window_deg = x,
+            Axis::ScanSpeed => {
+                // A `per_mu` model is refused before (it has no scanning speed).
+                if let Some(b) = m.beam.with_scan_speed(x) {
+                    m.beam = b;
+                }
+            }
+            Axis::DoseRateScale => m.beam = m.beam.with_dose_rate_scale(x),
         }
         if let Some(issue) = arcsim_plan::validate_machine(&m, &machine.name).first() {
             return Err(EvalError::sweep(
@@ -831,8 +938,8 @@ mod tests {
         }
     }
 
-    /// Grid points decode by mixed radix in the eager nesting: window slowest, then ELST up,
-    /// ELST down, V, A, and J fastest.
+    /// Grid points decode by mixed radix in the eager nesting: dose-rate scale slowest, then
+    /// scanning speed, window, ELST up, ELST down, V, A, and J fastest.
     #[test]
     fn grid_settings_decode_like_the_nested_expansion() {
         let grid = Grid {
@@ -842,33 +949,41 @@ mod tests {
             elst_up: None,
             elst_down: Some(range(0.0, 1.0, 2, Scale::Linear)),
             window: Some(AxisSpec::Values(vec![1.0, 0.5])),
+            scan_speed: None,
+            dose_rate_scale: Some(AxisSpec::Values(vec![1.0, 2.0])),
         };
         let mut nested = Vec::new();
-        // No ELST up axis: one point, `None`.
-        for &w in &eager(grid.window.as_ref().expect("window")) {
-            for &d in &eager(grid.elst_down.as_ref().expect("down")) {
-                for &v in &eager(&grid.speed) {
-                    for &a in &eager(&grid.accel) {
-                        for &j in &eager(&grid.jerk) {
-                            nested.push(Setting {
-                                jerk_deg_per_s3: j,
-                                accel_deg_per_s2: a,
-                                speed_deg_per_s: v,
-                                elst_up_s: None,
-                                elst_down_s: Some(d),
-                                window_deg: Some(w),
-                            });
+        // No ELST up or scanning speed axis: one point, `None`.
+        for &r in &eager(grid.dose_rate_scale.as_ref().expect("dose rate")) {
+            for &w in &eager(grid.window.as_ref().expect("window")) {
+                for &d in &eager(grid.elst_down.as_ref().expect("down")) {
+                    for &v in &eager(&grid.speed) {
+                        for &a in &eager(&grid.accel) {
+                            for &j in &eager(&grid.jerk) {
+                                nested.push(Setting {
+                                    jerk_deg_per_s3: j,
+                                    accel_deg_per_s2: a,
+                                    speed_deg_per_s: v,
+                                    elst_up_s: None,
+                                    elst_down_s: Some(d),
+                                    window_deg: Some(w),
+                                    scan_speed_mm_per_s: None,
+                                    dose_rate_scale: Some(r),
+                                });
+                            }
                         }
                     }
                 }
             }
         }
         assert_eq!(grid.len(), nested.len());
-        assert_eq!(grid.checked_len(), Some(120));
+        assert_eq!(grid.checked_len(), Some(240));
         for (i, s) in nested.iter().enumerate() {
             assert_eq!(grid.setting(i), *s, "grid point {i}");
         }
         assert_eq!(grid.values(Axis::ElstUp), vec![None]);
+        assert_eq!(grid.values(Axis::ScanSpeed), vec![None]);
+        assert_eq!(grid.value(Axis::DoseRateScale, 1), Some(2.0));
         assert_eq!(grid.axis_len(Axis::Jerk), 5);
         assert_eq!(grid.value(Axis::Speed, 2), Some(3.0));
     }
@@ -883,6 +998,8 @@ mod tests {
             elst_up: None,
             elst_down: None,
             window: None,
+            scan_speed: None,
+            dose_rate_scale: None,
         };
         assert_eq!(grid.checked_len(), None);
         assert_eq!(grid.len(), usize::MAX);
@@ -900,6 +1017,8 @@ mod tests {
             elst_up: None,
             elst_down: None,
             window: None,
+            scan_speed: None,
+            dose_rate_scale: None,
         };
         assert!(check_combinations("s.json", Some(1), [&small]).is_ok());
         let e = check_combinations("s.json", Some(2), [&small])

@@ -75,6 +75,13 @@ pub struct Axes {
     /// Tolerance window of every control point (deg), replacing the plan's and the machine's.
     #[serde(default)]
     pub window_deg: Option<AxisSpec>,
+    /// Scanning speed of the beam model (mm/s, both axes); needs a `scanning` beam model.
+    #[serde(default)]
+    pub scan_speed_mm_per_s: Option<AxisSpec>,
+    /// Dose-rate scale (dimensionless, > 0): every time per MU of the beam model divided by it
+    /// (2: twice the dose rate).
+    #[serde(default)]
+    pub dose_rate_scale: Option<AxisSpec>,
 }
 
 /// How a range's values are spaced.

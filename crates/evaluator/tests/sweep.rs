@@ -794,7 +794,8 @@ fn fastest_setting_ties_go_to_the_base_machine_and_no_effect_is_said() {
 }
 
 /// Every limit column holds the value used: swept, or the base machine's (ELST up 5 s, down
-/// 0.5 s, window 1 deg on the ATOM machine), never empty; shards merge into the single-run table
+/// 0.5 s, window 1 deg, dose-rate scale 1 on the ATOM machine), empty only for the scanning speed
+/// its `per_mu` beam model does not have; shards merge into the single-run table
 /// byte for byte and the table reads back into rows that write it again byte for byte.
 #[test]
 fn csv_writes_the_limit_used_in_every_column() {
@@ -806,15 +807,15 @@ fn csv_writes_the_limit_used_in_every_column() {
     let limits: Vec<Vec<&str>> = single
         .lines()
         .skip(1)
-        .map(|l| l.split(',').skip(3).take(6).collect())
+        .map(|l| l.split(',').skip(3).take(8).collect())
         .collect();
     assert_eq!(
         limits,
         [
-            ["0.5", "0.5", "5", "5", "0.5", "1"],
-            ["1", "0.5", "5", "5", "0.5", "1"],
-            ["0.5", "0.5", "5", "5", "1", "1"],
-            ["1", "0.5", "5", "5", "1", "1"],
+            ["0.5", "0.5", "5", "5", "0.5", "1", "", "1"],
+            ["1", "0.5", "5", "5", "0.5", "1", "", "1"],
+            ["0.5", "0.5", "5", "5", "1", "1", "", "1"],
+            ["1", "0.5", "5", "5", "1", "1", "", "1"],
         ]
     );
     // The settings still say which limits the sweep left to the machine (and the plan).
@@ -841,7 +842,7 @@ fn csv_writes_the_limit_used_in_every_column() {
         ev.summarize(&rows).to_table()
     );
     // A table with the old empty columns is another combination, and the error says so.
-    let old = single.replace(",5,0.5,1,ok,", ",,0.5,,ok,");
+    let old = single.replace(",5,0.5,1,,1,ok,", ",,0.5,,,1,ok,");
     assert_ne!(old, single);
     let err = ev
         .rows_from_csv("old.csv", &old)
@@ -860,7 +861,7 @@ fn csv_writes_the_limit_used_in_every_column() {
     let table = csv(&rows);
     let line = table.lines().nth(1).expect("row 0");
     assert!(
-        line.starts_with("0,../plans/prostate.json,scan,0.5,1.5,6,,0.3,1,ok,"),
+        line.starts_with("0,../plans/prostate.json,scan,0.5,1.5,6,,0.3,1,,1,ok,"),
         "{line}"
     );
     let back = ev.rows_from_csv("fast.csv", &table).expect("read back");

@@ -292,6 +292,8 @@ fn spots(rng: &mut SplitMix64, (t_lo, t_hi): (f64, f64), style: SpotStyle) -> Sp
             count,
             mu: None,
             total_mu: Some(round_dec(total_mu, 1000.0)),
+            positions_mm: Some(spot_grid(count)),
+            paintings: None,
         },
         SpotStyle::PerSpot => {
             let weights: Vec<f64> = (0..count).map(|_| rng.range(0.3, 1.7)).collect();
@@ -304,9 +306,32 @@ fn spots(rng: &mut SplitMix64, (t_lo, t_hi): (f64, f64), style: SpotStyle) -> Sp
                 count,
                 mu: Some(mu),
                 total_mu: None,
+                positions_mm: Some(spot_grid(count)),
+                paintings: None,
             }
         }
     }
+}
+
+/// Spacing of the generated spot grid, mm (a typical spot spacing for 3–5 mm sigma spots).
+const SPOT_SPACING_MM: f64 = 5.0;
+
+/// `count` spot positions on a square grid centred on the isocentre, delivered row by row in a
+/// serpentine (each row the other way), the usual scanning order. Draws no random numbers, so
+/// the spots' MU and everything else generated stay as they were before plans had positions.
+fn spot_grid(count: u32) -> Vec<[f64; 2]> {
+    let side = (f64::from(count).sqrt().ceil() as u32).max(1);
+    let half = f64::from(side - 1) / 2.0;
+    (0..count)
+        .map(|i| {
+            let (row, k) = (i / side, i % side);
+            let col = if row % 2 == 0 { k } else { side - 1 - k };
+            [
+                (f64::from(col) - half) * SPOT_SPACING_MM,
+                (f64::from(row) - half) * SPOT_SPACING_MM,
+            ]
+        })
+        .collect()
 }
 
 /// The plan as pretty JSON with arrays of numbers kept on one line, ending in a newline: the form
@@ -314,15 +339,22 @@ fn spots(rng: &mut SplitMix64, (t_lo, t_hi): (f64, f64), style: SpotStyle) -> Sp
 pub fn to_json(plan: &ArcPlan) -> String {
     // Serialising these types cannot fail: string keys, strings, numbers, arrays only.
     let pretty = serde_json::to_string_pretty(plan).unwrap_or_default();
-    let lines: Vec<&str> = pretty.lines().collect();
-    let mut out = String::with_capacity(pretty.len());
+    // Arrays of numbers first, then arrays of those (spot positions).
+    let flat = inline_arrays(&pretty, is_number_line);
+    inline_arrays(&flat, is_number_array_line)
+}
+
+/// `text` with every multi-line array whose elements all satisfy `item` written on one line.
+fn inline_arrays(text: &str, item: fn(&str) -> bool) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut out = String::with_capacity(text.len());
     let mut i = 0;
     while i < lines.len() {
         let line = lines[i];
         if line.ends_with('[') {
-            // Find the closing bracket; inline the array when every element is a number.
+            // Find the closing bracket; inline the array when every element is an item.
             let mut j = i + 1;
-            while j < lines.len() && is_number_line(lines[j]) {
+            while j < lines.len() && item(lines[j]) {
                 j += 1;
             }
             if j > i + 1 && j < lines.len() && lines[j].trim_start().starts_with(']') {
@@ -340,6 +372,14 @@ pub fn to_json(plan: &ArcPlan) -> String {
         i += 1;
     }
     out
+}
+
+/// A line holding one array of numbers written on one line (`[1.0, 2.0],`).
+fn is_number_array_line(line: &str) -> bool {
+    let t = line.trim().trim_end_matches(',');
+    t.strip_prefix('[')
+        .and_then(|t| t.strip_suffix(']'))
+        .is_some_and(|inner| inner.split_whitespace().all(is_number_line))
 }
 
 fn is_number_line(line: &str) -> bool {

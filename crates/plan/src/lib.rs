@@ -6,6 +6,7 @@
 //! The format is documented field by field in `docs/plan-format.md`.
 
 mod atom;
+pub mod beam;
 mod error;
 pub mod generate;
 mod load;
@@ -16,6 +17,7 @@ mod resolve;
 mod validate;
 
 pub use atom::{atom_case_plan, ATOM_PLACEHOLDER_MIN_ENERGY_MEV};
+pub use beam::{layer_beam_time, time_spots, LayerBeamTime, SpotEvent, SpotTimingError};
 pub use error::{fmt_num, PlanError, PlanIssue};
 pub use generate::{generate, to_json, PlanKind};
 pub use load::{load_machine, load_plan, parse_machine, parse_plan};
@@ -25,8 +27,8 @@ pub use machine::{
 };
 pub use model::*;
 pub use plausible::{machine_warnings, plan_warnings, Warning};
-pub use resolve::{layer_irradiation_time_s, resolve, spots_irradiation_time_s};
+pub use resolve::resolve;
 pub use validate::{
-    validate_plan, ENERGY_RANGE_MEV, MAX_ANGLE_DEG, MAX_LAYER_TIME_S, MAX_SPEED_DEG_PER_S,
-    MAX_SPOTS_PER_LAYER, MAX_SPOT_MU,
+    validate_plan, ENERGY_RANGE_MEV, MAX_ANGLE_DEG, MAX_LAYER_TIME_S, MAX_PAINTINGS,
+    MAX_SPEED_DEG_PER_S, MAX_SPOTS_PER_LAYER, MAX_SPOT_MU, MAX_SPOT_POSITION_MM,
 };

@@ -2,7 +2,7 @@
 //! sequencer never divides by zero or turns a bad file into NaN.
 
 use crate::error::{fmt_num, At, PlanIssue};
-use crate::model::{poly, ElstModel, Machine, MACHINE_FORMAT};
+use crate::model::{poly, BeamModel, ElstModel, Machine, MACHINE_FORMAT};
 use crate::validate::ENERGY_RANGE_MEV;
 
 /// Gantry limits arcsim accepts. They span every real gantry (V 1–10 deg/s, A 0.1–5 deg/s²,
@@ -61,17 +61,7 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
         JERK_RANGE_DEG_PER_S3,
         "deg/s^3",
     );
-    let b = &machine.beam;
-    m.check("beam.s_per_mu", b.s_per_mu, true, "s/MU");
-    m.check("beam.spot_switch_time_s", b.spot_switch_time_s, false, "s");
-    m.check("beam.min_spot_time_s", b.min_spot_time_s, false, "s");
-    for (field, x) in [
-        ("beam.s_per_mu", b.s_per_mu),
-        ("beam.spot_switch_time_s", b.spot_switch_time_s),
-        ("beam.min_spot_time_s", b.min_spot_time_s),
-    ] {
-        m.at_most(field, x, MAX_BEAM_TIME_S, "s");
-    }
+    beam(&mut m, &machine.beam);
     match &machine.elst {
         ElstModel::Constant {
             up_s,
@@ -157,6 +147,101 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
     }
     m.issues
 }
+
+/// Largest accepted scanning speed, mm/s (real systems: 2–20 m/s).
+pub const MAX_SCAN_SPEED_MM_PER_S: f64 = 1e6;
+/// Most rows of a `s_per_mu_by_energy` table.
+pub const MAX_BEAM_TABLE_ROWS: usize = 1000;
+
+/// The rules of the beam model of either kind.
+fn beam(m: &mut Checker, beam: &BeamModel) {
+    match beam {
+        BeamModel::PerMu(b) => {
+            m.check("beam.s_per_mu", b.s_per_mu, true, "s/MU");
+            m.check("beam.spot_switch_time_s", b.spot_switch_time_s, false, "s");
+            m.check("beam.min_spot_time_s", b.min_spot_time_s, false, "s");
+            for (field, x) in [
+                ("beam.s_per_mu", b.s_per_mu),
+                ("beam.spot_switch_time_s", b.spot_switch_time_s),
+                ("beam.min_spot_time_s", b.min_spot_time_s),
+            ] {
+                m.at_most(field, x, MAX_BEAM_TIME_S, "s");
+            }
+        }
+        BeamModel::Scanning(b) => {
+            let rows = &b.s_per_mu_by_energy;
+            if rows.is_empty() || rows.len() > MAX_BEAM_TABLE_ROWS {
+                m.push(
+                    "beam.s_per_mu_by_energy",
+                    format!("{} rows; expected 1 to {MAX_BEAM_TABLE_ROWS} rows of [energy MeV, s per MU]", rows.len()),
+                );
+            }
+            for (i, [e, r]) in rows.iter().enumerate() {
+                m.range(
+                    &format!("beam.s_per_mu_by_energy[{i}][0]"),
+                    *e,
+                    ENERGY_RANGE_MEV,
+                    "MeV",
+                );
+                m.check(
+                    &format!("beam.s_per_mu_by_energy[{i}][1]"),
+                    *r,
+                    true,
+                    "s/MU",
+                );
+                m.at_most(
+                    &format!("beam.s_per_mu_by_energy[{i}][1]"),
+                    *r,
+                    MAX_BEAM_TIME_S,
+                    "s/MU",
+                );
+                if i > 0 && (e.is_nan() || *e <= rows[i - 1][0]) {
+                    m.push(
+                        &format!("beam.s_per_mu_by_energy[{i}][0]"),
+                        format!(
+                            "energy {} MeV does not rise above the previous row's {} MeV; expected rows in strictly increasing energy",
+                            fmt_num(*e),
+                            fmt_num(rows[i - 1][0])
+                        ),
+                    );
+                }
+            }
+            let speeds = [
+                ("beam.scan_speed_mm_per_s", b.scan_speed_mm_per_s),
+                ("beam.scan_speed_x_mm_per_s", b.scan_speed_x_mm_per_s),
+                ("beam.scan_speed_y_mm_per_s", b.scan_speed_y_mm_per_s),
+            ];
+            match (b.scan_speed_mm_per_s, b.scan_speed_x_mm_per_s, b.scan_speed_y_mm_per_s) {
+                (Some(_), None, None) | (None, Some(_), Some(_)) => {}
+                _ => m.push(
+                    "beam.scan_speed_mm_per_s",
+                    "expected either `scan_speed_mm_per_s` (both axes) or both `scan_speed_x_mm_per_s` and `scan_speed_y_mm_per_s`".into(),
+                ),
+            }
+            for (field, v) in speeds {
+                if let Some(v) = v {
+                    m.range(field, v, (1e-3, MAX_SCAN_SPEED_MM_PER_S), "mm/s");
+                }
+            }
+            for (field, x) in [
+                ("beam.min_spot_time_s", b.min_spot_time_s),
+                ("beam.settling_time_s", b.settling_time_s),
+                ("beam.layer_overhead_s", b.layer_overhead_s),
+            ] {
+                m.check(field, x, false, "s");
+                m.at_most(field, x, MAX_BEAM_TIME_S, "s");
+            }
+            if let Some(max) = b.max_mu_per_spot {
+                m.check("beam.max_mu_per_spot", max, true, "MU");
+                m.at_least("beam.max_mu_per_spot", max, MIN_MAX_MU_PER_SPOT, "MU");
+            }
+        }
+    }
+}
+
+/// Smallest accepted `max_mu_per_spot` (a plan whose spots it splits into too many parts is
+/// refused when resolved: [`crate::beam::MAX_SPOT_DELIVERIES`]).
+pub const MIN_MAX_MU_PER_SPOT: f64 = 1e-3;
 
 /// Coefficients of the derivative of the polynomial `Σ c[i] x^i`.
 fn derivative(c: &[f64]) -> Vec<f64> {
@@ -261,6 +346,20 @@ impl Checker<'_> {
                     "{} {unit} is above the largest accepted value, {} {unit}",
                     fmt_num(x),
                     fmt_num(max)
+                ),
+            );
+        }
+    }
+
+    /// Adds an issue when the finite `x` is below `min`.
+    fn at_least(&mut self, field: &str, x: f64, min: f64, unit: &str) {
+        if x.is_finite() && x < min {
+            self.push(
+                field,
+                format!(
+                    "{} {unit} is below the smallest accepted value, {} {unit}",
+                    fmt_num(x),
+                    fmt_num(min)
                 ),
             );
         }

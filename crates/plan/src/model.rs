@@ -5,6 +5,8 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::beam::{BeamModel, PerMuBeam, ScanningBeam};
+
 /// Value of the `format` field of every plan file; bumped on any incompatible change.
 pub const PLAN_FORMAT: &str = "arcsim-plan/1";
 /// Value of the `format` field of every machine file.
@@ -102,6 +104,14 @@ pub struct Spots {
     /// Total MU of the layer, shared equally by its spots.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub total_mu: Option<f64>,
+    /// Spot positions `[x, y]` in mm at the isocentre plane, one per spot in delivery order. The
+    /// `scanning` beam model needs them (spot-to-spot scanning time); the `per_mu` model ignores them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub positions_mm: Option<Vec<[f64; 2]>>,
+    /// Number of paintings (passes over the layer's spots, in order), each delivering
+    /// `mu / paintings` per spot; 1 when absent (DICOM NumberOfPaintings).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paintings: Option<u32>,
 }
 
 /// A treatment machine: gantry limits, beam timing and energy-switching model.
@@ -136,19 +146,6 @@ pub struct GantryLimitsSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_decel_deg_per_s2: Option<f64>,
     pub max_jerk_deg_per_s3: f64,
-}
-
-/// How long a layer's spots take to deliver.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BeamModel {
-    /// Seconds of beam per monitor unit.
-    pub s_per_mu: f64,
-    /// Seconds between two spots of one layer.
-    pub spot_switch_time_s: f64,
-    /// Shortest time one spot can take, in seconds.
-    #[serde(default)]
-    pub min_spot_time_s: f64,
 }
 
 /// Energy-layer switching time (ELST) as a function of the energy step.
@@ -206,8 +203,12 @@ pub struct ResolvedLayer {
     /// Full window width available to this layer, degrees.
     pub window_deg: f64,
     pub energy_mev: f64,
-    /// Beam-on time, seconds.
+    /// Beam-on time, seconds: `spot_irradiation_s + scanning_s`.
     pub irradiation_s: f64,
+    /// Of the beam-on time, the time the spots are irradiated (dose delivered), seconds.
+    pub spot_irradiation_s: f64,
+    /// Of the beam-on time, the time between spots (scanning, settling, layer overhead), seconds.
+    pub scanning_s: f64,
     pub required_speed_deg_per_s: Option<f64>,
     /// Switching time from the previous layer of the plan, seconds (0 for the very first).
     pub switch_in_s: f64,

@@ -19,7 +19,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::fmt_num;
-use crate::model::{ArcPlan, ElstModel, Machine};
+use crate::model::{ArcPlan, BeamModel, ElstModel, Machine};
 
 /// A value outside the plausible range of its field.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -126,18 +126,42 @@ pub fn machine_warnings(m: &Machine, source: &str) -> Vec<Warning> {
     if let Some(ts) = m.servo_period_s {
         c.range("servo_period_s", ts, (1e-4, 0.1), "s", None, Some(MS));
     }
-    c.range(
-        "beam.s_per_mu",
-        m.beam.s_per_mu,
-        (0.0, 1.0),
-        "s/MU",
-        None,
-        Some(MS),
-    );
-    for (field, x) in [
-        ("beam.spot_switch_time_s", m.beam.spot_switch_time_s),
-        ("beam.min_spot_time_s", m.beam.min_spot_time_s),
-    ] {
+    // (field, s per MU) and (field, time in s) of the beam model.
+    type Fields<'a> = (Vec<(String, f64)>, Vec<(&'a str, f64)>);
+    let (rates, times): Fields = match &m.beam {
+        BeamModel::PerMu(b) => (
+            vec![("beam.s_per_mu".to_string(), b.s_per_mu)],
+            vec![
+                ("beam.spot_switch_time_s", b.spot_switch_time_s),
+                ("beam.min_spot_time_s", b.min_spot_time_s),
+            ],
+        ),
+        BeamModel::Scanning(b) => (
+            b.s_per_mu_by_energy
+                .iter()
+                .enumerate()
+                .map(|(i, r)| (format!("beam.s_per_mu_by_energy[{i}][1]"), r[1]))
+                .collect(),
+            vec![
+                ("beam.min_spot_time_s", b.min_spot_time_s),
+                ("beam.settling_time_s", b.settling_time_s),
+            ],
+        ),
+    };
+    if let BeamModel::Scanning(b) = &m.beam {
+        c.range(
+            "beam.layer_overhead_s",
+            b.layer_overhead_s,
+            (0.0, 5.0),
+            "s",
+            None,
+            None,
+        );
+    }
+    for (field, x) in &rates {
+        c.range(field, *x, (0.0, 1.0), "s/MU", None, Some(MS));
+    }
+    for (field, x) in times {
         c.range(field, x, (0.0, 0.1), "s", None, Some(MS));
     }
     c.range(

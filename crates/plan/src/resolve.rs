@@ -1,33 +1,12 @@
 //! Resolution: a plan plus a machine becomes the flat per-arc list of layers the sequencer consumes,
 //! with every default filled in (window, ELST, irradiation time) and every number finite.
 
+use crate::beam::{layer_beam_time, SpotTimingError};
 use crate::error::{At, PlanError, PlanIssue};
 use crate::load::invalid_if_any;
 use crate::machine::validate_machine;
-use crate::model::{ArcPlan, BeamModel, EnergyLayer, Machine, ResolvedArc, ResolvedLayer, Spots};
+use crate::model::{ArcPlan, Machine, ResolvedArc, ResolvedLayer};
 use crate::validate::validate_plan;
-
-/// Beam-on time of a layer with spots: `sum_i max(mu_i * s_per_mu, min_spot_time_s) + (count - 1) *
-/// spot_switch_time_s`. With `total_mu` the spots share it equally.
-pub fn spots_irradiation_time_s(spots: &Spots, beam: &BeamModel) -> f64 {
-    let n = f64::from(spots.count);
-    let spot_time = |mu: f64| (mu * beam.s_per_mu).max(beam.min_spot_time_s);
-    let beam_on = match (&spots.mu, spots.total_mu) {
-        (Some(mu), _) => mu.iter().map(|&m| spot_time(m)).sum(),
-        (None, Some(total)) if spots.count > 0 => n * spot_time(total / n),
-        _ => 0.0,
-    };
-    beam_on + (n - 1.0).max(0.0) * beam.spot_switch_time_s
-}
-
-/// Beam-on time of a layer under `beam`: the explicit time, else the spots' time.
-pub fn layer_irradiation_time_s(layer: &EnergyLayer, beam: &BeamModel) -> f64 {
-    match (layer.irradiation_time_s, &layer.spots) {
-        (Some(t), _) => t,
-        (None, Some(spots)) => spots_irradiation_time_s(spots, beam),
-        (None, None) => 0.0,
-    }
-}
 
 /// Validates plan and machine, then lists each arc's layers in delivery order with their window
 /// centre and width, irradiation time and incoming switching time. Errors list every problem found.
@@ -59,7 +38,28 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
             for (l, layer) in cp.layers.iter().enumerate() {
                 let at = At::layer(a, c, l);
                 let offset = -window / 2.0 + sub_window * (l as f64 + 0.5);
-                let irradiation_s = layer_irradiation_time_s(layer, &machine.beam);
+                let beam = match layer_beam_time(layer, &machine.beam) {
+                    Ok(beam) => beam,
+                    Err(SpotTimingError::NoPositions) => {
+                        issues.push(PlanIssue::new(
+                            &plan_source,
+                            at,
+                            "spots.positions_mm",
+                            format!("machine \"{}\" has a `scanning` beam model, which times the spot-to-spot moves from the spot positions; expected `positions_mm` (one [x, y] in mm per spot), or `irradiation_time_s` for the layer", machine.name),
+                        ));
+                        continue;
+                    }
+                    Err(SpotTimingError::TooManyDeliveries { count }) => {
+                        issues.push(PlanIssue::new(
+                            &plan_source,
+                            at,
+                            "spots.mu",
+                            format!("machine \"{}\" splits spots above its `max_mu_per_spot` into {count} spot deliveries in this layer; expected at most {}", machine.name, crate::beam::MAX_SPOT_DELIVERIES),
+                        ));
+                        continue;
+                    }
+                };
+                let irradiation_s = beam.total_s();
                 if !irradiation_s.is_finite() || irradiation_s <= 0.0 {
                     issues.push(PlanIssue::new(
                         &plan_source,
@@ -81,6 +81,8 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
                     window_deg: sub_window,
                     energy_mev: layer.energy_mev,
                     irradiation_s,
+                    spot_irradiation_s: beam.spot_irradiation_s,
+                    scanning_s: beam.scanning_s,
                     required_speed_deg_per_s: cp.required_speed_deg_per_s,
                     switch_in_s,
                 });

@@ -19,6 +19,12 @@ pub const MAX_SPOT_MU: f64 = 1e6;
 /// Largest accepted spot count of one layer: real layers have hundreds to a few thousand.
 pub const MAX_SPOTS_PER_LAYER: u32 = 1_000_000;
 
+/// Most paintings of one layer (DICOM NumberOfPaintings).
+pub const MAX_PAINTINGS: u32 = 1000;
+/// Largest accepted spot coordinate, mm: far beyond any field size (about ±200 mm).
+pub const MAX_SPOT_POSITION_MM: f64 = 1e4;
+use crate::beam::MAX_SPOT_DELIVERIES;
+
 /// Slack when comparing a window with the control-point spacing, so 1.0 vs 0.9999999999 is not an error.
 const SPACING_TOLERANCE_DEG: f64 = 1e-9;
 
@@ -202,8 +208,9 @@ impl Validator<'_> {
             );
         }
         if let Some(w) = cp.window_deg {
-            if bad_number(w, 0.0, false).is_some() {
-                self.number(at, "window_deg", w, true, "a window width in degrees");
+            // 0 is a static control point: the gantry stands at the angle for all its layers.
+            if bad_number(w, 0.0, true).is_some() {
+                self.number(at, "window_deg", w, false, "a window width in degrees");
             } else if w > 360.0 {
                 self.at_most(at, "window_deg", w, 360.0, "deg", "a full turn");
             } else {
@@ -380,6 +387,53 @@ impl Validator<'_> {
                     at,
                     "spots.mu",
                     format!("the MU values sum to {sum}; expected a finite total"),
+                );
+            }
+        }
+        if let Some(p) = spots.paintings {
+            if !(1..=MAX_PAINTINGS).contains(&p) {
+                self.push(
+                    at,
+                    "spots.paintings",
+                    format!("{p} paintings; expected 1 to {MAX_PAINTINGS}"),
+                );
+            } else if u64::from(p) * u64::from(spots.count) > MAX_SPOT_DELIVERIES as u64 {
+                self.push(
+                    at,
+                    "spots.paintings",
+                    format!(
+                        "{p} paintings of {} spots are {} spot deliveries; expected at most {MAX_SPOT_DELIVERIES}",
+                        spots.count,
+                        u64::from(p) * u64::from(spots.count)
+                    ),
+                );
+            }
+        }
+        if let Some(positions) = &spots.positions_mm {
+            if positions.len() != spots.count as usize {
+                self.push(
+                    at,
+                    "spots.positions_mm",
+                    format!(
+                        "{} positions for a count of {} spots; expected exactly one [x, y] per spot",
+                        positions.len(),
+                        spots.count
+                    ),
+                );
+            }
+            if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| {
+                !p.iter()
+                    .all(|c| c.is_finite() && c.abs() <= MAX_SPOT_POSITION_MM)
+            }) {
+                self.push(
+                    at,
+                    &format!("spots.positions_mm[{i}]"),
+                    format!(
+                        "[{}, {}] mm; expected finite coordinates within ±{} mm",
+                        fmt_num(p[0]),
+                        fmt_num(p[1]),
+                        fmt_num(MAX_SPOT_POSITION_MM)
+                    ),
                 );
             }
         }

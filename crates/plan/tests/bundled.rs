@@ -83,7 +83,7 @@ fn every_bundled_plan_resolves_on_every_bundled_machine() {
     assert_eq!(plans.len(), 4, "{plans:?}");
     assert_eq!(
         machines.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(),
-        vec!["atom", "fast", "opentps"]
+        vec!["atom", "fast", "opentps-pbs", "opentps"]
     );
     for p in &plans {
         let plan = load_plan(p).unwrap_or_else(|e| panic!("{e}"));
@@ -92,6 +92,9 @@ fn every_bundled_plan_resolves_on_every_bundled_machine() {
                 resolve(&plan, m).unwrap_or_else(|e| panic!("{} on {}: {e}", p.display(), m.name));
             for l in arcs.iter().flat_map(|a| &a.layers) {
                 assert!(l.irradiation_s.is_finite() && l.irradiation_s > 0.0);
+                assert!(l.spot_irradiation_s > 0.0 && l.scanning_s > 0.0);
+                let parts = l.spot_irradiation_s + l.scanning_s;
+                assert!((parts - l.irradiation_s).abs() <= 1e-12 * l.irradiation_s);
                 assert!(l.switch_in_s.is_finite() && l.switch_in_s >= 0.0);
                 assert!(l.window_deg > 0.0 && l.angle_deg.is_finite());
             }

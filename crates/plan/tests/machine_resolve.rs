@@ -1,8 +1,8 @@
 //! Machine-model validation, the ELST models, and resolution of plans into sequencer layers.
 
 use arcsim_plan::{
-    parse_machine, parse_plan, resolve, validate_machine, ElstModel, Machine, PlanError,
-    ResolvedArc,
+    parse_machine, parse_plan, resolve, validate_machine, BeamModel, ElstModel, Machine, PerMuBeam,
+    PlanError, ResolvedArc,
 };
 use serde_json::{json, Value};
 
@@ -15,6 +15,14 @@ fn machine_json() -> Value {
         "elst": { "kind": "constant", "up_s": 5.0, "down_s": 0.5, "same_s": 0.0 },
         "default_window_deg": 1.0
     })
+}
+
+/// The machine's `per_mu` beam model, to change in a test.
+fn per_mu(m: &mut Machine) -> &mut PerMuBeam {
+    match &mut m.beam {
+        BeamModel::PerMu(b) => b,
+        BeamModel::Scanning(_) => panic!("the test machine has a per_mu beam model"),
+    }
 }
 
 fn machine() -> Machine {
@@ -31,7 +39,8 @@ fn machine_issues(v: &Value) -> Vec<String> {
 #[test]
 fn machine_defaults_and_optional_fields() {
     let m = machine();
-    assert_eq!(m.beam.min_spot_time_s, 0.0);
+    let mut m = m;
+    assert_eq!(per_mu(&mut m).min_spot_time_s, 0.0);
     assert!(m.sources.is_empty());
     assert_eq!(m.gantry.max_decel_deg_per_s2, None);
     assert_eq!(m.servo_period_s, None);
@@ -71,7 +80,7 @@ fn machine_limits_must_be_positive_and_finite() {
 fn machine_non_finite_values_are_caught() {
     let mut m = machine();
     m.gantry.max_accel_deg_per_s2 = f64::NAN;
-    m.beam.s_per_mu = f64::INFINITY;
+    per_mu(&mut m).s_per_mu = f64::INFINITY;
     let text: Vec<String> = validate_machine(&m, "m.json")
         .iter()
         .map(|i| i.to_string())
@@ -252,7 +261,7 @@ fn irradiation_times_from_spots() {
 
     // A minimum spot time lifts the short spots (here every spot to 0.08 s).
     let mut m = machine();
-    m.beam.min_spot_time_s = 0.08;
+    per_mu(&mut m).min_spot_time_s = 0.08;
     let r = resolve(&plan(arcs), &m).unwrap();
     assert!(close(
         r[0].layers[0].irradiation_s,
@@ -385,7 +394,7 @@ fn overflowing_irradiation_time_fails_to_resolve() {
     ] }] }))
     .expect("parses without validation");
     let mut m = machine();
-    m.beam.s_per_mu = 10.0;
+    per_mu(&mut m).s_per_mu = 10.0;
     let err = resolve(&p, &m).unwrap_err().to_string();
     assert!(
         err.contains("layer 0, field `spots.mu[0]`: 1e307 MU is above the largest accepted value"),

@@ -287,7 +287,16 @@ fn negative_values() {
 
     let mut v = base();
     cp(&mut v, 1)["window_deg"] = json!(-1.0);
-    single(&v, at_cp(0, 1), "window_deg", "window width in degrees > 0");
+    single(
+        &v,
+        at_cp(0, 1),
+        "window_deg",
+        "window width in degrees >= 0",
+    );
+    // 0 is a static control point (the gantry at rest for all its layers).
+    let mut v = base();
+    cp(&mut v, 1)["window_deg"] = json!(0.0);
+    assert!(parse(&v).is_ok());
 
     let mut v = base();
     cp(&mut v, 2)["required_speed_deg_per_s"] = json!(-2.0);

@@ -62,6 +62,14 @@ pub struct Delivery {
     strict: bool,
 }
 
+impl Delivery {
+    /// The per-spot timeline, computed with the GIL released.
+    fn spot_rows(&self, py: Python<'_>) -> PyResult<Vec<arcsim_sequencer::SpotRow>> {
+        py.detach(|| arcsim_sequencer::spot_timeline(&self.plan, &self.machine, &self.delivery))
+            .map_err(|e| SimulationError::new_err(e.to_string()))
+    }
+}
+
 #[pymethods]
 impl Delivery {
     /// Total delivery time (s).
@@ -70,8 +78,10 @@ impl Delivery {
         self.delivery.total_s
     }
 
-    /// Where the time goes: {"beam_on_s", "energy_switching_s", "lost_s"} (s); lost_s is what
-    /// the gantry adds beyond the other two.
+    /// Where the time goes: {"beam_on_s", "spot_irradiation_s", "scanning_s",
+    /// "energy_switching_s", "lost_s"} (s). Beam-on is spot irradiation plus the time between
+    /// spots (scanning, settling, layer overhead); lost_s is what the gantry adds beyond beam-on
+    /// and energy switching.
     #[getter]
     fn breakdown<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         serde_to_py(py, &self.delivery.breakdown)
@@ -130,15 +140,25 @@ impl Delivery {
         records(py, &self.delivery.transitions)
     }
 
-    /// `layers` (default) or `transitions` as a pandas DataFrame (needs pandas).
+    /// One entry per spot delivery (one painting of one spot) in delivery order, as columns:
+    /// `layer_index`, `arc`, `control_point`, `layer`, `spot`, `painting`, `x_mm`, `y_mm` (NaN
+    /// without positions), `mu`, `t_start_s`, `t_end_s`, `angle_start_deg`, `angle_end_deg`
+    /// (the gantry angle at the spot's start and end); as `simulate --spots` writes them.
+    #[getter]
+    fn spots<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        records(py, &self.spot_rows(py)?)
+    }
+
+    /// `layers` (default), `transitions` or `spots` as a pandas DataFrame (needs pandas).
     #[pyo3(signature = (table="layers"))]
     fn to_pandas<'py>(&self, py: Python<'py>, table: &str) -> PyResult<Bound<'py, PyAny>> {
         let cols = match table {
             "layers" => self.layers(py)?,
             "transitions" => self.transitions(py)?,
+            "spots" => self.spots(py)?,
             other => {
                 return Err(PyValueError::new_err(format!(
-                    "table: expected \"layers\" or \"transitions\", got {other:?}"
+                    "table: expected \"layers\", \"transitions\" or \"spots\", got {other:?}"
                 )))
             }
         };
@@ -204,8 +224,17 @@ impl Delivery {
     #[pyo3(signature = (path, dt=0.02))]
     fn save_rrd(&self, py: Python<'_>, path: PathBuf, dt: f64) -> PyResult<()> {
         let opts = arcsim_viewer::ViewerOptions { sample_dt_s: dt };
-        py.detach(|| arcsim_viewer::save_delivery(&path, &self.plan.name, &self.delivery, &opts))
-            .map_err(|e| PyRuntimeError::new_err(format!("{}: {e}", path.display())))
+        let spots = self.spot_rows(py)?;
+        py.detach(|| {
+            arcsim_viewer::save_delivery_with_spots(
+                &path,
+                &self.plan.name,
+                &self.delivery,
+                &spots,
+                &opts,
+            )
+        })
+        .map_err(|e| PyRuntimeError::new_err(format!("{}: {e}", path.display())))
     }
 
     /// The result document, equal to what `arcsim simulate --json` writes for the same inputs.

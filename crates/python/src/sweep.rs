@@ -25,9 +25,13 @@ const ROW_COLUMNS_FIRST: &[&str] = &[
     "elst_up_s",
     "elst_down_s",
     "window_deg",
+    "scan_speed_mm_per_s",
+    "dose_rate_scale",
     "total_s",
     "speedup",
     "breakdown.beam_on_s",
+    "breakdown.spot_irradiation_s",
+    "breakdown.scanning_s",
     "breakdown.energy_switching_s",
     "breakdown.lost_s",
 ];

@@ -128,14 +128,23 @@ fn distinct(mut v: Vec<f64>, max: usize) -> Vec<f64> {
     (0..max).map(|k| v[k * (v.len() - 1) / (max - 1)]).collect()
 }
 
-/// The axes other than J, A, V, and the key of a setting's values on them.
-const OTHER_AXES: [Axis; 3] = [Axis::ElstUp, Axis::ElstDown, Axis::Window];
+/// The axes other than J, A, V (each value of them gets heatmaps of its own), and the key of a
+/// setting's values on them.
+const OTHER_AXES: [Axis; 5] = [
+    Axis::ElstUp,
+    Axis::ElstDown,
+    Axis::Window,
+    Axis::ScanSpeed,
+    Axis::DoseRateScale,
+];
 
-fn others_key(s: &Setting) -> [Option<f64>; 3] {
+type OthersKey = [Option<f64>; OTHER_AXES.len()];
+
+fn others_key(s: &Setting) -> OthersKey {
     OTHER_AXES.map(|a| s.get(a))
 }
 
-fn describe_others(key: &[Option<f64>; 3]) -> String {
+fn describe_others(key: &OthersKey) -> String {
     OTHER_AXES
         .iter()
         .zip(key)
@@ -342,7 +351,7 @@ fn heatmaps(
     title: &str,
     stem: &str,
 ) -> Result<Vec<Figure>, ReportError> {
-    type GroupKey = (u64, [Option<u64>; 3]);
+    type GroupKey = (u64, [Option<u64>; OTHER_AXES.len()]);
     let mut groups: BTreeMap<GroupKey, Vec<&Row>> = BTreeMap::new();
     for r in block {
         let key = (

@@ -225,7 +225,6 @@ fn simulate_free(
         // Between arcs the braking and run-up of free ends can cost more than they save.
         a = free::assemble(arcs, problems, &constant_arcs, limits)?;
     }
-    let beam_on_s: f64 = a.layers.iter().map(|l| l.irradiation_s).sum();
     let energy_switching_s: f64 = a.transitions.iter().map(|tr| tr.elst_s).sum();
     let lost_s: f64 = a.transitions.iter().map(|tr| tr.lost_s).sum::<f64>() + a.lead_s;
     let counts = limiter_counts(&a.transitions);
@@ -242,11 +241,7 @@ fn simulate_free(
         arc_ends: opts.arc_ends,
         constant_speed_total_s: Some(constant.total_s),
         total_s: a.total,
-        breakdown: Breakdown {
-            beam_on_s,
-            energy_switching_s,
-            lost_s,
-        },
+        breakdown: Breakdown::of(arcs, energy_switching_s, lost_s),
         limits: (*limits).into(),
         servo_period_s: None,
         lost_time: crate::LostTime::of(&a.layers, &a.transitions),
@@ -641,7 +636,6 @@ fn assemble(
             prev_end = Some((last, layers.len() - 1));
         }
     }
-    let beam_on_s: f64 = layers.iter().map(|l| l.irradiation_s).sum();
     let energy_switching_s: f64 = transitions.iter().map(|tr| tr.elst_s).sum();
     let lost_s: f64 = transitions.iter().map(|tr| tr.lost_s).sum();
     let counts = limiter_counts(&transitions);
@@ -659,11 +653,7 @@ fn assemble(
         arc_ends: ArcEnds::Rest,
         constant_speed_total_s: None,
         total_s: t,
-        breakdown: Breakdown {
-            beam_on_s,
-            energy_switching_s,
-            lost_s,
-        },
+        breakdown: Breakdown::of(arcs, energy_switching_s, lost_s),
         limits: (*lim).into(),
         servo_period_s: period,
         lost_time: crate::LostTime::of(&layers, &transitions),

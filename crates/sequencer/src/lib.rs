@@ -16,12 +16,14 @@ mod lost;
 mod optimal;
 mod scan;
 mod servo;
+mod spots;
 mod timeline;
 mod types;
 mod verify;
 
 pub use error::SequenceError;
 pub use lost::{GapClass, LostGroup, LostTime, LostTransition, SwitchKind};
+pub use spots::{spot_timeline, SpotRow};
 pub use timeline::{GantryState, Piece, PieceKind, Timeline};
 pub use types::*;
 

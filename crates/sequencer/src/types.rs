@@ -4,6 +4,7 @@ use arcsim_planner::Limits;
 use serde::{Deserialize, Serialize};
 
 use crate::Timeline;
+use arcsim_plan::ResolvedArc;
 
 /// How layer speeds are chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -266,12 +267,34 @@ pub struct TransitionRow {
 /// Where the total time goes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Breakdown {
-    /// Σ irradiation times.
+    /// Σ irradiation times: `spot_irradiation_s + scanning_s`.
     pub beam_on_s: f64,
+    /// Of the beam-on time, the spots' irradiation (dose delivered).
+    #[serde(default)]
+    pub spot_irradiation_s: f64,
+    /// Of the beam-on time, the time between spots: scanning (or spot switching), settling and
+    /// layer overhead.
+    #[serde(default)]
+    pub scanning_s: f64,
     /// Σ energy-layer switching times.
     pub energy_switching_s: f64,
     /// What the gantry adds beyond the two: Σ max(0, transition − ELST).
     pub lost_s: f64,
+}
+
+impl Breakdown {
+    /// The breakdown of a delivery of `arcs`: beam-on parts from the layers, `energy_switching_s`
+    /// and `lost_s` as computed from the transitions.
+    pub(crate) fn of(arcs: &[ResolvedArc], energy_switching_s: f64, lost_s: f64) -> Breakdown {
+        let layers = || arcs.iter().flat_map(|a| &a.layers);
+        Breakdown {
+            beam_on_s: layers().map(|l| l.irradiation_s).sum(),
+            spot_irradiation_s: layers().map(|l| l.spot_irradiation_s).sum(),
+            scanning_s: layers().map(|l| l.scanning_s).sum(),
+            energy_switching_s,
+            lost_s,
+        }
+    }
 }
 
 /// The tightest value of a quantity over the timeline and where it occurs.

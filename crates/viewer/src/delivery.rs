@@ -31,7 +31,7 @@ pub(crate) const PHASE_BEAM: &str = "beam on";
 pub(crate) const PHASE_SWITCH: &str = "energy switch";
 pub(crate) const PHASE_GANTRY: &str = "gantry";
 
-const fn rgb(r: u8, g: u8, b: u8) -> Color {
+pub(crate) const fn rgb(r: u8, g: u8, b: u8) -> Color {
     Color(rerun::datatypes::Rgba32::from_rgb(r, g, b))
 }
 
@@ -157,7 +157,10 @@ pub(crate) fn angle_cdeg(angle_deg: f64) -> i64 {
 }
 
 /// The two index columns of rows at `times` with gantry angles `angles`.
-fn index_columns(times: &[f64], angles: impl IntoIterator<Item = f64>) -> [TimeColumn; 2] {
+pub(crate) fn index_columns(
+    times: &[f64],
+    angles: impl IntoIterator<Item = f64>,
+) -> [TimeColumn; 2] {
     [
         TimeColumn::new_duration_secs(TIME, times.iter().copied()),
         TimeColumn::new_sequence(ANGLE_CDEG, angles.into_iter().map(angle_cdeg)),
@@ -458,7 +461,7 @@ fn polar(angle_deg: f64, r: f32) -> [f32; 2] {
 }
 
 /// Viridis colour ramp, `x` in [0, 1].
-fn viridis(x: f64) -> Color {
+pub(crate) fn viridis(x: f64) -> Color {
     const STOPS: [[f64; 3]; 5] = [
         [68.0, 1.0, 84.0],
         [59.0, 82.0, 139.0],

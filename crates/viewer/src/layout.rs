@@ -93,8 +93,9 @@ fn named(node: Node, title: &str) -> Node {
 }
 
 /// Time series stacked on the left (speed, acceleration, jerk with their limits; energy and
-/// angle as tabs; the phases), the gantry and the layer log on the right.
-fn delivery_layout() -> Node {
+/// angle as tabs; the phases), the gantry (with `spots`, above the beam's-eye view of the
+/// spots) and the layer log on the right.
+fn delivery_layout(spots: bool) -> Node {
     let left = container(
         ContainerKind::Vertical,
         &[3.0, 3.0, 3.0, 2.5, 1.5],
@@ -114,16 +115,31 @@ fn delivery_layout() -> Node {
             view("StateTimeline", "Phases", paths::PHASE),
         ],
     );
-    let right = container(
-        ContainerKind::Vertical,
-        &[3.0, 2.0],
-        vec![
-            view("2D", "Gantry", "gantry"),
-            view("TextLog", "Layers", paths::LAYERS),
-        ],
-    );
+    let right = if spots {
+        container(
+            ContainerKind::Vertical,
+            &[3.0, 3.0, 2.0],
+            vec![
+                view("2D", "Gantry", "gantry"),
+                view("2D", BEV_TITLE, paths::BEAM_EYE_VIEW),
+                view("TextLog", "Layers", paths::LAYERS),
+            ],
+        )
+    } else {
+        container(
+            ContainerKind::Vertical,
+            &[3.0, 2.0],
+            vec![
+                view("2D", "Gantry", "gantry"),
+                view("TextLog", "Layers", paths::LAYERS),
+            ],
+        )
+    };
     container(ContainerKind::Horizontal, &[3.0, 2.0], vec![left, right])
 }
+
+/// Title of the beam's-eye view of the spots.
+pub(crate) const BEV_TITLE: &str = "Beam's-eye view (spots)";
 
 /// Deterministic view/container ids (unique within one blueprint), as hyphenated UUIDs.
 fn node_id(n: u8) -> [u8; 16] {
@@ -259,7 +275,13 @@ fn blueprint_msgs(
 /// Sends the default delivery layout into `rec` and makes it the active one; call it before
 /// logging so a file starts with its layout.
 pub fn send_delivery_blueprint(rec: &RecordingStream) -> Result<(), ViewerError> {
-    send_blueprint(rec, &delivery_layout(), TIME)
+    send_blueprint(rec, &delivery_layout(false), TIME)
+}
+
+/// [`send_delivery_blueprint`] with a 2D beam's-eye view of the spots ([`paths::BEAM_EYE_VIEW`],
+/// logged by [`crate::log_spots`]) between the gantry and the layer log.
+pub fn send_delivery_blueprint_with_spots(rec: &RecordingStream) -> Result<(), ViewerError> {
+    send_blueprint(rec, &delivery_layout(true), TIME)
 }
 
 /// Sends layout `root` into `rec` as the active blueprint, paused.

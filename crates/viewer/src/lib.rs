@@ -1,8 +1,9 @@
 //! # arcsim-viewer
 //!
 //! Writes arcsim results for the [Rerun](https://rerun.io) viewer (SDK 0.36.3): a simulated
-//! [`Delivery`] as time series, a layer log, beam/switching phases and a 2D view of the gantry,
-//! with a default layout (blueprint). Output goes to an `.rrd` file ([`save_delivery`]), to a
+//! [`Delivery`](arcsim_sequencer::Delivery) as time series, a layer log, beam/switching phases and a 2D view of the gantry,
+//! with a default layout (blueprint); optionally the spots of the layer being delivered in a 2D
+//! beam's-eye view ([`log_spots`], [`save_delivery_with_spots`]). Output goes to an `.rrd` file ([`save_delivery`]), to a
 //! newly spawned viewer ([`spawn_delivery`], needs the `rerun` binary on `PATH`) or to a running
 //! viewer over gRPC ([`connect_delivery`]); [`log_delivery`] logs into any recording stream.
 //! [`save_sweep`] writes the rows of an `arcsim-evaluator` sweep: per plan a tab of plots of the
@@ -17,12 +18,17 @@ mod delivery;
 mod error;
 mod layout;
 mod output;
+mod spots;
 mod sweep;
 
 pub use delivery::log_delivery;
 pub use error::ViewerError;
-pub use layout::send_delivery_blueprint;
-pub use output::{connect_delivery, save_delivery, spawn_delivery, DELIVERY_APP_ID};
+pub use layout::{send_delivery_blueprint, send_delivery_blueprint_with_spots};
+pub use output::{
+    connect_delivery, connect_delivery_with_spots, save_delivery, save_delivery_with_spots,
+    spawn_delivery, spawn_delivery_with_spots, DELIVERY_APP_ID,
+};
+pub use spots::{log_spots, log_spots_with_energies, MAX_SPOT_UPDATES_PER_LAYER};
 pub use sweep::{
     save_sweep, COMBINATION, MAX_LINES, SWEEP_APP_ID, SWEEP_ROWS, SWEEP_SUMMARY, SWEEP_X,
 };
@@ -66,6 +72,20 @@ pub mod paths {
     pub const GANTRY_RING: &str = "gantry/ring";
     /// 2D (static): `Points2D` at the isocentre.
     pub const GANTRY_ISOCENTRE: &str = "gantry/isocentre";
+    /// Root of the 2D beam's-eye view of the spots ([`crate::log_spots`]): positions in mm in
+    /// the isocentre plane, y negated so that +y points up on screen.
+    pub const BEAM_EYE_VIEW: &str = "beam_eye_view";
+    /// 2D: `Points2D`, the spots of the layer being delivered (positions logged at the layer's
+    /// start, colours as partial updates): grey until delivered, then viridis by MU delivered so
+    /// far; empty between layers.
+    pub const BEV_SPOTS: &str = "beam_eye_view/spots";
+    /// 2D: `Points2D`, the spots being irradiated (the current batch), larger.
+    pub const BEV_CURRENT: &str = "beam_eye_view/current";
+    /// 2D: `Boxes2D`, the outline of the layer being delivered, labelled with the layer index,
+    /// energy (when known), painting and progress.
+    pub const BEV_LAYER: &str = "beam_eye_view/layer";
+    /// 2D (static): `LineStrips2D`, x and y axes through the isocentre across all spots.
+    pub const BEV_AXES: &str = "beam_eye_view/axes";
 }
 
 /// How a delivery is logged.

@@ -3,11 +3,14 @@
 use std::path::Path;
 use std::time::Duration;
 
-use arcsim_sequencer::Delivery;
+use arcsim_sequencer::{Delivery, SpotRow};
 use rerun::{RecordingStream, RecordingStreamBuilder, RecordingStreamError};
 
 use crate::delivery::check;
-use crate::{log_delivery, send_delivery_blueprint, ViewerError, ViewerOptions};
+use crate::{
+    log_delivery, log_spots_with_energies, send_delivery_blueprint,
+    send_delivery_blueprint_with_spots, ViewerError, ViewerOptions,
+};
 
 /// Application id of delivery recordings (the viewer keeps one layout per application).
 pub const DELIVERY_APP_ID: &str = "arcsim-delivery";
@@ -23,14 +26,22 @@ fn builder(title: &str) -> RecordingStreamBuilder {
 }
 
 /// Logs, waits until everything reached the sink, then closes the stream (which finishes a file).
+/// The beam's-eye view is laid out and logged when some spot has a position.
 fn finish(
     rec: RecordingStream,
     delivery: &Delivery,
+    spots: &[SpotRow],
     opts: &ViewerOptions,
     target: &str,
 ) -> Result<(), ViewerError> {
-    send_delivery_blueprint(&rec)?;
-    log_delivery(&rec, delivery, opts)?;
+    if spots.iter().any(|r| r.x_mm.is_some() && r.y_mm.is_some()) {
+        send_delivery_blueprint_with_spots(&rec)?;
+        log_delivery(&rec, delivery, opts)?;
+        log_spots_with_energies(&rec, spots, &layer_energies(delivery))?;
+    } else {
+        send_delivery_blueprint(&rec)?;
+        log_delivery(&rec, delivery, opts)?;
+    }
     rec.flush_with_timeout(SEND_TIMEOUT)
         .map_err(|source| ViewerError::Flush {
             target: target.to_owned(),
@@ -40,11 +51,39 @@ fn finish(
     Ok(())
 }
 
+/// Nominal energy of each layer by its delivery index (NaN where a row is missing).
+fn layer_energies(delivery: &Delivery) -> Vec<f64> {
+    let len = delivery
+        .layers
+        .iter()
+        .map(|l| l.index + 1)
+        .max()
+        .unwrap_or(0);
+    let mut energies = vec![f64::NAN; len];
+    for l in &delivery.layers {
+        energies[l.index] = l.energy_mev;
+    }
+    energies
+}
+
 /// Writes `delivery` to the `.rrd` file `path` (replaced if it exists), with the default layout.
 pub fn save_delivery(
     path: &Path,
     title: &str,
     delivery: &Delivery,
+    opts: &ViewerOptions,
+) -> Result<(), ViewerError> {
+    save_delivery_with_spots(path, title, delivery, &[], opts)
+}
+
+/// [`save_delivery`] plus the beam's-eye view of `spots` ([`crate::log_spots`]; the rows of
+/// `arcsim_sequencer::spot_timeline` for this delivery, energies taken from the delivery). With
+/// no positioned spot it writes what [`save_delivery`] writes.
+pub fn save_delivery_with_spots(
+    path: &Path,
+    title: &str,
+    delivery: &Delivery,
+    spots: &[SpotRow],
     opts: &ViewerOptions,
 ) -> Result<(), ViewerError> {
     check(delivery, opts)?;
@@ -54,7 +93,7 @@ pub fn save_delivery(
             path: path.to_owned(),
             source,
         })?;
-    finish(rec, delivery, opts, &path.display().to_string())
+    finish(rec, delivery, spots, opts, &path.display().to_string())
 }
 
 /// Starts a Rerun viewer (the `rerun` executable on `PATH`; an already running one on the
@@ -64,12 +103,22 @@ pub fn spawn_delivery(
     delivery: &Delivery,
     opts: &ViewerOptions,
 ) -> Result<(), ViewerError> {
+    spawn_delivery_with_spots(title, delivery, &[], opts)
+}
+
+/// [`spawn_delivery`] plus the beam's-eye view of `spots` (see [`save_delivery_with_spots`]).
+pub fn spawn_delivery_with_spots(
+    title: &str,
+    delivery: &Delivery,
+    spots: &[SpotRow],
+    opts: &ViewerOptions,
+) -> Result<(), ViewerError> {
     check(delivery, opts)?;
     let rec = builder(title).spawn().map_err(|e| match e {
         RecordingStreamError::SpawnViewer(e) => ViewerError::Spawn(e),
         e => ViewerError::Log(e),
     })?;
-    finish(rec, delivery, opts, "the spawned Rerun viewer")
+    finish(rec, delivery, spots, opts, "the spawned Rerun viewer")
 }
 
 /// Streams `delivery` to a running viewer at a gRPC proxy URL such as
@@ -80,6 +129,17 @@ pub fn connect_delivery(
     delivery: &Delivery,
     opts: &ViewerOptions,
 ) -> Result<(), ViewerError> {
+    connect_delivery_with_spots(url, title, delivery, &[], opts)
+}
+
+/// [`connect_delivery`] plus the beam's-eye view of `spots` (see [`save_delivery_with_spots`]).
+pub fn connect_delivery_with_spots(
+    url: &str,
+    title: &str,
+    delivery: &Delivery,
+    spots: &[SpotRow],
+    opts: &ViewerOptions,
+) -> Result<(), ViewerError> {
     check(delivery, opts)?;
     let rec = builder(title)
         .connect_grpc_opts(url)
@@ -87,5 +147,5 @@ pub fn connect_delivery(
             url: url.to_owned(),
             source,
         })?;
-    finish(rec, delivery, opts, url)
+    finish(rec, delivery, spots, opts, url)
 }

@@ -77,7 +77,7 @@ fn value(r: &Row, axis: Axis) -> Option<f64> {
 }
 
 /// The line a row belongs to in the plot against `axis`: the row's other limits (J, A, V and
-/// whatever ELST or window the row sets).
+/// whatever ELST, window, scanning speed or dose-rate scale the row sets).
 fn line_key(r: &Row, axis: Axis) -> Vec<(Axis, f64)> {
     Axis::ALL
         .into_iter()

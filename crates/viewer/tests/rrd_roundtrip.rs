@@ -426,6 +426,8 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
         total_s,
         breakdown: Breakdown {
             beam_on_s: 30.0,
+            spot_irradiation_s: 30.0,
+            scanning_s: 0.0,
             energy_switching_s: 130.0,
             lost_s: total_s - 160.0,
         },
@@ -445,6 +447,8 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
             elst_up_s: None,
             elst_down_s: None,
             window_deg: None,
+            scan_speed_mm_per_s: None,
+            dose_rate_scale: None,
         },
         status: if total.is_some() {
             Status::Ok
@@ -461,6 +465,8 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
             elst_up_s: Some(5.0),
             elst_down_s: 0.5,
             window_deg: 1.0,
+            scan_speed_mm_per_s: None,
+            dose_rate_scale: 1.0,
         },
     }
 }

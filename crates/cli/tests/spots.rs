@@ -1,0 +1,336 @@
+//! Spot-level delivery end to end: DICOM plans with spot maps simulated on the `scanning` beam
+//! model (`scenarios/machine-opentps-pbs.json`), `simulate --spots` and the JSON checked against
+//! the layer rows, and static beams against the plain sum computed here independently.
+
+mod common;
+#[path = "../../dicom/tests/fixtures/mod.rs"]
+mod fixtures;
+
+use std::path::Path;
+
+use common::{arcsim, path_str, repo, text};
+use fixtures::{BeamSpec, Layer, PlanSpec};
+use serde_json::Value;
+
+const MACHINE: &str = "scenarios/machine-opentps-pbs.json";
+
+/// The OpenTPS numbers of the machine file, read back here with an interpolation of our own.
+struct Opentps {
+    table: Vec<(f64, f64)>,
+    speed_mm_per_s: f64,
+    min_spot_s: f64,
+    up_s: f64,
+    down_s: f64,
+}
+
+impl Opentps {
+    fn read() -> Opentps {
+        let m: Value = serde_json::from_str(
+            &std::fs::read_to_string(repo().join(MACHINE)).expect("machine file"),
+        )
+        .expect("machine json");
+        let b = &m["beam"];
+        let f = |v: &Value| v.as_f64().expect("number");
+        Opentps {
+            table: b["s_per_mu_by_energy"]
+                .as_array()
+                .expect("table")
+                .iter()
+                .map(|r| (f(&r[0]), f(&r[1])))
+                .collect(),
+            speed_mm_per_s: f(&b["scan_speed_mm_per_s"]),
+            min_spot_s: f(&b["min_spot_time_s"]),
+            up_s: f(&m["elst"]["up_s"]),
+            down_s: f(&m["elst"]["down_s"]),
+        }
+    }
+
+    fn s_per_mu(&self, e: f64) -> f64 {
+        let t = &self.table;
+        if e <= t[0].0 {
+            return t[0].1;
+        }
+        for w in t.windows(2) {
+            if e <= w[1].0 {
+                let f = (e - w[0].0) / (w[1].0 - w[0].0);
+                return w[0].1 * (1.0 - f) + w[1].1 * f;
+            }
+        }
+        t[t.len() - 1].1
+    }
+
+    /// Beam-on time of one layer: spots one after another, the scanning moves between them.
+    fn layer_s(&self, energy: f64, mu: &[f64], pos: &[[f64; 2]]) -> f64 {
+        let spots: f64 = mu
+            .iter()
+            .map(|m| (m * self.s_per_mu(energy)).max(self.min_spot_s))
+            .sum();
+        let moves: f64 = pos
+            .windows(2)
+            .map(|w| (w[1][0] - w[0][0]).abs().max((w[1][1] - w[0][1]).abs()) / self.speed_mm_per_s)
+            .sum();
+        spots + moves
+    }
+}
+
+fn simulate(plan: &Path, dir: &Path, extra: &[&str]) -> (Value, Vec<Vec<f64>>) {
+    let json = dir.join("result.json");
+    let csv = dir.join("spots.csv");
+    let mut args = vec![
+        "simulate",
+        path_str(plan),
+        "--machine",
+        MACHINE,
+        "--json",
+        path_str(&json),
+        "--spots",
+        path_str(&csv),
+    ];
+    args.extend_from_slice(extra);
+    let out = arcsim(&args);
+    let (so, se) = text(&out);
+    assert!(out.status.success(), "{so}\n{se}");
+    let result: Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("result");
+    let table = std::fs::read_to_string(&csv).expect("spots csv");
+    let mut lines = table.lines();
+    assert_eq!(
+        lines.next(),
+        Some("layer_index,arc,control_point,layer,spot,painting,x_mm,y_mm,mu,t_start_s,t_end_s,angle_start_deg,angle_end_deg")
+    );
+    let rows = lines
+        .map(|l| {
+            l.split(',')
+                .map(|c| c.parse::<f64>().expect("a number in every column"))
+                .collect()
+        })
+        .collect();
+    (result, rows)
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().expect("number")
+}
+
+/// The acceptance checks of a spot timeline against the delivery's layer rows: every spot once,
+/// inside its layer's window and beam-on, no overlap, and spot and scanning times adding up to
+/// each layer's beam-on time.
+fn check_spots(result: &Value, rows: &[Vec<f64>], spots_per_layer: &[usize]) {
+    let layers = result["layers"].as_array().expect("layers");
+    assert_eq!(layers.len(), spots_per_layer.len());
+    assert_eq!(rows.len(), spots_per_layer.iter().sum::<usize>());
+    let json_spots = result["spots"].as_array().expect("spots in the JSON");
+    assert_eq!(json_spots.len(), rows.len());
+    let mut seen = std::collections::BTreeSet::new();
+    let mut per_layer = vec![0usize; layers.len()];
+    for (k, r) in rows.iter().enumerate() {
+        let li = r[0] as usize;
+        assert!(
+            seen.insert((li, r[4] as usize, r[5] as usize)),
+            "spot listed twice: {r:?}"
+        );
+        per_layer[li] += 1;
+        let l = &layers[li];
+        let (centre, half) = (f(&l["angle_deg"]), f(&l["window_deg"]) / 2.0);
+        for a in [r[11], r[12]] {
+            assert!(
+                (a - centre).abs() <= half + 1e-9,
+                "spot {k} at {a} deg outside the window {centre} ± {half}"
+            );
+        }
+        let (t0, t1) = (f(&l["t_start_s"]), f(&l["t_end_s"]));
+        assert!(
+            r[9] >= t0 - 1e-9 && r[10] <= t1 + 1e-9 && r[10] >= r[9],
+            "{r:?}"
+        );
+        if k > 0 {
+            assert!(
+                r[9] >= rows[k - 1][10] - 1e-12,
+                "spots {} and {k} overlap",
+                k - 1
+            );
+        }
+        assert_eq!(f(&json_spots[k]["t_start_s"]), r[9]);
+    }
+    assert_eq!(per_layer, spots_per_layer);
+    // Last spot end = the layer's beam-on (no layer overhead in this machine).
+    for (li, l) in layers.iter().enumerate() {
+        let end = rows
+            .iter()
+            .filter(|r| r[0] as usize == li)
+            .map(|r| r[10])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let on = f(&l["t_start_s"]) + f(&l["irradiation_s"]);
+        assert!((end - on).abs() <= 1e-9, "layer {li}: {end} vs {on}");
+    }
+    let b = &result["breakdown"];
+    let spot_sum: f64 = rows.iter().map(|r| r[10] - r[9]).sum();
+    assert!((spot_sum - f(&b["spot_irradiation_s"])).abs() <= 1e-9);
+    assert!(
+        (f(&b["spot_irradiation_s"]) + f(&b["scanning_s"]) - f(&b["beam_on_s"])).abs() <= 1e-9,
+        "{b}"
+    );
+    assert!(f(&b["scanning_s"]) > 0.0);
+}
+
+#[test]
+fn dynamic_arc_with_spot_maps_lists_every_spot_inside_its_window() {
+    let dir = fixtures::temp_dir().join("spots-arc");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let n = 40;
+    let positions: Vec<Vec<[f32; 2]>> = (0..n).map(fixtures::positions_of).collect();
+    let mut beam = BeamSpec::from_layers(
+        1,
+        "DYNAMIC",
+        "CW",
+        600.0,
+        &fixtures::dynamic_arc_layers(181.0, 2.0, n),
+    )
+    .with_layer_positions(&positions);
+    // Layer 3 painted twice: its spots are listed twice, once per painting. (Every control point
+    // says its count: the reader carries a value over to control points that leave it out.)
+    for (k, cp) in beam.cps.iter_mut().enumerate() {
+        cp.paintings = Some(if k / 2 == 3 { 2 } else { 1 });
+    }
+    let plan = fixtures::write_bytes(
+        "spots-arc.dcm",
+        &PlanSpec::ion("SPOTARC", vec![beam]).to_bytes(),
+    );
+    let spots: Vec<usize> = (0..n)
+        .map(|i| fixtures::weights_of(i).len() * if i == 3 { 2 } else { 1 })
+        .collect();
+    for motion in ["free", "constant"] {
+        let (result, rows) = simulate(&plan, &dir, &["--motion", motion]);
+        check_spots(&result, &rows, &spots);
+        // The plan's positions, in the file's order.
+        let first = &fixtures::positions_of(0);
+        assert!(
+            (rows[1][6] - f64::from(first[1][0])).abs() < 1e-5,
+            "{:?}",
+            rows[1]
+        );
+        assert!(rows.iter().any(|r| r[5] == 1.0), "a second painting");
+    }
+}
+
+/// One layer as the test computes it: energy (MeV), spot MU, spot positions (mm).
+type LayerData = (f64, Vec<f64>, Vec<[f64; 2]>);
+
+/// Energies, spot MU and positions of random static-beam layers (seeded), and the DICOM beam.
+fn random_static_beam(seed: u64) -> (BeamSpec, Vec<LayerData>) {
+    let mut state = seed;
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let n_layers = 1 + (next() * 5.0) as usize;
+    let angle = (next() * 360.0).floor();
+    let mut layers = Vec::new();
+    let mut maps = Vec::new();
+    for _ in 0..n_layers {
+        let n = 1 + (next() * 30.0) as usize;
+        let energy = (60.0 + next() * 167.0).round();
+        let weights: Vec<f32> = (0..n).map(|_| (0.05 + next() * 2.0) as f32).collect();
+        let pos: Vec<[f32; 2]> = (0..n)
+            .map(|_| {
+                [
+                    ((next() - 0.5) * 200.0) as f32,
+                    ((next() - 0.5) * 200.0) as f32,
+                ]
+            })
+            .collect();
+        layers.push(Layer {
+            angle,
+            energy,
+            weights,
+        });
+        maps.push(pos);
+    }
+    let meterset = 50.0 + next() * 200.0;
+    let beam =
+        BeamSpec::from_layers(1, "STATIC", "NONE", meterset, &layers).with_layer_positions(&maps);
+    let total_w: f64 = layers
+        .iter()
+        .flat_map(|l| &l.weights)
+        .map(|&w| f64::from(w))
+        .sum();
+    let expected = layers
+        .iter()
+        .zip(&maps)
+        .map(|(l, p)| {
+            (
+                l.energy,
+                l.weights
+                    .iter()
+                    .map(|&w| f64::from(w) * meterset / total_w)
+                    .collect(),
+                p.iter()
+                    .map(|q| [f64::from(q[0]), f64::from(q[1])])
+                    .collect(),
+            )
+        })
+        .collect();
+    (beam, expected)
+}
+
+/// One static beam: the gantry stands at the beam's angle and the delivery time is the plain
+/// OpenTPS-style sum of energy switches and layer times, computed here from the beam's data.
+#[test]
+fn a_static_beam_takes_the_plain_sum_of_its_layers() {
+    let o = Opentps::read();
+    let dir = fixtures::temp_dir().join("spots-static");
+    std::fs::create_dir_all(&dir).expect("dir");
+    for seed in 1..=12u64 {
+        let (beam, layers) = random_static_beam(seed);
+        let plan = fixtures::write_bytes(
+            &format!("static-{seed}.dcm"),
+            &PlanSpec::ion("STATIC", vec![beam]).to_bytes(),
+        );
+        let mut expected = 0.0;
+        let mut previous: Option<f64> = None;
+        for (e, mu, pos) in &layers {
+            if let Some(p) = previous {
+                expected += if *e > p + 1e-6 { o.up_s } else { o.down_s };
+            }
+            previous = Some(*e);
+            // MU as the importer rounds them (1e-9 MU).
+            let mu: Vec<f64> = mu.iter().map(|m| (m * 1e9).round() / 1e9).collect();
+            expected += o.layer_s(*e, &mu, pos);
+        }
+        for motion in ["free", "constant"] {
+            let (result, rows) = simulate(&plan, &dir, &["--motion", motion]);
+            let total = f(&result["total_s"]);
+            assert!(
+                (total - expected).abs() <= 1e-6 * expected,
+                "seed {seed}, {motion}: {total} s, expected {expected} s"
+            );
+            let angle = f(&result["layers"][0]["angle_deg"]);
+            assert!(rows
+                .iter()
+                .all(|r| (r[11] - angle).abs() < 1e-9 && (r[12] - angle).abs() < 1e-9));
+            let counts: Vec<usize> = layers.iter().map(|l| l.1.len()).collect();
+            check_spots(&result, &rows, &counts);
+        }
+    }
+}
+
+#[test]
+fn scanning_machine_without_positions_names_the_layer() {
+    let dir = fixtures::temp_dir().join("spots-bare");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let plan = fixtures::write_bytes(
+        "spots-bare.dcm",
+        &fixtures::dynamic_arc_plan().without_spot_maps().to_bytes(),
+    );
+    let out = arcsim(&["simulate", path_str(&plan), "--machine", MACHINE]);
+    let (_, err) = text(&out);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("arc 0, control point 0, layer 0")
+            && err.contains("spots.positions_mm")
+            && err.contains("scanning"),
+        "{err}"
+    );
+}

@@ -1,0 +1,531 @@
+//! The beam axes of a sweep: `dose_rate_scale` (any beam model) and `scan_speed_mm_per_s` (a
+//! `scanning` beam model only) change the resolved plan, and only its beam-on time; rows carry
+//! them and the split of the beam-on time (CSV and JSON), the CSV reads back, and an older
+//! arcsim's table without those columns still merges and reads back.
+
+use std::path::{Path, PathBuf};
+
+use arcsim_evaluator::{
+    merge_csv, write_csv_header, write_csv_row, Axis, EvalError, Evaluator, Outcome, Row, Shard,
+    Status, Sweep, CSV_HEADER, CSV_HEADER_V1,
+};
+use arcsim_plan::{BeamModel, PlanKind, ScanningBeam};
+
+fn scenarios() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios")
+}
+
+fn from_text_in(text: &str, dir: &Path) -> Result<Sweep, EvalError> {
+    Sweep::from_text(text, "test-sweep.json", dir, &|p: &Path| {
+        arcsim_plan::load_plan(p).map_err(|e| e.to_string())
+    })
+}
+
+/// Prostate under `scan` on the ATOM machine (`per_mu` beam: 0.005 s/MU, 2 ms between spots)
+/// over `axes`.
+fn atom_sweep(axes: &str) -> String {
+    format!(
+        r#"{{"format": "arcsim-sweep/1", "name": "beam", "plans": ["../plans/prostate.json"],
+            "machine": "machine-atom.json", "axes": {axes}, "schedules": ["scan"]}}"#
+    )
+}
+
+fn error_of(text: &str, dir: &Path) -> String {
+    match from_text_in(text, dir) {
+        Ok(_) => panic!("expected an error for {text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn csv(rows: &[Row]) -> String {
+    let mut out = Vec::new();
+    write_csv_header(&mut out).expect("write");
+    for r in rows {
+        write_csv_row(&mut out, r).expect("write");
+    }
+    String::from_utf8(out).expect("utf-8")
+}
+
+fn all_rows(ev: &Evaluator) -> Vec<Row> {
+    ev.run_collect(&(0..ev.len()).collect::<Vec<_>>())
+}
+
+fn ok(r: &Row) -> Outcome {
+    assert_eq!(r.status, Status::Ok, "{r:?}");
+    r.outcome.expect("ok row")
+}
+
+/// `a` and `b` equal to a relative `tol`.
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol * a.abs().max(b.abs())
+}
+
+/// One column of a CSV table by its header name.
+fn column<'a>(table: &'a str, name: &str) -> Vec<&'a str> {
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let i = header.iter().position(|h| *h == name).expect(name);
+    lines
+        .map(|l| {
+            assert!(!l.contains('"'), "a quoted field: {l}");
+            l.split(',').nth(i).expect("field")
+        })
+        .collect()
+}
+
+/// The table without `names` (as an older arcsim wrote it, when `names` are the new columns).
+fn drop_columns(table: &str, names: &[&str]) -> String {
+    let header: Vec<&str> = table.lines().next().expect("header").split(',').collect();
+    let keep: Vec<bool> = header.iter().map(|h| !names.contains(h)).collect();
+    let mut out = String::new();
+    for line in table.lines() {
+        assert!(!line.contains('"'), "a quoted field: {line}");
+        let fields: Vec<&str> = line
+            .split(',')
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(f, _)| f)
+            .collect();
+        out += &fields.join(",");
+        out.push('\n');
+    }
+    out
+}
+
+const NEW_COLUMNS: [&str; 4] = [
+    "scan_speed_mm_per_s",
+    "dose_rate_scale",
+    "spot_irradiation_s",
+    "scanning_s",
+];
+
+/// Twice the dose rate halves the spots' irradiation and leaves the spot switching (and the
+/// energy switching) alone: beam-on 2 = beam-on 1 − spot irradiation 1 / 2. Rows and the summary
+/// name the axis with its unit.
+#[test]
+fn dose_rate_scale_halves_the_spot_irradiation_on_a_per_mu_machine() {
+    let ev = Evaluator::new(
+        from_text_in(&atom_sweep(r#"{"dose_rate_scale": [1, 2]}"#), &scenarios()).expect("sweep"),
+    )
+    .expect("prepare");
+    assert_eq!(ev.len(), 2);
+    let rows = all_rows(&ev);
+    assert_eq!(
+        rows.iter()
+            .map(|r| (r.setting.dose_rate_scale, r.setting.scan_speed_mm_per_s))
+            .collect::<Vec<_>>(),
+        [(Some(1.0), None), (Some(2.0), None)]
+    );
+    let (o1, o2) = (ok(&rows[0]), ok(&rows[1]));
+    let (b1, b2) = (o1.breakdown, o2.breakdown);
+    for b in [b1, b2] {
+        assert!(
+            close(b.beam_on_s, b.spot_irradiation_s + b.scanning_s, 1e-12),
+            "{b:?}"
+        );
+    }
+    assert!(b1.scanning_s > 0.0 && b1.spot_irradiation_s > 0.0, "{b1:?}");
+    assert!(
+        close(b2.spot_irradiation_s, b1.spot_irradiation_s / 2.0, 1e-9),
+        "{b1:?} {b2:?}"
+    );
+    assert!(close(b2.scanning_s, b1.scanning_s, 1e-12), "{b1:?} {b2:?}");
+    assert!(
+        close(
+            b2.beam_on_s,
+            b1.beam_on_s - b1.spot_irradiation_s / 2.0,
+            1e-9
+        ),
+        "{b1:?} {b2:?}"
+    );
+    assert!(b2.beam_on_s < b1.beam_on_s);
+    assert_eq!(b2.energy_switching_s, b1.energy_switching_s);
+    assert!(o2.total_s <= o1.total_s, "{} > {}", o2.total_s, o1.total_s);
+    // Scale 1 is the base machine itself.
+    assert_eq!(o1.speedup, Some(1.0));
+    assert_eq!(Some(o1.total_s), ev.base_total_s(0, 0));
+
+    // JSON rows: the setting has the scale, null for the scanning speed the sweep does not set.
+    let json = serde_json::to_value(&rows[1]).expect("json");
+    assert_eq!(json["setting"]["dose_rate_scale"], 2.0);
+    assert!(json["setting"]["scan_speed_mm_per_s"].is_null(), "{json}");
+    assert_eq!(
+        json["outcome"]["breakdown"]["spot_irradiation_s"],
+        b2.spot_irradiation_s
+    );
+    assert_eq!(json["outcome"]["breakdown"]["scanning_s"], b2.scanning_s);
+
+    // The summary: a sensitivity (base 1) and a profile of the scale, named with its unit.
+    let s = ev.summarize(&rows);
+    let table = s.to_table();
+    print!("{table}");
+    let e = &s.entries[0];
+    let sens = e
+        .sensitivity
+        .iter()
+        .find(|x| x.axis == Axis::DoseRateScale)
+        .expect("dose-rate sensitivity");
+    assert_eq!(sens.base_value, 1.0);
+    assert!(sens.s_per_10_percent.is_some_and(|d| d <= 0.0), "{sens:?}");
+    assert_eq!(e.profiles.len(), 1);
+    assert_eq!(e.profiles[0].axis, Axis::DoseRateScale);
+    assert!(table.contains("dose rate (base 1)"), "{table}");
+    assert!(table.contains("dose rate [×]"), "{table}");
+    assert!(e.sensitivity.iter().all(|x| x.axis != Axis::ScanSpeed));
+    // A dose rate of twice the base one is a change of ln 2 when it reaches the target.
+    if let Some(c) = e.cheapest.as_ref().filter(|c| c.index == Some(1)) {
+        assert!(close(c.cost, 2f64.ln(), 1e-12), "{c:?}");
+    }
+
+    // The CSV: the scale in its column, no scanning speed, the split of the beam-on time.
+    let table = csv(&rows);
+    assert!(table.starts_with(&format!("{CSV_HEADER}\n")));
+    assert_eq!(column(&table, "dose_rate_scale"), ["1", "2"]);
+    assert_eq!(column(&table, "scan_speed_mm_per_s"), ["", ""]);
+    assert_eq!(
+        column(&table, "scanning_s"),
+        [b1.scanning_s.to_string(), b2.scanning_s.to_string()]
+    );
+}
+
+/// A sweep that leaves the beam alone writes the scale 1 (the machine's own dose rate) and no
+/// scanning speed for a `per_mu` machine; a scanning-speed axis on it is a located error saying
+/// why; out-of-range values are refused when the sweep is loaded.
+#[test]
+fn beam_axis_values_are_checked_at_the_boundary() {
+    let dir = scenarios();
+    for (axes, expected) in [
+        (
+            r#"{"scan_speed_mm_per_s": [5000]}"#,
+            "test-sweep.json: axes.scan_speed_mm_per_s: machine \"atom\": its beam model has no scanning speed (kind per_mu)",
+        ),
+        (
+            r#"{"dose_rate_scale": [0]}"#,
+            "test-sweep.json: axes.dose_rate_scale[0]: expected a value finite and > 0, got 0",
+        ),
+        (
+            r#"{"dose_rate_scale": [1, 2000]}"#,
+            "test-sweep.json: axes.dose_rate_scale[1]: expected a dose-rate scale from 0.001 to 1000",
+        ),
+        (
+            r#"{"dose_rate_scale": {"from": 0.0001, "to": 1, "steps": 3, "scale": "log"}}"#,
+            "test-sweep.json: axes.dose_rate_scale.from: expected a dose-rate scale from 0.001 to 1000",
+        ),
+        (
+            r#"{"dose_rate_scale": [1, 1]}"#,
+            "test-sweep.json: axes.dose_rate_scale: value 1 appears twice",
+        ),
+    ] {
+        let e = error_of(&atom_sweep(axes), &dir);
+        assert!(e.starts_with(expected), "{axes}: expected «{expected}», got «{e}»");
+    }
+    // In a schedule entry's own axes, located there.
+    let text = atom_sweep("{}").replace(
+        "[\"scan\"]",
+        "[{\"schedule\": \"scan\", \"axes\": {\"scan_speed_mm_per_s\": [1000, 2000]}}]",
+    );
+    let e = error_of(&text, &dir);
+    assert!(
+        e.starts_with("test-sweep.json: schedules[0].axes.scan_speed_mm_per_s: machine \"atom\": its beam model has no scanning speed (kind per_mu)"),
+        "{e}"
+    );
+    // A scale whose s/MU a machine file would refuse (0.05 s/MU / 0.001 = 50 s/MU).
+    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-evaluator-beam-checks");
+    std::fs::create_dir_all(&tmp).expect("temp dir");
+    let atom = std::fs::read_to_string(dir.join("machine-atom.json")).expect("machine");
+    let slow = atom.replacen("\"s_per_mu\": 0.005", "\"s_per_mu\": 0.05", 1);
+    assert_ne!(slow, atom);
+    std::fs::write(tmp.join("machine-slow.json"), slow).expect("write");
+    let text = atom_sweep(r#"{"dose_rate_scale": [0.001, 1]}"#)
+        .replace("../plans/", &format!("{}/", dir.join("../plans").display()))
+        .replace("machine-atom.json", "machine-slow.json");
+    let e = error_of(&text, &tmp);
+    assert!(
+        e.starts_with("test-sweep.json: axes.dose_rate_scale[0]: ")
+            && e.contains("`beam.s_per_mu`"),
+        "{e}"
+    );
+    assert!(from_text_in(&text.replace("0.001", "0.01"), &tmp).is_ok());
+}
+
+/// A `scanning` machine (5 m/s, no settling or layer overhead) and a generated prostate plan with
+/// spot positions, in `dir`; returns the sweep text over `axes`.
+fn scanning_setup(dir: &Path, axes: &str) -> String {
+    std::fs::create_dir_all(dir).expect("temp dir");
+    let mut machine =
+        arcsim_plan::load_machine(scenarios().join("machine-atom.json")).expect("machine");
+    machine.name = "scanning".into();
+    machine.beam = BeamModel::Scanning(ScanningBeam {
+        s_per_mu_by_energy: vec![[70.0, 0.004], [230.0, 0.008]],
+        scan_speed_mm_per_s: Some(5000.0),
+        scan_speed_x_mm_per_s: None,
+        scan_speed_y_mm_per_s: None,
+        min_spot_time_s: 0.0,
+        settling_time_s: 0.0,
+        max_mu_per_spot: None,
+        layer_overhead_s: 0.0,
+    });
+    std::fs::write(
+        dir.join("machine-scanning.json"),
+        serde_json::to_string_pretty(&machine).expect("machine json"),
+    )
+    .expect("write machine");
+    let mut plan = arcsim_plan::generate(PlanKind::Prostate, 1);
+    // Positions on a 5 mm grid where the generator gives none.
+    for spots in plan
+        .arcs
+        .iter_mut()
+        .flat_map(|a| &mut a.control_points)
+        .flat_map(|cp| &mut cp.layers)
+        .filter_map(|l| l.spots.as_mut())
+    {
+        if spots.positions_mm.is_none() {
+            spots.positions_mm = Some(
+                (0..spots.count)
+                    .map(|i| [5.0 * f64::from(i % 7), 5.0 * f64::from(i / 7)])
+                    .collect(),
+            );
+        }
+    }
+    std::fs::write(dir.join("prostate-1.json"), arcsim_plan::to_json(&plan)).expect("write plan");
+    format!(
+        r#"{{"format": "arcsim-sweep/1", "name": "scanning", "plans": ["prostate-1.json"],
+            "machine": "machine-scanning.json", "axes": {axes}, "schedules": ["scan"]}}"#
+    )
+}
+
+/// On a scanning machine without settling or layer overhead the time between spots is distance
+/// over speed: ten times the speed, a tenth of it; the dose rate halves the irradiation only.
+/// Both axes are in the variant: each combination resolves its own. The table reads back and
+/// merges byte for byte.
+#[test]
+fn scan_speed_and_dose_rate_on_a_scanning_machine() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-evaluator-scanning");
+    let text = scanning_setup(
+        &dir,
+        r#"{"scan_speed_mm_per_s": [2000, 20000], "dose_rate_scale": [1, 2]}"#,
+    );
+    let ev = Evaluator::new(from_text_in(&text, &dir).expect("sweep")).expect("prepare");
+    assert_eq!(ev.len(), 4);
+    let rows = all_rows(&ev);
+    // The scanning speed varies faster than the dose-rate scale.
+    assert_eq!(
+        rows.iter()
+            .map(|r| (r.setting.scan_speed_mm_per_s, r.setting.dose_rate_scale))
+            .collect::<Vec<_>>(),
+        [
+            (Some(2000.0), Some(1.0)),
+            (Some(20000.0), Some(1.0)),
+            (Some(2000.0), Some(2.0)),
+            (Some(20000.0), Some(2.0)),
+        ]
+    );
+    let b: Vec<_> = rows.iter().map(|r| ok(r).breakdown).collect();
+    for x in &b {
+        assert!(
+            close(x.beam_on_s, x.spot_irradiation_s + x.scanning_s, 1e-12),
+            "{x:?}"
+        );
+        assert!(x.scanning_s > 0.0, "{x:?}");
+    }
+    for (slow, fast) in [(0, 1), (2, 3)] {
+        assert!(
+            close(b[slow].scanning_s, 10.0 * b[fast].scanning_s, 1e-9),
+            "{b:?}"
+        );
+        assert!(close(
+            b[slow].spot_irradiation_s,
+            b[fast].spot_irradiation_s,
+            1e-12
+        ));
+    }
+    for (one, two) in [(0, 2), (1, 3)] {
+        assert!(
+            close(
+                b[two].spot_irradiation_s,
+                b[one].spot_irradiation_s / 2.0,
+                1e-9
+            ),
+            "{b:?}"
+        );
+        assert!(close(b[two].scanning_s, b[one].scanning_s, 1e-12), "{b:?}");
+    }
+    let fastest_beam = b.iter().map(|x| x.beam_on_s).fold(f64::INFINITY, f64::min);
+    assert_eq!(fastest_beam, b[3].beam_on_s);
+    assert!(b[3].beam_on_s < b[0].beam_on_s);
+
+    // The summary has both axes, at the machine's 5000 mm/s and scale 1, with their units.
+    let s = ev.summarize(&rows);
+    let table = s.to_table();
+    print!("{table}");
+    let e = &s.entries[0];
+    let base = |a: Axis| {
+        e.sensitivity
+            .iter()
+            .find(|x| x.axis == a)
+            .map(|x| x.base_value)
+    };
+    assert_eq!(base(Axis::ScanSpeed), Some(5000.0));
+    assert_eq!(base(Axis::DoseRateScale), Some(1.0));
+    assert!(table.contains("scan speed (base 5000)"), "{table}");
+    assert!(table.contains("scan speed [mm/s]"), "{table}");
+    assert!(table.contains("dose rate [×]"), "{table}");
+    let f = e.fastest.expect("fastest");
+    assert_eq!(f.index, Some(3), "{f:?}");
+
+    // CSV: the values in their columns; read back and written again, byte for byte; shards merge.
+    let single = csv(&rows);
+    assert_eq!(
+        column(&single, "scan_speed_mm_per_s"),
+        ["2000", "20000", "2000", "20000"]
+    );
+    assert_eq!(column(&single, "dose_rate_scale"), ["1", "1", "2", "2"]);
+    let spot: Vec<String> = b.iter().map(|x| x.spot_irradiation_s.to_string()).collect();
+    assert_eq!(column(&single, "spot_irradiation_s"), spot);
+    let back = ev.rows_from_csv("back.csv", &single).expect("read back");
+    assert_eq!(back.len(), 4);
+    for (a, r) in back.iter().zip(&rows) {
+        assert_eq!(a.setting, r.setting);
+        assert_eq!(
+            a.outcome.map(|o| o.breakdown),
+            r.outcome.map(|o| o.breakdown)
+        );
+    }
+    assert_eq!(csv(&back), single);
+    let shards: Vec<(String, String)> = (1..=2)
+        .map(|k| {
+            let shard = Shard::new(k, 2).expect("shard");
+            (
+                format!("s{k}.csv"),
+                csv(&ev.run_collect(&shard.indices(ev.len()))),
+            )
+        })
+        .collect();
+    assert_eq!(merge_csv(&shards, Some(4)).expect("merge"), single);
+    // A table whose scanning speed is another: located.
+    let other = single.replacen(",20000,1,ok,", ",30000,1,ok,", 1);
+    assert_ne!(other, single);
+    let err = ev
+        .rows_from_csv("other.csv", &other)
+        .expect_err("another combination")
+        .to_string();
+    assert!(
+        err.contains("other.csv: line 3: row 1 is prostate-1.json scan")
+            && err.contains("scan speed 20000 dose rate 1"),
+        "{err}"
+    );
+
+    // Not swept: the machine's scanning speed and scale 1 in the columns, null in the setting.
+    let text = scanning_setup(&dir, r#"{"jerk_deg_per_s3": [0.5, 1]}"#);
+    let ev = Evaluator::new(from_text_in(&text, &dir).expect("sweep")).expect("prepare");
+    let rows = all_rows(&ev);
+    let table = csv(&rows);
+    assert_eq!(column(&table, "scan_speed_mm_per_s"), ["5000", "5000"]);
+    assert_eq!(column(&table, "dose_rate_scale"), ["1", "1"]);
+    assert_eq!(rows[0].setting.scan_speed_mm_per_s, None);
+    assert_eq!(
+        ev.rows_from_csv("t.csv", &table).expect("read back").len(),
+        2
+    );
+    // Scale 1 and the machine's own speed are the base machine: the same totals.
+    let text = scanning_setup(
+        &dir,
+        r#"{"scan_speed_mm_per_s": [5000], "dose_rate_scale": [1]}"#,
+    );
+    let same = Evaluator::new(from_text_in(&text, &dir).expect("sweep")).expect("prepare");
+    let same_rows = all_rows(&same);
+    assert_eq!(ok(&same_rows[0]).total_s, ok(&rows[0]).total_s);
+    assert_eq!(ok(&same_rows[0]).breakdown, ok(&rows[0]).breakdown);
+
+    // Speeds beyond what a machine file accepts (0.001 to 1e6 mm/s) are refused, located.
+    for (axes, at) in [
+        (r#"{"scan_speed_mm_per_s": [5000, 1e7]}"#, "[1]"),
+        (
+            r#"{"scan_speed_mm_per_s": {"from": 0.0001, "to": 10, "steps": 3, "scale": "log"}}"#,
+            ".from",
+        ),
+    ] {
+        let e = error_of(&scanning_setup(&dir, axes), &dir);
+        assert!(
+            e.starts_with(&format!("test-sweep.json: axes.scan_speed_mm_per_s{at}: "))
+                && e.contains("`beam.scan_speed_mm_per_s`"),
+            "{axes}: {e}"
+        );
+    }
+}
+
+/// A table without the new columns (an older arcsim's) merges with its like, keeping its header,
+/// and reads back for a sweep that does not sweep the beam (the split of the beam-on time
+/// unknown: NaN); a mix of old and new tables, or an old table of a beam sweep, is an error.
+#[test]
+fn older_tables_without_the_beam_columns_still_merge_and_read_back() {
+    let dir = scenarios();
+    let ev = Evaluator::new(
+        from_text_in(&atom_sweep(r#"{"jerk_deg_per_s3": [0.5, 1, 2]}"#), &dir).expect("sweep"),
+    )
+    .expect("prepare");
+    let rows = all_rows(&ev);
+    let single = csv(&rows);
+    let old = drop_columns(&single, &NEW_COLUMNS);
+    assert!(old.starts_with(&format!("{CSV_HEADER_V1}\n")), "{old}");
+
+    let back = ev
+        .rows_from_csv("old.csv", &old)
+        .expect("an older table reads back");
+    assert_eq!(back.len(), 3);
+    for (a, r) in back.iter().zip(&rows) {
+        let (x, y) = (ok(a), ok(r));
+        assert_eq!(a.setting, r.setting);
+        assert_eq!(
+            (
+                x.total_s,
+                x.breakdown.beam_on_s,
+                x.breakdown.lost_s,
+                x.limiter_counts
+            ),
+            (
+                y.total_s,
+                y.breakdown.beam_on_s,
+                y.breakdown.lost_s,
+                y.limiter_counts
+            )
+        );
+        assert!(x.breakdown.spot_irradiation_s.is_nan() && x.breakdown.scanning_s.is_nan());
+    }
+    assert_eq!(
+        ev.summarize(&back).to_table(),
+        ev.summarize(&rows).to_table()
+    );
+
+    let shard = |k: usize, new: bool| {
+        let t = csv(&ev.run_collect(&Shard::new(k, 2).expect("shard").indices(ev.len())));
+        let t = if new {
+            t
+        } else {
+            drop_columns(&t, &NEW_COLUMNS)
+        };
+        (format!("shard-{k}.csv"), t)
+    };
+    let merged = merge_csv(&[shard(2, false), shard(1, false)], Some(3)).expect("old merge");
+    assert_eq!(merged, old);
+    let err = merge_csv(&[shard(1, true), shard(2, false)], Some(3))
+        .expect_err("a mix")
+        .to_string();
+    assert!(
+        err.starts_with("shard-2.csv: line 1: an older arcsim's header")
+            && err.contains("but shard-1.csv has the current arcsim sweep CSV header"),
+        "{err}"
+    );
+
+    // The same old table against a sweep of the dose rate: not its combinations.
+    let beam = Evaluator::new(
+        from_text_in(&atom_sweep(r#"{"dose_rate_scale": [1, 2]}"#), &dir).expect("sweep"),
+    )
+    .expect("prepare");
+    let old_two = drop_columns(&csv(&beam.run_collect(&[0, 1])), &NEW_COLUMNS);
+    let err = beam
+        .rows_from_csv("old.csv", &old_two)
+        .expect_err("the beam axis is not in an older table")
+        .to_string();
+    assert!(err.contains("old.csv: line 2: row 0"), "{err}");
+}

@@ -1,0 +1,358 @@
+//! Beam models: how long a layer's spots take, spot by spot.
+//!
+//! Two kinds, chosen by the machine file's `beam.kind`:
+//! - `per_mu` (the default when `kind` is absent, so older machine files read unchanged): every
+//!   spot takes `max(MU × s_per_mu, min_spot_time_s)` and consecutive spots are a fixed
+//!   `spot_switch_time_s` apart.
+//! - `scanning`: the dose rate depends on the energy (`s_per_mu_by_energy`, interpolated), the
+//!   scanning magnets move the beam between spots at a finite speed (the slower axis sets the
+//!   time), each move may add a settling time, a spot above `max_mu_per_spot` is split over extra
+//!   paintings, and a layer may carry a fixed overhead before its first spot.
+//!
+//! Both kinds lay a layer's spots out as [`SpotEvent`]s (start and end relative to the layer's
+//! beam-on); the layer's beam-on time is where the last one ends. A plan's `paintings` repeat the
+//! spot list, each pass delivering `MU / paintings` per spot.
+
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
+
+use crate::model::{EnergyLayer, Spots};
+
+/// How long a layer's spots take to deliver.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum BeamModel {
+    /// A fixed time per MU and between spots.
+    PerMu(PerMuBeam),
+    /// Energy-dependent dose rate, scanning speed, settling, repainting.
+    Scanning(ScanningBeam),
+}
+
+/// The `per_mu` beam model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PerMuBeam {
+    /// Seconds of beam per monitor unit.
+    pub s_per_mu: f64,
+    /// Seconds between two spots of one layer.
+    pub spot_switch_time_s: f64,
+    /// Shortest time one spot can take, in seconds.
+    #[serde(default)]
+    pub min_spot_time_s: f64,
+}
+
+/// The `scanning` beam model. Typical numbers: OpenTPS's PBS timing (`scenarios/machine-opentps.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScanningBeam {
+    /// `[energy MeV, s per MU]` rows, energies strictly increasing: the time per MU at an energy is
+    /// interpolated linearly between rows and clamped to the first / last row outside them.
+    pub s_per_mu_by_energy: Vec<[f64; 2]>,
+    /// Scanning speed of the spot in the isocentre plane, mm/s, for both axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_speed_mm_per_s: Option<f64>,
+    /// Scanning speed along x, mm/s (with `scan_speed_y_mm_per_s`, instead of one speed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_speed_x_mm_per_s: Option<f64>,
+    /// Scanning speed along y, mm/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_speed_y_mm_per_s: Option<f64>,
+    /// Shortest time one spot can take, s.
+    #[serde(default)]
+    pub min_spot_time_s: f64,
+    /// Time added to every spot-to-spot move for the magnets to settle, s.
+    #[serde(default)]
+    pub settling_time_s: f64,
+    /// Largest MU one spot may deliver in one pass; a heavier spot is split into equal parts
+    /// delivered in extra paintings (passes over the layer's spots, in the plan's order).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_mu_per_spot: Option<f64>,
+    /// Fixed beam-on overhead of every layer, spent before its first spot, s.
+    #[serde(default)]
+    pub layer_overhead_s: f64,
+}
+
+impl<'de> Deserialize<'de> for BeamModel {
+    /// `kind` selects the model; without it the object is a `per_mu` model (the only kind before
+    /// kinds existed). The rest of the object is read as that kind, unknown fields refused.
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let mut map = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+        let kind = match map.remove("kind") {
+            None => "per_mu".to_string(),
+            Some(serde_json::Value::String(k)) => k,
+            Some(other) => {
+                return Err(D::Error::custom(format!(
+                    "`kind`: expected \"per_mu\" or \"scanning\", got {other}"
+                )))
+            }
+        };
+        let value = serde_json::Value::Object(map);
+        match kind.as_str() {
+            "per_mu" => serde_json::from_value(value)
+                .map(BeamModel::PerMu)
+                .map_err(|e| D::Error::custom(format!("(kind per_mu) {e}"))),
+            "scanning" => serde_json::from_value(value)
+                .map(BeamModel::Scanning)
+                .map_err(|e| D::Error::custom(format!("(kind scanning) {e}"))),
+            other => Err(D::Error::custom(format!(
+                "unknown beam model kind \"{other}\"; expected \"per_mu\" or \"scanning\""
+            ))),
+        }
+    }
+}
+
+impl BeamModel {
+    /// The model with every time per MU divided by `scale` (a dose rate `scale` times higher).
+    pub fn with_dose_rate_scale(&self, scale: f64) -> BeamModel {
+        let mut m = self.clone();
+        match &mut m {
+            BeamModel::PerMu(b) => b.s_per_mu /= scale,
+            BeamModel::Scanning(b) => b.s_per_mu_by_energy.iter_mut().for_each(|r| r[1] /= scale),
+        }
+        m
+    }
+
+    /// The `scanning` model with both axes scanning at `mm_per_s`; `None` for `per_mu`, which has
+    /// no scanning speed.
+    pub fn with_scan_speed(&self, mm_per_s: f64) -> Option<BeamModel> {
+        match self {
+            BeamModel::PerMu(_) => None,
+            BeamModel::Scanning(b) => Some(BeamModel::Scanning(ScanningBeam {
+                scan_speed_mm_per_s: Some(mm_per_s),
+                scan_speed_x_mm_per_s: None,
+                scan_speed_y_mm_per_s: None,
+                ..b.clone()
+            })),
+        }
+    }
+
+    /// The name of the kind, as in the machine file.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            BeamModel::PerMu(_) => "per_mu",
+            BeamModel::Scanning(_) => "scanning",
+        }
+    }
+}
+
+impl ScanningBeam {
+    /// Seconds per MU at `energy_mev`: linear between the table's rows, clamped at its ends.
+    pub fn s_per_mu_at(&self, energy_mev: f64) -> f64 {
+        let rows = &self.s_per_mu_by_energy;
+        let Some(first) = rows.first() else {
+            return f64::NAN;
+        };
+        if energy_mev <= first[0] {
+            return first[1];
+        }
+        for w in rows.windows(2) {
+            let ([e0, r0], [e1, r1]) = (w[0], w[1]);
+            if energy_mev <= e1 {
+                return r0 + (r1 - r0) * (energy_mev - e0) / (e1 - e0);
+            }
+        }
+        rows[rows.len() - 1][1]
+    }
+
+    /// Scanning speeds along x and y, mm/s.
+    pub fn speeds_mm_per_s(&self) -> (f64, f64) {
+        match (
+            self.scan_speed_mm_per_s,
+            self.scan_speed_x_mm_per_s,
+            self.scan_speed_y_mm_per_s,
+        ) {
+            (Some(v), _, _) => (v, v),
+            (None, Some(x), Some(y)) => (x, y),
+            _ => (f64::NAN, f64::NAN),
+        }
+    }
+
+    /// Time to move the spot from `a` to `b` (mm): the slower axis sets it, plus the settling time.
+    pub fn move_time_s(&self, a: [f64; 2], b: [f64; 2]) -> f64 {
+        let (vx, vy) = self.speeds_mm_per_s();
+        ((b[0] - a[0]).abs() / vx).max((b[1] - a[1]).abs() / vy) + self.settling_time_s
+    }
+}
+
+/// One delivery of one spot (one painting of it), times relative to the layer's beam-on.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SpotEvent {
+    /// Index of the spot in the layer's list (from 0).
+    pub spot: usize,
+    /// Painting (pass over the layer's spots) that delivers it, from 0.
+    pub painting: usize,
+    /// Spot position in mm, when the plan gives positions.
+    pub position_mm: Option<[f64; 2]>,
+    /// MU delivered by this event.
+    pub mu: f64,
+    /// Irradiation start and end after the layer's beam-on, s.
+    pub start_s: f64,
+    pub end_s: f64,
+}
+
+/// A layer's beam-on time split into its parts, seconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LayerBeamTime {
+    /// Time the spots are irradiated.
+    pub spot_irradiation_s: f64,
+    /// Time between spots (scanning or spot switching, settling) and the layer overhead.
+    pub scanning_s: f64,
+}
+
+impl LayerBeamTime {
+    /// The whole beam-on time of the layer.
+    pub fn total_s(self) -> f64 {
+        self.spot_irradiation_s + self.scanning_s
+    }
+}
+
+/// Most spot deliveries (spots × paintings, splits included) of one layer.
+pub const MAX_SPOT_DELIVERIES: usize = 5_000_000;
+
+/// Why a layer's spots cannot be timed under a beam model.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SpotTimingError {
+    /// The `scanning` model needs `spots.positions_mm`.
+    NoPositions,
+    /// Splitting spots above `max_mu_per_spot` gives more than [`MAX_SPOT_DELIVERIES`].
+    TooManyDeliveries { count: usize },
+}
+
+/// MU per spot of a layer: the given list, or the total shared equally.
+fn spot_mu(spots: &Spots) -> impl Iterator<Item = f64> + '_ {
+    let n = spots.count as usize;
+    let equal = spots.total_mu.map(|t| t / spots.count.max(1) as f64);
+    (0..n).map(move |i| match &spots.mu {
+        Some(mu) => mu.get(i).copied().unwrap_or(0.0),
+        None => equal.unwrap_or(0.0),
+    })
+}
+
+/// Calls `visit` for every delivery of a spot of `spots` (energy `energy_mev`) under `beam`, in
+/// delivery order, and returns the layer's beam-on time split into its parts.
+pub fn time_spots(
+    spots: &Spots,
+    energy_mev: f64,
+    beam: &BeamModel,
+    mut visit: impl FnMut(&SpotEvent),
+) -> Result<LayerBeamTime, SpotTimingError> {
+    let paintings = spots.paintings.unwrap_or(1).max(1) as usize;
+    let scale = 1.0 / paintings as f64;
+    let position = |i: usize| spots.positions_mm.as_ref().and_then(|p| p.get(i).copied());
+    let mut time = LayerBeamTime::default();
+    let mut t = 0.0;
+    let mut first = true;
+    match beam {
+        BeamModel::PerMu(b) => {
+            let mut gaps = 0u64;
+            for painting in 0..paintings {
+                for (spot, mu) in spot_mu(spots).enumerate() {
+                    if !first {
+                        t += b.spot_switch_time_s;
+                        gaps += 1;
+                    }
+                    first = false;
+                    let mu = mu * scale;
+                    let d = (mu * b.s_per_mu).max(b.min_spot_time_s);
+                    visit(&SpotEvent {
+                        spot,
+                        painting,
+                        position_mm: position(spot),
+                        mu,
+                        start_s: t,
+                        end_s: t + d,
+                    });
+                    t += d;
+                    time.spot_irradiation_s += d;
+                }
+            }
+            time.scanning_s = gaps as f64 * b.spot_switch_time_s;
+        }
+        BeamModel::Scanning(b) => {
+            let positions = spots
+                .positions_mm
+                .as_ref()
+                .ok_or(SpotTimingError::NoPositions)?;
+            let rate = b.s_per_mu_at(energy_mev);
+            let parts = |mu: f64| match b.max_mu_per_spot {
+                Some(max) if mu > max => (mu / max).ceil() as usize,
+                _ => 1,
+            };
+            let passes = spot_mu(spots).map(|m| parts(m * scale)).max().unwrap_or(1);
+            let count = paintings.saturating_mul(
+                spot_mu(spots).fold(0usize, |n, m| n.saturating_add(parts(m * scale))),
+            );
+            if count > MAX_SPOT_DELIVERIES {
+                return Err(SpotTimingError::TooManyDeliveries { count });
+            }
+            t = b.layer_overhead_s;
+            time.scanning_s = b.layer_overhead_s;
+            let mut at: Option<[f64; 2]> = None;
+            for plan_painting in 0..paintings {
+                for pass in 0..passes {
+                    for (spot, mu) in spot_mu(spots).enumerate() {
+                        let mu = mu * scale;
+                        let k = parts(mu);
+                        if pass >= k {
+                            continue;
+                        }
+                        let p = positions.get(spot).copied().unwrap_or([0.0, 0.0]);
+                        if let Some(from) = at {
+                            let m = b.move_time_s(from, p);
+                            t += m;
+                            time.scanning_s += m;
+                        }
+                        at = Some(p);
+                        let mu = mu / k as f64;
+                        let d = (mu * rate).max(b.min_spot_time_s);
+                        visit(&SpotEvent {
+                            spot,
+                            painting: plan_painting * passes + pass,
+                            position_mm: Some(p),
+                            mu,
+                            start_s: t,
+                            end_s: t + d,
+                        });
+                        t += d;
+                        time.spot_irradiation_s += d;
+                    }
+                }
+            }
+        }
+    }
+    Ok(time)
+}
+
+/// A layer's beam-on time under `beam`: the explicit `irradiation_time_s` (all of it counted as
+/// irradiation), else its spots' time.
+pub fn layer_beam_time(
+    layer: &EnergyLayer,
+    beam: &BeamModel,
+) -> Result<LayerBeamTime, SpotTimingError> {
+    match (layer.irradiation_time_s, &layer.spots) {
+        (Some(t), _) => Ok(LayerBeamTime {
+            spot_irradiation_s: t,
+            scanning_s: 0.0,
+        }),
+        (None, Some(spots)) => layer_spots_time(spots, layer.energy_mev, beam),
+        (None, None) => Ok(LayerBeamTime::default()),
+    }
+}
+
+/// [`time_spots`] without the events; closed form for equal spots under `per_mu`.
+fn layer_spots_time(
+    spots: &Spots,
+    energy_mev: f64,
+    beam: &BeamModel,
+) -> Result<LayerBeamTime, SpotTimingError> {
+    if let (BeamModel::PerMu(b), None, Some(total)) = (beam, &spots.mu, spots.total_mu) {
+        let n = f64::from(spots.count) * f64::from(spots.paintings.unwrap_or(1).max(1));
+        if n >= 1.0 {
+            return Ok(LayerBeamTime {
+                spot_irradiation_s: n * (total / n * b.s_per_mu).max(b.min_spot_time_s),
+                scanning_s: (n - 1.0) * b.spot_switch_time_s,
+            });
+        }
+    }
+    time_spots(spots, energy_mev, beam, |_| {})
+}

@@ -1,0 +1,327 @@
+//! Beam models: spot timing under `per_mu` and `scanning`, checked against answers worked out by
+//! hand and against an independent computation on random spot maps; machine files of both kinds.
+
+use arcsim_plan::{
+    layer_beam_time, parse_machine, parse_plan, resolve, time_spots, BeamModel, Machine, PerMuBeam,
+    PlanError, ScanningBeam, SpotEvent, Spots,
+};
+use serde_json::{json, Value};
+
+fn scanning(speed: Option<f64>, xy: Option<(f64, f64)>) -> ScanningBeam {
+    ScanningBeam {
+        s_per_mu_by_energy: vec![[60.0, 0.038], [70.0, 0.023], [100.0, 0.010]],
+        scan_speed_mm_per_s: speed,
+        scan_speed_x_mm_per_s: xy.map(|v| v.0),
+        scan_speed_y_mm_per_s: xy.map(|v| v.1),
+        min_spot_time_s: 0.00025,
+        settling_time_s: 0.001,
+        max_mu_per_spot: None,
+        layer_overhead_s: 0.5,
+    }
+}
+
+fn spots(mu: &[f64], positions: &[[f64; 2]]) -> Spots {
+    Spots {
+        count: mu.len() as u32,
+        mu: Some(mu.to_vec()),
+        total_mu: None,
+        positions_mm: Some(positions.to_vec()),
+        paintings: None,
+    }
+}
+
+fn events(s: &Spots, energy: f64, beam: &BeamModel) -> (Vec<SpotEvent>, f64, f64) {
+    let mut ev = Vec::new();
+    let t = time_spots(s, energy, beam, |e| ev.push(*e)).expect("timed");
+    (ev, t.spot_irradiation_s, t.scanning_s)
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-12 * (1.0 + b.abs())
+}
+
+#[test]
+fn interpolation_is_linear_and_clamped() {
+    let b = scanning(Some(8000.0), None);
+    assert!(close(b.s_per_mu_at(65.0), 0.0305));
+    assert!(close(b.s_per_mu_at(85.0), 0.0165));
+    assert_eq!(b.s_per_mu_at(10.0), 0.038);
+    assert_eq!(b.s_per_mu_at(60.0), 0.038);
+    assert_eq!(b.s_per_mu_at(250.0), 0.010);
+}
+
+/// Three spots at 100 MeV (0.010 s/MU), x at 10 m/s and y at 5 m/s, 1 ms settling, 0.5 s overhead:
+/// spot 0 0.5–0.51 s; move 10 mm in x: 1 ms + 1 ms; spot 1 0.512–0.532 s; move 20 mm in y: 4 ms
+/// + 1 ms; spot 2 (0.001 MU, below the 0.25 ms minimum) 0.537–0.53725 s.
+#[test]
+fn scanning_layer_by_hand() {
+    let beam = BeamModel::Scanning(scanning(None, Some((10_000.0, 5_000.0))));
+    let s = spots(&[1.0, 2.0, 0.001], &[[0.0, 0.0], [10.0, 0.0], [10.0, 20.0]]);
+    let (ev, irr, scan) = events(&s, 100.0, &beam);
+    let want = [(0.5, 0.51), (0.512, 0.532), (0.537, 0.53725)];
+    assert_eq!(ev.len(), 3);
+    for (e, (t0, t1)) in ev.iter().zip(want) {
+        assert!(close(e.start_s, t0) && close(e.end_s, t1), "{e:?}");
+        assert_eq!(e.painting, 0);
+    }
+    assert!(close(irr, 0.01 + 0.02 + 0.00025), "{irr}");
+    assert!(close(scan, 0.5 + 0.002 + 0.005), "{scan}");
+    assert_eq!(ev[2].position_mm, Some([10.0, 20.0]));
+}
+
+/// A spot above `max_mu_per_spot` is split into equal parts over extra passes; lighter spots are
+/// delivered once, in the first pass.
+#[test]
+fn heavy_spots_are_repainted() {
+    let mut b = scanning(Some(1000.0), None);
+    b.max_mu_per_spot = Some(1.5);
+    b.layer_overhead_s = 0.0;
+    b.settling_time_s = 0.0;
+    let beam = BeamModel::Scanning(b);
+    let s = spots(&[4.0, 1.0, 3.0], &[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]);
+    let (ev, irr, _) = events(&s, 100.0, &beam);
+    let seen: Vec<(usize, usize)> = ev.iter().map(|e| (e.painting, e.spot)).collect();
+    // spot 0: 3 parts of 4/3; spot 1: one part; spot 2: 2 parts of 1.5.
+    assert_eq!(seen, [(0, 0), (0, 1), (0, 2), (1, 0), (1, 2), (2, 0)]);
+    assert!(close(ev[0].mu, 4.0 / 3.0) && close(ev[4].mu, 1.5));
+    let mu: f64 = ev.iter().map(|e| e.mu).sum();
+    assert!(close(mu, 8.0));
+    assert!(close(irr, 8.0 * 0.010));
+    // From spot 2 back to spot 0 at the start of the second pass: 2 mm at 1 m/s.
+    assert!(close(ev[3].start_s - ev[2].end_s, 0.002));
+}
+
+/// Plan paintings repeat the list with MU / paintings; per_mu times them as the repeated list.
+#[test]
+fn paintings_repeat_the_spot_list() {
+    let beam = BeamModel::PerMu(PerMuBeam {
+        s_per_mu: 0.005,
+        spot_switch_time_s: 0.002,
+        min_spot_time_s: 0.0,
+    });
+    let mut s = spots(&[1.0, 2.0], &[[0.0, 0.0], [5.0, 0.0]]);
+    s.paintings = Some(3);
+    let (ev, irr, scan) = events(&s, 150.0, &beam);
+    assert_eq!(ev.len(), 6);
+    assert_eq!(
+        ev.iter().map(|e| e.painting).collect::<Vec<_>>(),
+        [0, 0, 1, 1, 2, 2]
+    );
+    assert!(close(irr, 3.0 * 0.005) && close(scan, 5.0 * 0.002));
+    let expanded = spots(&[1.0 / 3.0, 2.0 / 3.0].repeat(3), &[[0.0, 0.0]; 6]);
+    let (_, irr2, scan2) = events(&expanded, 150.0, &beam);
+    assert!(close(irr, irr2) && close(scan, scan2));
+}
+
+/// The per_mu model is unchanged: Σ max(MU × s/MU, minimum) + (n − 1) × switch.
+#[test]
+fn per_mu_matches_the_old_formula() {
+    let b = PerMuBeam {
+        s_per_mu: 0.005,
+        spot_switch_time_s: 0.002,
+        min_spot_time_s: 0.004,
+    };
+    let mu = [0.3, 1.2, 0.5, 2.0];
+    let s = spots(&mu, &[[0.0; 2]; 4]);
+    let old: f64 = mu
+        .iter()
+        .map(|m| (m * b.s_per_mu).max(b.min_spot_time_s))
+        .sum::<f64>()
+        + 3.0 * b.spot_switch_time_s;
+    let layer = arcsim_plan::EnergyLayer {
+        energy_mev: 120.0,
+        spots: Some(s),
+        irradiation_time_s: None,
+        switching_time_s: None,
+    };
+    let t = layer_beam_time(&layer, &BeamModel::PerMu(b)).expect("timed");
+    assert_eq!(t.total_s(), old);
+}
+
+/// splitmix64: a small seeded generator, so the random cases are the same in every run.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+}
+
+/// Random spot maps against a direct sum written independently of the model's loop: the spots'
+/// times, the scanning moves between consecutive spots (slower axis) with settling, the overhead;
+/// spots never overlap, each starts when the previous move ends.
+#[test]
+fn random_spot_maps_match_an_independent_sum() {
+    let mut rng = Rng(7);
+    for case in 0..500 {
+        let n = 1 + (rng.next() * 60.0) as usize;
+        let energy = rng.range(50.0, 240.0);
+        let (vx, vy) = (rng.range(500.0, 20_000.0), rng.range(500.0, 20_000.0));
+        let mut b = scanning(None, Some((vx, vy)));
+        b.settling_time_s = rng.range(0.0, 0.002);
+        b.layer_overhead_s = rng.range(0.0, 1.0);
+        b.min_spot_time_s = rng.range(0.0, 0.003);
+        let mu: Vec<f64> = (0..n).map(|_| rng.range(0.0, 3.0)).collect();
+        let pos: Vec<[f64; 2]> = (0..n)
+            .map(|_| [rng.range(-100.0, 100.0), rng.range(-100.0, 100.0)])
+            .collect();
+        let rate = if energy <= 60.0 {
+            0.038
+        } else if energy <= 70.0 {
+            0.038 + (0.023 - 0.038) * (energy - 60.0) / 10.0
+        } else if energy <= 100.0 {
+            0.023 + (0.010 - 0.023) * (energy - 70.0) / 30.0
+        } else {
+            0.010
+        };
+        let spot_s: f64 = mu.iter().map(|m| (m * rate).max(b.min_spot_time_s)).sum();
+        let moves_s: f64 = pos
+            .windows(2)
+            .map(|w| {
+                let (dx, dy) = ((w[1][0] - w[0][0]).abs(), (w[1][1] - w[0][1]).abs());
+                f64::max(dx / vx, dy / vy) + b.settling_time_s
+            })
+            .sum();
+        let overhead = b.layer_overhead_s;
+        let beam = BeamModel::Scanning(b);
+        let (ev, irr, scan) = events(&spots(&mu, &pos), energy, &beam);
+        assert_eq!(ev.len(), n, "case {case}");
+        assert!(
+            (irr - spot_s).abs() <= 1e-12,
+            "case {case}: {irr} vs {spot_s}"
+        );
+        assert!(
+            (scan - moves_s - overhead).abs() <= 1e-12,
+            "case {case}: {scan}"
+        );
+        assert!(close(ev[0].start_s, overhead), "case {case}");
+        for w in ev.windows(2) {
+            assert!(w[1].start_s >= w[0].end_s, "case {case}: overlap");
+        }
+        let last = ev.last().map_or(0.0, |e| e.end_s);
+        assert!((last - irr - scan).abs() <= 1e-9, "case {case}");
+    }
+}
+
+fn machine_json(beam: Value) -> Value {
+    json!({
+        "format": "arcsim-machine/1",
+        "name": "scan",
+        "gantry": { "max_speed_deg_per_s": 5.0, "max_accel_deg_per_s2": 0.5, "max_jerk_deg_per_s3": 0.5 },
+        "beam": beam,
+        "elst": { "kind": "constant", "up_s": 6.0, "down_s": 0.6, "same_s": 0.6 },
+        "default_window_deg": 1.0
+    })
+}
+
+fn issues(v: &Value) -> String {
+    match parse_machine(&v.to_string(), "m.json") {
+        Err(e) => e.to_string(),
+        Ok(m) => panic!("expected an error, got {m:?}"),
+    }
+}
+
+#[test]
+fn machine_files_of_both_kinds() {
+    let old = machine_json(json!({ "s_per_mu": 0.005, "spot_switch_time_s": 0.002 }));
+    let m = parse_machine(&old.to_string(), "m.json").expect("a file without kind");
+    assert_eq!(m.beam.kind(), "per_mu");
+    let scan = machine_json(json!({
+        "kind": "scanning",
+        "s_per_mu_by_energy": [[60, 0.038], [227, 0.006]],
+        "scan_speed_mm_per_s": 8000,
+        "min_spot_time_s": 0.00025
+    }));
+    let m: Machine = parse_machine(&scan.to_string(), "m.json").expect("scanning");
+    assert_eq!(m.beam.kind(), "scanning");
+    // Round trip through serde keeps the kind.
+    let again = parse_machine(&serde_json::to_string(&m).expect("json"), "again").expect("again");
+    assert_eq!(again, m);
+
+    let e = issues(&machine_json(json!({ "kind": "laser" })));
+    assert!(e.contains("unknown beam model kind \"laser\""), "{e}");
+    let mut bad = scan.clone();
+    bad["beam"]["scan_sped_mm_per_s"] = json!(1);
+    let e = issues(&bad);
+    assert!(e.contains("scan_sped_mm_per_s"), "{e}");
+    let mut bad = scan.clone();
+    bad["beam"]["scan_speed_x_mm_per_s"] = json!(1000);
+    let e = issues(&bad);
+    assert!(
+        e.contains("beam.scan_speed_mm_per_s") && e.contains("either"),
+        "{e}"
+    );
+    let mut bad = scan.clone();
+    bad["beam"]["s_per_mu_by_energy"] = json!([[100, 0.01], [90, 0.02]]);
+    let e = issues(&bad);
+    assert!(
+        e.contains("beam.s_per_mu_by_energy[1][0]") && e.contains("increasing"),
+        "{e}"
+    );
+    let mut bad = scan;
+    bad["beam"]["s_per_mu_by_energy"] = json!([[100, -0.01]]);
+    let e = issues(&bad);
+    assert!(e.contains("beam.s_per_mu_by_energy[0][1]"), "{e}");
+}
+
+fn plan_json(spots: Value) -> String {
+    json!({
+        "format": "arcsim-plan/1",
+        "name": "p",
+        "arcs": [{ "direction": "CW", "control_points": [
+            { "angle_deg": 0.0, "layers": [{ "energy_mev": 100.0, "spots": spots.clone() }] },
+            { "angle_deg": 2.0, "layers": [{ "energy_mev": 90.0, "spots": spots }] }
+        ]}]
+    })
+    .to_string()
+}
+
+#[test]
+fn scanning_needs_positions_and_resolves_the_split() {
+    let scan = machine_json(json!({
+        "kind": "scanning",
+        "s_per_mu_by_energy": [[60, 0.038], [227, 0.006]],
+        "scan_speed_mm_per_s": 8000,
+        "layer_overhead_s": 0.1
+    }));
+    let machine = parse_machine(&scan.to_string(), "m.json").expect("machine");
+    let bare = parse_plan(&plan_json(json!({ "count": 2, "mu": [1, 2] })), "p.json")
+        .expect("a plan without positions is valid");
+    match resolve(&bare, &machine) {
+        Err(PlanError::Invalid { issues, .. }) => {
+            let text: Vec<String> = issues.iter().map(|i| i.to_string()).collect();
+            assert_eq!(text.len(), 2, "{text:?}");
+            assert!(
+                text[0].contains("control point 0")
+                    && text[0].contains("spots.positions_mm")
+                    && text[0].contains("scanning"),
+                "{text:?}"
+            );
+        }
+        other => panic!("expected the missing positions, got {other:?}"),
+    }
+    let plan = parse_plan(
+        &plan_json(json!({ "count": 2, "mu": [1, 2], "positions_mm": [[0, 0], [8, 0]] })),
+        "p.json",
+    )
+    .expect("plan");
+    let arcs = resolve(&plan, &machine).expect("resolves");
+    let l = &arcs[0].layers[0];
+    assert!(close(l.scanning_s, 0.1 + 0.001), "{l:?}");
+    assert!(close(l.irradiation_s, l.spot_irradiation_s + l.scanning_s));
+    let wrong = plan_json(json!({ "count": 2, "mu": [1, 2], "positions_mm": [[0, 0]] }));
+    let e = parse_plan(&wrong, "p.json").expect_err("one position for two spots");
+    assert!(
+        e.to_string().contains("spots.positions_mm") && e.to_string().contains("1 positions"),
+        "{e}"
+    );
+    let wrong = plan_json(json!({ "count": 2, "mu": [1, 2], "paintings": 0 }));
+    let e = parse_plan(&wrong, "p.json").expect_err("no paintings");
+    assert!(e.to_string().contains("spots.paintings"), "{e}");
+}

@@ -1,0 +1,95 @@
+//! The per-spot timeline: when every spot of every layer is delivered and at which gantry angle.
+//!
+//! The beam model lays each layer's spots out after the layer's beam-on ([`arcsim_plan::time_spots`]);
+//! the delivery says when each layer's beam-on starts, and its timeline where the gantry is then.
+
+use arcsim_plan::{time_spots, ArcPlan, Machine};
+use serde::{Deserialize, Serialize};
+
+use crate::{Delivery, SequenceError};
+
+/// One delivery of one spot (one painting of it).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SpotRow {
+    /// Index of the layer in delivery order over the whole plan.
+    pub layer_index: usize,
+    pub arc: usize,
+    pub control_point: usize,
+    /// Index of the layer within its control point.
+    pub layer: usize,
+    /// Index of the spot in the layer's list (from 0).
+    pub spot: usize,
+    /// Painting (pass over the layer's spots) that delivers it, from 0.
+    pub painting: usize,
+    /// Spot position in the isocentre plane, mm (absent when the plan gives no positions).
+    pub x_mm: Option<f64>,
+    pub y_mm: Option<f64>,
+    /// MU delivered by this painting of the spot.
+    pub mu: f64,
+    /// Irradiation start and end, s from the start of the delivery.
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+    /// Gantry angle at the spot's start and end, degrees.
+    pub angle_start_deg: f64,
+    pub angle_end_deg: f64,
+}
+
+/// Every spot delivery of `delivery`, in delivery order. `plan` and `machine` must be the ones
+/// the delivery was simulated from (the layer rows index into the plan), and the delivery must
+/// carry its timeline ([`crate::Options::build_timeline`]).
+pub fn spot_timeline(
+    plan: &ArcPlan,
+    machine: &Machine,
+    delivery: &Delivery,
+) -> Result<Vec<SpotRow>, SequenceError> {
+    let timeline = delivery.timeline.as_ref().ok_or_else(|| {
+        SequenceError::Input("the spot timeline needs the delivery's timeline".into())
+    })?;
+    let mut rows = Vec::new();
+    for row in &delivery.layers {
+        let layer = plan
+            .arcs
+            .get(row.arc)
+            .and_then(|a| a.control_points.get(row.control_point))
+            .and_then(|cp| cp.layers.get(row.layer))
+            .ok_or_else(|| {
+                SequenceError::Input(format!(
+                    "delivery layer {} (arc {}, control point {}, layer {}) is not in plan \"{}\"",
+                    row.index, row.arc, row.control_point, row.layer, plan.name
+                ))
+            })?;
+        let Some(spots) = &layer.spots else {
+            continue;
+        };
+        let angle = |t: f64| {
+            timeline
+                .state_at(t.clamp(row.t_start_s, row.t_end_s))
+                .angle_deg
+        };
+        time_spots(spots, layer.energy_mev, &machine.beam, |e| {
+            let (t0, t1) = (row.t_start_s + e.start_s, row.t_start_s + e.end_s);
+            rows.push(SpotRow {
+                layer_index: row.index,
+                arc: row.arc,
+                control_point: row.control_point,
+                layer: row.layer,
+                spot: e.spot,
+                painting: e.painting,
+                x_mm: e.position_mm.map(|p| p[0]),
+                y_mm: e.position_mm.map(|p| p[1]),
+                mu: e.mu,
+                t_start_s: t0,
+                t_end_s: t1,
+                angle_start_deg: angle(t0),
+                angle_end_deg: angle(t1),
+            });
+        })
+        .map_err(|e| {
+            SequenceError::Input(format!(
+                "layer {} (arc {}, control point {}, layer {}): its spots cannot be timed under machine \"{}\": {e:?}",
+                row.index, row.arc, row.control_point, row.layer, machine.name
+            ))
+        })?;
+    }
+    Ok(rows)
+}
