@@ -316,6 +316,49 @@ fn a_static_beam_takes_the_plain_sum_of_its_layers() {
     }
 }
 
+/// Worked out by hand: one static control point at 90° with three layers on the OpenTPS machine.
+/// 150 MeV (0.006 s/MU): spots 1, 2 and 0.001 MU take 6, 12 and 0.25 (the minimum) ms, moves of
+/// 10 mm in x and 20 mm in y 1.25 and 2.5 ms: 22 ms. Down to 140 MeV: 0.6 s; 0.007 s/MU, two 1 MU
+/// spots 8 mm apart: 7 + 1 + 7 ms = 15 ms. Up to 145 MeV: 6 s; 0.0065 s/MU (halfway between
+/// 140 and 150 MeV) × 0.5 MU = 3.25 ms. Total 6.64025 s, every spot at 90°.
+#[test]
+fn a_static_control_point_by_hand() {
+    let dir = fixtures::temp_dir().join("spots-hand");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let plan = dir.join("static.json");
+    let text = serde_json::json!({
+        "format": "arcsim-plan/1",
+        "name": "static by hand",
+        "arcs": [{ "direction": "CW", "control_points": [{
+            "angle_deg": 90.0, "window_deg": 0.0, "layers": [
+                { "energy_mev": 150.0, "spots": { "count": 3, "mu": [1.0, 2.0, 0.001],
+                  "positions_mm": [[0.0, 0.0], [10.0, 0.0], [10.0, 20.0]] } },
+                { "energy_mev": 140.0, "spots": { "count": 2, "mu": [1.0, 1.0],
+                  "positions_mm": [[0.0, 0.0], [8.0, 0.0]] } },
+                { "energy_mev": 145.0, "spots": { "count": 1, "mu": [0.5],
+                  "positions_mm": [[0.0, 0.0]] } }
+            ]
+        }]}]
+    });
+    std::fs::write(&plan, text.to_string()).expect("plan");
+    for motion in ["free", "constant"] {
+        let (result, rows) = simulate(&plan, &dir, &["--motion", motion]);
+        assert!(
+            (f(&result["total_s"]) - 6.64025).abs() < 1e-12,
+            "{motion}: {result}"
+        );
+        let b = &result["breakdown"];
+        assert!((f(&b["spot_irradiation_s"]) - 0.0355).abs() < 1e-12, "{b}");
+        assert!((f(&b["scanning_s"]) - 0.00475).abs() < 1e-12, "{b}");
+        assert!((f(&b["energy_switching_s"]) - 6.6).abs() < 1e-12, "{b}");
+        assert_eq!(rows.len(), 6);
+        assert!(rows
+            .iter()
+            .all(|r| (r[11] - 90.0).abs() < 1e-9 && (r[12] - 90.0).abs() < 1e-9));
+        check_spots(&result, &rows, &[3, 2, 1]);
+    }
+}
+
 #[test]
 fn scanning_machine_without_positions_names_the_layer() {
     let dir = fixtures::temp_dir().join("spots-bare");
