@@ -1,0 +1,64 @@
+//! Totals of every schedule on every bundled plan, pinned (the ATOM machine, constant speed per
+//! layer; free motion where it is quick), so that a change that alters a result fails here and
+//! says which. Values from `arcsim simulate plans/NAME.json --schedule S --motion constant --json`
+//! on 2026-12-01; they are to change only with a reason given in the commit.
+
+use arcsim_plan::{load_machine, load_plan};
+use arcsim_sequencer::{simulate, Motion, Options, Schedule};
+
+const CONSTANT: [(&str, Schedule, f64); 16] = [
+    ("prostate", Schedule::Scan, 273.965561),
+    ("prostate", Schedule::Optimal, 273.882033),
+    ("prostate", Schedule::StepAndShoot, 948.244332),
+    ("prostate", Schedule::Prescribed, 273.965561),
+    ("head-neck", Schedule::Scan, 760.645846),
+    ("head-neck", Schedule::Optimal, 758.316680),
+    ("head-neck", Schedule::StepAndShoot, 2435.063092),
+    ("head-neck", Schedule::Prescribed, 760.645846),
+    ("two-arc", Schedule::Scan, 339.677097),
+    ("two-arc", Schedule::Optimal, 324.776874),
+    ("two-arc", Schedule::StepAndShoot, 1112.177933),
+    ("two-arc", Schedule::Prescribed, 339.677097),
+    ("lung", Schedule::Scan, 158.328633),
+    ("lung", Schedule::Optimal, 158.253309),
+    ("lung", Schedule::StepAndShoot, 399.228603),
+    ("lung", Schedule::Prescribed, 158.328633),
+];
+
+/// `arcsim simulate PLAN` (optimal, free motion, arc ends at rest).
+const FREE: [(&str, f64); 3] = [
+    ("prostate", 191.901114),
+    ("lung", 135.261366),
+    ("two-arc", 257.566631),
+];
+
+fn pinned(what: &str, got: f64, want: f64) {
+    assert!(
+        (got - want).abs() <= 1e-6,
+        "{what}: {got:.6} s, pinned {want:.6} s"
+    );
+}
+
+#[test]
+fn every_schedule_on_every_bundled_plan() {
+    let root = arcsim_suite::repo_root();
+    let machine = load_machine(root.join("scenarios/machine-atom.json")).expect("machine");
+    for (name, schedule, want) in CONSTANT {
+        let plan = load_plan(root.join(format!("plans/{name}.json"))).expect("plan");
+        let opts = Options {
+            motion: Motion::Constant,
+            ..Options::new(schedule)
+        };
+        let d = simulate(&plan, &machine, &opts).expect("simulate");
+        pinned(&format!("{name} {}", schedule.name()), d.total_s, want);
+    }
+    for (name, want) in FREE {
+        let plan = load_plan(root.join(format!("plans/{name}.json"))).expect("plan");
+        let opts = Options {
+            motion: Motion::Free,
+            ..Options::new(Schedule::Optimal)
+        };
+        let d = simulate(&plan, &machine, &opts).expect("simulate");
+        pinned(&format!("{name} free motion"), d.total_s, want);
+    }
+}
