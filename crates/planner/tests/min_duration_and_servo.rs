@@ -164,16 +164,14 @@ fn servo_discretisation_keeps_limits_and_end_state() {
                     "case {case}"
                 );
                 let e = dz.profile.extrema();
-                let amax = lim.max_accel.max(lim.max_decel);
                 assert!(
                     e.max_abs_jerk <= lim.max_jerk * (1.0 + 1e-12),
                     "case {case}: jerk {}",
                     e.max_abs_jerk
                 );
-                assert!(
-                    e.max_acceleration.max(-e.min_acceleration) <= amax * (1.0 + 1e-12),
-                    "case {case}"
-                );
+                if let Err(why) = common::check_accel(&e, &mv, &lim, 1e-12) {
+                    panic!("case {case}: {why}");
+                }
                 assert!(
                     e.max_velocity.max(-e.min_velocity) <= lim.max_vel * (1.0 + 1e-12),
                     "case {case}"

@@ -55,12 +55,11 @@ fn check_case(
         ctx(),
         e.max_abs_jerk
     );
-    let amax = lim.max_accel.max(lim.max_decel);
-    assert!(
-        e.max_acceleration <= amax * (1.0 + rel) && -e.min_acceleration <= amax * (1.0 + rel),
-        "{}: acc",
-        ctx()
-    );
+    // A bounds the acceleration along the direction of travel, D the one against it (the
+    // planner's convention; Ruckig's a_max = A, a_min = -D for a forward move).
+    if let Err(why) = common::check_accel(&e, &mv, &lim, rel) {
+        panic!("{}: {why}", ctx());
+    }
     assert!(
         e.max_velocity <= lim.max_vel * (1.0 + rel) && -e.min_velocity <= lim.max_vel * (1.0 + rel),
         "{}: vel {e:?}",
@@ -73,11 +72,15 @@ fn check_case(
             ctx()
         );
     }
-    // Sampled limits agree with the extrema (sampling can only find less).
+    // Sampled limits agree with the extrema (sampling can only find less): the acceleration
+    // along travel within A, against it within D.
+    let dir = arcsim_planner::profile::travel_direction(mv.distance, mv.v_start, mv.v_end);
     for (_, st) in prof.samples(t / 37.0) {
+        let along = dir * st.acceleration;
         assert!(
             st.velocity.abs() <= lim.max_vel * (1.0 + rel)
-                && st.acceleration.abs() <= amax * (1.0 + rel),
+                && along <= lim.max_accel * (1.0 + rel)
+                && -along <= lim.max_decel * (1.0 + rel),
             "{}: sample {st:?}",
             ctx()
         );

@@ -19,12 +19,27 @@ fn machine(name: &str) -> Machine {
 fn check(d: &Delivery, m: &Machine, what: &str) {
     let tl = d.timeline.as_ref().expect("timeline");
     let g = &m.gantry;
-    let (v_max, a_max, j_max) = (
-        g.max_speed_deg_per_s,
-        g.max_accel_deg_per_s2
-            .max(g.max_decel_deg_per_s2.unwrap_or(0.0)),
-        g.max_jerk_deg_per_s3,
+    let (v_max, j_max) = (g.max_speed_deg_per_s, g.max_jerk_deg_per_s3);
+    // A bounds the acceleration along the direction of travel, D the one against it.
+    let (a_along, a_against) = (
+        g.max_accel_deg_per_s2,
+        g.max_decel_deg_per_s2.unwrap_or(g.max_accel_deg_per_s2),
     );
+    // The direction of travel at `t`: the sign of its piece's displacement (no piece reverses,
+    // so a piece that moves at all moves one way); 0 for a piece that does not move.
+    let direction_at = |t: f64| {
+        tl.piece_at(t).map_or(0.0, |i| {
+            let p = &tl.pieces[i];
+            let moved = p.state_after(p.duration_s).angle_deg - p.angle_deg;
+            if moved > 0.0 {
+                1.0
+            } else if moved < 0.0 {
+                -1.0
+            } else {
+                0.0
+            }
+        })
+    };
     // Breakdown and totals.
     let b = d.breakdown;
     assert!(
@@ -60,10 +75,19 @@ fn check(d: &Delivery, m: &Machine, what: &str) {
             "{what}: speed {} at {t1}",
             s1.speed_deg_per_s
         );
+        let dir = direction_at(t1);
+        let along = dir * s1.accel_deg_per_s2;
         assert!(
-            s1.accel_deg_per_s2.abs() <= a_max * (1.0 + 1e-9),
-            "{what}: accel at {t1}"
+            along <= a_along * (1.0 + 1e-9) + 1e-12 && -along <= a_against * (1.0 + 1e-9) + 1e-12,
+            "{what}: acceleration {} at {t1} (travel {dir}; A {a_along}, D {a_against})",
+            s1.accel_deg_per_s2
         );
+        if dir == 0.0 {
+            assert!(
+                s1.accel_deg_per_s2.abs() <= 1e-12,
+                "{what}: accelerating at rest at {t1}"
+            );
+        }
         assert!(
             s1.jerk_deg_per_s3.abs() <= j_max * (1.0 + 1e-9),
             "{what}: jerk at {t1}"
@@ -157,6 +181,13 @@ fn generated_plans_meet_every_constraint() {
                 "machine-opentps.json",
             ] {
                 run_all(&plan, &machine(m), &format!("{kind:?} seed {seed} on {m}"));
+            }
+            // A gantry that brakes harder, and one that brakes more gently, than it speeds up:
+            // the check holds A along the direction of travel and D against it.
+            for decel in [1.6, 0.6] {
+                let mut m = machine("machine-atom.json");
+                m.gantry.max_decel_deg_per_s2 = Some(decel * m.gantry.max_accel_deg_per_s2);
+                run_all(&plan, &m, &format!("{kind:?} seed {seed}, D = {decel} A"));
             }
         }
     }

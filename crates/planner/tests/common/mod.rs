@@ -153,3 +153,28 @@ pub fn brute_force_end(p: &Profile, steps: usize) -> (f64, f64, f64) {
 pub fn move_scale(mv: &Move, lim: &Limits, duration: f64) -> f64 {
     mv.distance.abs().max(lim.max_vel * duration).max(1e-300)
 }
+
+/// The acceleration extremes of a profile against the limits in the planner's convention: A
+/// along the direction of travel, D against it. `Err` says which is exceeded.
+pub fn check_accel(
+    e: &arcsim_planner::Extrema,
+    mv: &Move,
+    lim: &Limits,
+    rel: f64,
+) -> Result<(), String> {
+    let forward =
+        arcsim_planner::profile::travel_direction(mv.distance, mv.v_start, mv.v_end) > 0.0;
+    let (along, against) = if forward {
+        (e.max_acceleration, -e.min_acceleration)
+    } else {
+        (-e.min_acceleration, e.max_acceleration)
+    };
+    if along <= lim.max_accel * (1.0 + rel) && against <= lim.max_decel * (1.0 + rel) {
+        Ok(())
+    } else {
+        Err(format!(
+            "acceleration {along} along travel (A {}), {against} against (D {})",
+            lim.max_accel, lim.max_decel
+        ))
+    }
+}
