@@ -1,18 +1,12 @@
 //! Free motion: timelines checked independently of the sequencer (sampled every millisecond),
 //! never slower than constant speed, and the ATOM article's local-search result beaten.
 
+mod common;
+
 use arcsim_plan::generate::{generate, PlanKind};
 use arcsim_plan::{parse_machine, ArcPlan, Machine};
 use arcsim_sequencer::{simulate, ArcEnds, Delivery, Motion, Options, PieceKind, Schedule};
-
-fn machine(name: &str) -> Machine {
-    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
-    parse_machine(
-        &std::fs::read_to_string(&path).expect("machine file"),
-        &path,
-    )
-    .expect("machine")
-}
+use common::{check_limits_at, machine};
 
 fn free(ends: ArcEnds) -> Options {
     Options {
@@ -28,10 +22,6 @@ fn free(ends: ArcEnds) -> Options {
 fn check_sampled(d: &Delivery, m: &Machine, dt: f64, what: &str) {
     let tl = d.timeline.as_ref().expect("timeline");
     let g = &m.gantry;
-    let (v_max, j_max) = (g.max_speed_deg_per_s, g.max_jerk_deg_per_s3);
-    let a_max = g
-        .max_accel_deg_per_s2
-        .max(g.max_decel_deg_per_s2.unwrap_or(0.0));
     let total = tl.duration_s();
     assert!(
         (total - d.total_s).abs() <= 1e-9 * (1.0 + total),
@@ -87,19 +77,7 @@ fn check_sampled(d: &Delivery, m: &Machine, dt: f64, what: &str) {
     let mut beams_seen = 0usize;
     for &t in &times {
         let s = tl.state_at(t);
-        assert!(
-            s.speed_deg_per_s.abs() <= v_max * (1.0 + 1e-9),
-            "{what}: speed {} at {t}",
-            s.speed_deg_per_s
-        );
-        assert!(
-            s.accel_deg_per_s2.abs() <= a_max * (1.0 + 1e-9),
-            "{what}: accel at {t}"
-        );
-        assert!(
-            s.jerk_deg_per_s3.abs() <= j_max * (1.0 + 1e-9),
-            "{what}: jerk at {t}"
-        );
+        check_limits_at(tl, g, t, what);
         let i = tl.piece_at(t).expect("piece");
         if let PieceKind::Beam { layer } = tl.pieces[i].kind {
             let l = &d.layers[layer];

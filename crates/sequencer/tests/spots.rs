@@ -2,18 +2,12 @@
 //! models, constant and free motion: every spot delivery listed once, inside its layer's window
 //! and beam-on, in order without overlap, ending where the layer's beam-on ends.
 
-use arcsim_plan::generate::{generate, PlanKind};
-use arcsim_plan::{parse_machine, resolve, Machine};
-use arcsim_sequencer::{simulate, spot_timeline, Motion, Options, Schedule};
+mod common;
 
-fn machine(name: &str) -> Machine {
-    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
-    parse_machine(
-        &std::fs::read_to_string(&path).expect("machine file"),
-        &path,
-    )
-    .expect("machine")
-}
+use arcsim_plan::generate::{generate, PlanKind};
+use arcsim_plan::resolve;
+use arcsim_sequencer::{simulate, spot_timeline, Motion, Options, Schedule};
+use common::machine;
 
 #[test]
 fn spots_lie_in_their_layers_on_generated_plans() {
