@@ -2,14 +2,12 @@
 //! warnings for likely unit slips, one message per kind of problem, and results that say what
 //! produced them. Run on the bundled plans and a DICOM fixture, as a user would.
 
-#[path = "../../dicom/tests/fixtures/mod.rs"]
-mod fixtures;
-
 mod common;
 
 use std::collections::HashMap;
 use std::path::Path;
 
+use arcsim_test_support::{dicom, temp_dir, temp_file};
 use serde_json::Value;
 
 use common::{arcsim, path_str as s, repo, text as out};
@@ -102,7 +100,7 @@ fn check_lost_time(v: &Value) {
 
 #[test]
 fn simulate_says_where_the_time_is_lost() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let json = dir.join("r.json");
     let o = arcsim(&[
         "simulate",
@@ -131,7 +129,7 @@ fn simulate_says_where_the_time_is_lost() {
     check_lost_time(&v);
 
     // The same on a DICOM arc (free motion, the default).
-    let dcm = fixtures::write_bytes("arc.dcm", &fixtures::dynamic_arc_plan().to_bytes());
+    let dcm = temp_file("arc.dcm", &dicom::dynamic_arc_plan().to_bytes());
     let json = dir.join("d.json");
     let o = arcsim(&["simulate", s(&dcm), "--json", s(&json)]);
     let (stdout, stderr) = out(&o);
@@ -142,7 +140,7 @@ fn simulate_says_where_the_time_is_lost() {
 
 #[test]
 fn results_say_what_produced_them() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let json = dir.join("r.json");
     let o = arcsim(&[
         "simulate",
@@ -198,7 +196,7 @@ fn results_say_what_produced_them() {
 
 #[test]
 fn unit_slips_warn_and_strict_refuses() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let mut machine: Value = serde_json::from_str(
         &std::fs::read_to_string(repo().join("scenarios/machine-atom.json")).unwrap(),
     )
@@ -272,7 +270,7 @@ fn unit_slips_warn_and_strict_refuses() {
 
 #[test]
 fn one_cause_one_message() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let mut plan: Value =
         serde_json::from_str(&std::fs::read_to_string(repo().join("plans/prostate.json")).unwrap())
             .unwrap();
@@ -311,16 +309,16 @@ fn one_cause_one_message() {
     assert!(stderr.lines().count() <= 4, "{stderr}");
 
     // A DICOM arc 0.5 deg apart: the machine's default window is blamed, by its field name.
-    let beam = fixtures::BeamSpec::from_layers(
+    let beam = dicom::BeamSpec::from_layers(
         1,
         "DYNAMIC",
         "CW",
         100.0,
-        &fixtures::dynamic_arc_layers(10.0, 0.5, 12),
+        &dicom::dynamic_arc_layers(10.0, 0.5, 12),
     );
-    let dcm = fixtures::write_bytes(
+    let dcm = temp_file(
         "narrow.dcm",
-        &fixtures::PlanSpec::ion("NARROW", vec![beam]).to_bytes(),
+        &dicom::PlanSpec::ion("NARROW", vec![beam]).to_bytes(),
     );
     let o = arcsim(&["simulate", s(&dcm)]);
     let (_, stderr) = out(&o);
@@ -337,7 +335,7 @@ fn one_cause_one_message() {
 /// holds the value used.
 #[test]
 fn sweep_ties_no_effect_and_limit_columns() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let path = common::sweep_file(
         &dir,
         "ties",

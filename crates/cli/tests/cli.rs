@@ -1,10 +1,9 @@
 //! End-to-end tests of the `arcsim` binary, run as a user would: exit codes, located messages,
 //! outputs with units, and the DICOM round trip.
 
-#[path = "../../dicom/tests/fixtures/mod.rs"]
-mod fixtures;
-
 mod common;
+
+use arcsim_test_support::{dicom, temp_dir};
 
 use common::{arcsim, repo, text};
 
@@ -22,7 +21,7 @@ fn total_of(stdout: &str) -> f64 {
 
 #[test]
 fn simulate_bundled_plan_prints_summary_and_writes_outputs() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let json = dir.join("r.json");
     let csv = dir.join("t.csv");
     let o = arcsim(&[
@@ -73,7 +72,7 @@ fn simulate_bundled_plan_prints_summary_and_writes_outputs() {
 
 #[test]
 fn bad_plan_gets_located_errors_and_exit_1() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let bad = dir.join("bad.json");
     let mut plan: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(repo().join("plans/lung.json")).expect("plan"),
@@ -161,7 +160,7 @@ fn profile_single_and_batch() {
         (v["extreme_speed_deg_per_s"].as_f64().expect("v_m") - 0.6333).abs() < 5e-5,
         "{v}"
     );
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let input = dir.join("moves.csv");
     let output = dir.join("results.csv");
     std::fs::write(&input, "distance,v_start,v_end,jerk,accel,vel,min_duration,reverse\n2,1.5,1.5,0.5,0.5,5,5,\n1.6,0.3,0.3,0.5,0.5,5,5,\nabc,0,0,1,1,1,,\n0,0,0.4,2000,20,1.2,,allow\n").expect("write");
@@ -197,9 +196,9 @@ fn profile_single_and_batch() {
 #[test]
 fn dicom_round_trip_gives_the_same_total() {
     for (name, spec) in [
-        ("arc180.dcm", fixtures::dynamic_arc_plan()),
-        ("two-arc.dcm", fixtures::two_arc_plan()),
-        ("static.dcm", fixtures::static_arc_plan()),
+        ("arc180.dcm", dicom::dynamic_arc_plan()),
+        ("two-arc.dcm", dicom::two_arc_plan()),
+        ("static.dcm", dicom::static_arc_plan()),
     ] {
         let dcm = spec.write(name);
         let json = dcm.with_extension("json");
@@ -226,7 +225,7 @@ fn dicom_round_trip_gives_the_same_total() {
         let o = arcsim(&["validate", renamed.to_str().unwrap()]);
         assert!(o.status.success(), "{name}: {}", text(&o).1);
     }
-    let photon = fixtures::photon_plan().write("photon.dcm");
+    let photon = dicom::photon_plan().write("photon.dcm");
     let o = arcsim(&["simulate", photon.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
     assert!(
@@ -274,7 +273,7 @@ fn simulate_on_a_servo_period() {
 /// free arc ends without free motion are refused.
 #[test]
 fn simulate_free_and_constant_motion() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let json = dir.join("free.json");
     let csv = dir.join("free.csv");
     let o = arcsim(&[
@@ -399,7 +398,7 @@ fn validate_help_says_it_reads_dicom_and_standard_input() {
 
 #[test]
 fn generate_plan_to_a_file_says_what_it_wrote() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let path = dir.join("prostate.json");
     let o = arcsim(&[
         "generate-plan",
@@ -440,7 +439,7 @@ fn generate_plan_to_a_file_says_what_it_wrote() {
 
 #[test]
 fn one_plan_sweep_banner_is_singular() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let sweep = common::sweep_file(
         &dir,
         "one",

@@ -2,15 +2,14 @@
 //! alias inputs or cannot be written, interrupted sweeps, absurd arguments and names. Each test
 //! reproduces a failure an adversarial probe found (a panic, a hang, a lost or overwritten file).
 
-#[path = "../../dicom/tests/fixtures/mod.rs"]
-mod fixtures;
-
 mod common;
 
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+use arcsim_test_support::temp_dir;
 
 use common::{arcsim, bin, path_str, repo, stderr, stdout};
 
@@ -76,7 +75,7 @@ fn plans_read_once_from_stdin_and_fifos() {
         assert!(stdout(&o).contains("plan prostate on atom"), "{arg}");
     }
 
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let fifo = dir.join("plan.fifo");
     let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
     assert!(made.success());
@@ -106,7 +105,7 @@ fn plans_read_once_from_stdin_and_fifos() {
 
 #[test]
 fn outputs_never_overwrite_inputs_or_appear_half_done() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let input = dir.join("in.json");
     std::fs::copy(repo().join("plans/prostate.json"), &input).expect("copy");
     let before = std::fs::read(&input).expect("read");
@@ -177,7 +176,7 @@ fn outputs_never_overwrite_inputs_or_appear_half_done() {
 
 #[test]
 fn sweep_checks_outputs_and_threads_before_the_work() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let sweep = small_sweep(&dir, "small", &[0.5, 1.0]);
     let started = Instant::now();
     let o = arcsim(&[
@@ -201,7 +200,7 @@ fn sweep_checks_outputs_and_threads_before_the_work() {
 
 #[test]
 fn sweep_merge_leaves_no_bad_output() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let a = small_sweep(&dir, "a", &[0.5, 1.0]);
     let b = small_sweep(&dir, "b", &[2.0, 4.0]);
     let (s1, s2) = (dir.join("s1.csv"), dir.join("s2.csv"));
@@ -236,7 +235,7 @@ fn sweep_merge_leaves_no_bad_output() {
 #[cfg(unix)]
 #[test]
 fn sighup_saves_a_sweep_like_ctrl_c() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     // About 20 s of work on one thread: the signal arrives in the middle.
     let jerks: Vec<f64> = (1..=400).map(|i| 0.1 + 0.01 * f64::from(i)).collect();
     let accels: Vec<f64> = (1..=50).map(|i| 0.1 + 0.02 * f64::from(i)).collect();
@@ -281,7 +280,7 @@ fn long_deliveries_need_no_sampling_without_sampled_outputs() {
         "1e-6",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let csv = dir.join("t.csv");
     let o = arcsim(&[
         "simulate",
@@ -301,7 +300,7 @@ fn long_deliveries_need_no_sampling_without_sampled_outputs() {
 
 #[test]
 fn clearer_errors_for_careless_input() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     // A byte-order mark is skipped.
     let mut bom = b"\xef\xbb\xbf".to_vec();
     bom.extend(std::fs::read(repo().join("plans/prostate.json")).expect("plan"));
@@ -357,7 +356,7 @@ fn clearer_errors_for_careless_input() {
 
 #[test]
 fn extreme_limits_are_refused_with_the_range() {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let mut m: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(repo().join("scenarios/machine-atom.json")).expect("machine"),
     )

@@ -7,27 +7,13 @@
 //! `probe_long` (ignored) runs for 20 minutes: `cargo test -p arcsim --test probe -- --ignored`.
 
 mod common;
-#[path = "../../dicom/tests/fixtures/mod.rs"]
-mod fixtures;
 
-use common::repo;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Deterministic generator (xorshift64*): the same seed gives the same probe.
-struct Rng(u64);
+use arcsim_test_support::{dicom, temp_dir, Rng};
 
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
+use common::repo;
 
 /// Numbers a careless or hostile file might hold.
 const EXTREMES: &[&str] = &[
@@ -74,7 +60,7 @@ fn mutate(rng: &mut Rng, seed: &[u8], text: bool) -> Vec<u8> {
                 let chunk = b[i..j].to_vec();
                 b.splice(i..i, chunk);
             }
-            4 => b[i] = rng.next() as u8,
+            4 => b[i] = rng.next_u64() as u8,
             _ => {
                 // Replace the number (or token) starting near i with an extreme value.
                 let start = b[i..]
@@ -162,7 +148,7 @@ fn targets() -> Vec<Target> {
         },
         Target {
             name: "plan.dcm",
-            seed: fixtures::dynamic_arc_plan().to_bytes(),
+            seed: dicom::dynamic_arc_plan().to_bytes(),
             text: false,
             args: &["import", "{}", "-o", "{out}"],
         },
@@ -256,9 +242,9 @@ fn run_one(args: &[String], limit: Duration) -> Result<(), String> {
 /// Probes for `budget`; returns the number of runs. Panics on the first failure, naming the
 /// saved input and the command.
 fn probe(budget: Duration, seed: u64) -> usize {
-    let dir = fixtures::temp_dir();
+    let dir = temp_dir();
     let targets = targets();
-    let mut rng = Rng(seed | 1);
+    let mut rng = Rng::new(seed);
     let started = Instant::now();
     let mut runs = 0;
     while started.elapsed() < budget {

@@ -4,11 +4,11 @@
 //! index the test says so and passes, except under CI (`CI` set), where that is a failure.
 
 mod common;
-#[path = "../../dicom/tests/fixtures/mod.rs"]
-mod fixtures;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use arcsim_test_support::{dicom, temp_file};
 
 /// What the environment installs: the versions the package is built and tested with.
 const PACKAGES: &[&str] = &["maturin==1.16.0", "numpy", "pandas", "pytest", "dask[bag]"];
@@ -126,7 +126,7 @@ fn python_package_passes_its_pytest_suite() {
     let wheel = wheel_in(&dist).expect("maturin wrote a wheel");
     pip(&["--no-deps", wheel.to_str().expect("utf-8 path")]).unwrap_or_else(|e| panic!("{e}"));
 
-    let dcm = fixtures::write_bytes("python-arc.dcm", &fixtures::dynamic_arc_plan().to_bytes());
+    let dcm = temp_file("python-arc.dcm", &dicom::dynamic_arc_plan().to_bytes());
     let out = Command::new(bin.join("python"))
         .current_dir(&repo)
         .args(["-m", "pytest", "-q", "-rs", "python/tests"])

@@ -3,14 +3,14 @@
 //! the layer rows, and static beams against the plain sum computed here independently.
 
 mod common;
-#[path = "../../dicom/tests/fixtures/mod.rs"]
-mod fixtures;
 
 use std::path::Path;
 
-use common::{arcsim, path_str, repo, text};
-use fixtures::{BeamSpec, Layer, PlanSpec};
+use arcsim_test_support::dicom::{self, BeamSpec, Layer, PlanSpec};
+use arcsim_test_support::{temp_dir, temp_file, Rng};
 use serde_json::Value;
+
+use common::{arcsim, path_str, repo, text};
 
 const MACHINE: &str = "scenarios/machine-opentps-pbs.json";
 
@@ -175,16 +175,16 @@ fn check_spots(result: &Value, rows: &[Vec<f64>], spots_per_layer: &[usize]) {
 
 #[test]
 fn dynamic_arc_with_spot_maps_lists_every_spot_inside_its_window() {
-    let dir = fixtures::temp_dir().join("spots-arc");
+    let dir = temp_dir().join("spots-arc");
     std::fs::create_dir_all(&dir).expect("dir");
     let n = 40;
-    let positions: Vec<Vec<[f32; 2]>> = (0..n).map(fixtures::positions_of).collect();
+    let positions: Vec<Vec<[f32; 2]>> = (0..n).map(dicom::positions_of).collect();
     let mut beam = BeamSpec::from_layers(
         1,
         "DYNAMIC",
         "CW",
         600.0,
-        &fixtures::dynamic_arc_layers(181.0, 2.0, n),
+        &dicom::dynamic_arc_layers(181.0, 2.0, n),
     )
     .with_layer_positions(&positions);
     // Layer 3 painted twice: its spots are listed twice, once per painting. (Every control point
@@ -192,18 +192,18 @@ fn dynamic_arc_with_spot_maps_lists_every_spot_inside_its_window() {
     for (k, cp) in beam.cps.iter_mut().enumerate() {
         cp.paintings = Some(if k / 2 == 3 { 2 } else { 1 });
     }
-    let plan = fixtures::write_bytes(
+    let plan = temp_file(
         "spots-arc.dcm",
         &PlanSpec::ion("SPOTARC", vec![beam]).to_bytes(),
     );
     let spots: Vec<usize> = (0..n)
-        .map(|i| fixtures::weights_of(i).len() * if i == 3 { 2 } else { 1 })
+        .map(|i| dicom::weights_of(i).len() * if i == 3 { 2 } else { 1 })
         .collect();
     for motion in ["free", "constant"] {
         let (result, rows) = simulate(&plan, &dir, &["--motion", motion]);
         check_spots(&result, &rows, &spots);
         // The plan's positions, in the file's order.
-        let first = &fixtures::positions_of(0);
+        let first = &dicom::positions_of(0);
         assert!(
             (rows[1][6] - f64::from(first[1][0])).abs() < 1e-5,
             "{:?}",
@@ -218,13 +218,8 @@ type LayerData = (f64, Vec<f64>, Vec<[f64; 2]>);
 
 /// Energies, spot MU and positions of random static-beam layers (seeded), and the DICOM beam.
 fn random_static_beam(seed: u64) -> (BeamSpec, Vec<LayerData>) {
-    let mut state = seed;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = Rng::new(seed);
+    let mut next = move || rng.unit();
     let n_layers = 1 + (next() * 5.0) as usize;
     let angle = (next() * 360.0).floor();
     let mut layers = Vec::new();
@@ -280,11 +275,11 @@ fn random_static_beam(seed: u64) -> (BeamSpec, Vec<LayerData>) {
 #[test]
 fn a_static_beam_takes_the_plain_sum_of_its_layers() {
     let o = Opentps::read();
-    let dir = fixtures::temp_dir().join("spots-static");
+    let dir = temp_dir().join("spots-static");
     std::fs::create_dir_all(&dir).expect("dir");
     for seed in 1..=12u64 {
         let (beam, layers) = random_static_beam(seed);
-        let plan = fixtures::write_bytes(
+        let plan = temp_file(
             &format!("static-{seed}.dcm"),
             &PlanSpec::ion("STATIC", vec![beam]).to_bytes(),
         );
@@ -323,7 +318,7 @@ fn a_static_beam_takes_the_plain_sum_of_its_layers() {
 /// 140 and 150 MeV) × 0.5 MU = 3.25 ms. Total 6.64025 s, every spot at 90°.
 #[test]
 fn a_static_control_point_by_hand() {
-    let dir = fixtures::temp_dir().join("spots-hand");
+    let dir = temp_dir().join("spots-hand");
     std::fs::create_dir_all(&dir).expect("dir");
     let plan = dir.join("static.json");
     let text = serde_json::json!({
@@ -361,11 +356,11 @@ fn a_static_control_point_by_hand() {
 
 #[test]
 fn scanning_machine_without_positions_names_the_layer() {
-    let dir = fixtures::temp_dir().join("spots-bare");
+    let dir = temp_dir().join("spots-bare");
     std::fs::create_dir_all(&dir).expect("dir");
-    let plan = fixtures::write_bytes(
+    let plan = temp_file(
         "spots-bare.dcm",
-        &fixtures::dynamic_arc_plan().without_spot_maps().to_bytes(),
+        &dicom::dynamic_arc_plan().without_spot_maps().to_bytes(),
     );
     let out = arcsim(&["simulate", path_str(&plan), "--machine", MACHINE]);
     let (_, err) = text(&out);

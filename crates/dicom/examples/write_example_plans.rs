@@ -1,10 +1,9 @@
 //! Writes the test fixtures as DICOM files to try `arcsim import` / `arcsim validate` by hand:
 //! `cargo run -p arcsim-dicom --example write_example_plans -- DIR`.
 
-#[path = "../tests/fixtures/mod.rs"]
-mod fixtures;
-
 use std::path::PathBuf;
+
+use arcsim_test_support::dicom;
 
 fn main() -> std::io::Result<()> {
     let dir = std::env::args_os()
@@ -12,10 +11,10 @@ fn main() -> std::io::Result<()> {
         .map_or_else(|| PathBuf::from("."), PathBuf::from);
     std::fs::create_dir_all(&dir)?;
     let plans = [
-        ("arc180.dcm", fixtures::dynamic_arc_plan()),
-        ("static-arc.dcm", fixtures::static_arc_plan()),
-        ("two-arc.dcm", fixtures::two_arc_plan()),
-        ("photon-rt-plan.dcm", fixtures::photon_plan()),
+        ("arc180.dcm", dicom::dynamic_arc_plan()),
+        ("static-arc.dcm", dicom::static_arc_plan()),
+        ("two-arc.dcm", dicom::two_arc_plan()),
+        ("photon-rt-plan.dcm", dicom::photon_plan()),
     ];
     for (name, spec) in plans {
         let path = dir.join(name);

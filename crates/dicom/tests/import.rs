@@ -1,16 +1,15 @@
 //! RT Ion Plan import, end to end: generated DICOM files -> ArcPlan, checked value by value.
 
-mod fixtures;
-
 use arcsim_dicom::{
     is_dicom_file, read_rt_ion_plan, read_rt_ion_plan_from_bytes, rt_ion_plan_from_dataset,
     DicomImportError, Location, MAX_NESTING, MAX_PAINTINGS, MAX_SPOTS, POSITION_RESOLUTION_MM,
 };
 use arcsim_plan::{ArcPlan, RotationDirection, Spots, MAX_SPOTS_PER_LAYER, PLAN_FORMAT};
+use arcsim_test_support::dicom::{self, BeamSpec, Layer, PlanSpec, SpotMap};
+use arcsim_test_support::{temp_dir, temp_file};
 use dicom_core::value::PrimitiveValue;
 use dicom_core::{DataElement, VR};
 use dicom_dictionary_std::tags;
-use fixtures::{BeamSpec, Layer, PlanSpec, SpotMap};
 
 const TOL: f64 = 1e-9;
 
@@ -70,7 +69,7 @@ fn angles(plan: &ArcPlan, arc: usize) -> Vec<f64> {
 
 #[test]
 fn dynamic_arc_of_180_layer_pairs() {
-    let spec = fixtures::dynamic_arc_plan();
+    let spec = dicom::dynamic_arc_plan();
     assert_eq!(
         spec.beams[0].cps.len(),
         360,
@@ -97,10 +96,10 @@ fn dynamic_arc_of_180_layer_pairs() {
         let layer = &cp.layers[0];
         assert_eq!(
             layer.energy_mev,
-            fixtures::energy_of(i),
+            dicom::energy_of(i),
             "cp {i}: energy (inherited where absent)"
         );
-        let weights = fixtures::weights_of(i);
+        let weights = dicom::weights_of(i);
         let spots = layer.spots.as_ref().expect("spots");
         assert_eq!(spots.count as usize, weights.len(), "cp {i}: spot count");
         assert!(spots.total_mu.is_none());
@@ -128,7 +127,7 @@ fn dynamic_arc_of_180_layer_pairs() {
 
 #[test]
 fn static_beams_form_one_arc_in_beam_number_order() {
-    let spec = fixtures::static_arc_plan();
+    let spec = dicom::static_arc_plan();
     let plan = import(&spec, "static5.dcm");
     assert_eq!(plan.arcs.len(), 1);
     assert_eq!(plan.arcs[0].direction, RotationDirection::Cw);
@@ -138,7 +137,7 @@ fn static_beams_form_one_arc_in_beam_number_order() {
         let cp = &plan.arcs[0].control_points[i];
         assert_eq!(cp.layers.len(), 1);
         assert_eq!(cp.layers[0].energy_mev, 150.0 - i as f64);
-        let weights = fixtures::weights_of(i);
+        let weights = dicom::weights_of(i);
         let sum: f64 = weights.iter().map(|&w| f64::from(w)).sum();
         let meterset = 100.0 + 10.0 * i as f64;
         let mu = layer_mu(&plan, 0, i, 0);
@@ -161,7 +160,7 @@ fn static_beams(angles: &[f64]) -> PlanSpec {
             let layer = Layer {
                 angle: a,
                 energy: 100.0 + i as f64,
-                weights: fixtures::weights_of(i),
+                weights: dicom::weights_of(i),
             };
             BeamSpec::from_layers(i as i64 + 1, "STATIC", "NONE", 50.0, &[layer])
         })
@@ -205,7 +204,7 @@ fn a_single_static_beam_is_a_one_point_cw_arc() {
 
 #[test]
 fn cw_and_cc_dynamic_beams_are_separate_sub_arcs() {
-    let plan = import(&fixtures::two_arc_plan(), "two-arcs.dcm");
+    let plan = import(&dicom::two_arc_plan(), "two-arcs.dcm");
     assert_eq!(plan.arcs.len(), 2);
     assert_eq!(plan.arcs[0].direction, RotationDirection::Cw);
     assert_eq!(plan.arcs[1].direction, RotationDirection::Cc);
@@ -236,7 +235,7 @@ fn layers_at_one_angle_of_a_dynamic_beam_share_a_control_point() {
     .map(|(i, &(angle, energy))| Layer {
         angle,
         energy,
-        weights: fixtures::weights_of(i),
+        weights: dicom::weights_of(i),
     })
     .collect();
     let spec = PlanSpec::ion(
@@ -264,7 +263,7 @@ fn a_dynamic_beam_that_reverses_is_split() {
         .map(|(i, &angle)| Layer {
             angle,
             energy: 100.0,
-            weights: fixtures::weights_of(i),
+            weights: dicom::weights_of(i),
         })
         .collect();
     let mut beam = BeamSpec::from_layers(1, "DYNAMIC", "CW", 10.0, &layers);
@@ -290,7 +289,7 @@ fn a_dynamic_beam_that_reverses_is_split() {
 
 #[test]
 fn a_cc_arc_across_zero_stays_above_zero() {
-    let layers = fixtures::dynamic_arc_layers(10.0, -5.0, 5); // 10, 5, 0, 355, 350
+    let layers = dicom::dynamic_arc_layers(10.0, -5.0, 5); // 10, 5, 0, 355, 350
     let plan = import(
         &PlanSpec::ion(
             "CC0",
@@ -304,7 +303,7 @@ fn a_cc_arc_across_zero_stays_above_zero() {
 
 #[test]
 fn rotation_none_takes_the_shortest_way() {
-    let layers = fixtures::dynamic_arc_layers(10.0, -2.0, 3);
+    let layers = dicom::dynamic_arc_layers(10.0, -2.0, 3);
     let plan = import(
         &PlanSpec::ion(
             "NONE",
@@ -321,13 +320,13 @@ fn paintings_are_kept_as_a_count_and_each_spot_has_its_total_mu() {
     // Since issue 12 the spot list is no longer repeated once per painting (it used to give 3 x the
     // spots, each with MU / 3): the layer keeps one spot per DICOM spot with its total MU and
     // `paintings` says how many passes the beam model makes over them.
-    let layers = fixtures::dynamic_arc_layers(0.0, 2.0, 2);
+    let layers = dicom::dynamic_arc_layers(0.0, 2.0, 2);
     let mut beam = BeamSpec::from_layers(1, "DYNAMIC", "CW", 80.0, &layers);
     beam.cps[0].paintings = Some(3);
     beam.cps[2].paintings = Some(1);
     let final_weight = beam.final_weight();
     let plan = import(&PlanSpec::ion("PAINT", vec![beam]), "paint.dcm");
-    let w0 = fixtures::weights_of(0);
+    let w0 = dicom::weights_of(0);
     let spots = spots_of(&plan, 0, 0, 0);
     assert_eq!(
         spots.count as usize,
@@ -344,7 +343,7 @@ fn paintings_are_kept_as_a_count_and_each_spot_has_its_total_mu() {
         );
     }
     let spots1 = spots_of(&plan, 0, 1, 0);
-    assert_eq!(spots1.count as usize, fixtures::weights_of(1).len());
+    assert_eq!(spots1.count as usize, dicom::weights_of(1).len());
     assert_eq!(spots1.paintings, None, "NumberOfPaintings 1 is left out");
     assert!(
         close(total_mu(&plan), 80.0),
@@ -354,7 +353,7 @@ fn paintings_are_kept_as_a_count_and_each_spot_has_its_total_mu() {
 
 #[test]
 fn setup_beams_are_left_out_and_listed() {
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[1].delivery = "SETUP";
     let plan = import(&spec, "setup.dcm");
     assert_eq!(plan.arcs.len(), 1);
@@ -369,7 +368,7 @@ fn setup_beams_are_left_out_and_listed() {
 
 #[test]
 fn all_entry_points_agree_and_json_round_trips() {
-    let spec = fixtures::two_arc_plan();
+    let spec = dicom::two_arc_plan();
     let path = spec.write("plan.dcm");
     let from_path = read_rt_ion_plan(&path).expect("from path");
     let mut from_bytes = read_rt_ion_plan_from_bytes(&spec.to_bytes()).expect("from bytes");
@@ -390,18 +389,18 @@ fn all_entry_points_agree_and_json_round_trips() {
 
 #[test]
 fn plan_without_label_is_named_after_the_file() {
-    let mut spec = fixtures::static_arc_plan();
+    let mut spec = dicom::static_arc_plan();
     spec.label = None;
     assert_eq!(import(&spec, "my-plan.dcm").name, "my-plan");
 }
 
 #[test]
 fn dicom_is_recognised_by_content_not_extension() {
-    let dcm = fixtures::write_bytes("plan.txt", &fixtures::static_arc_plan().to_bytes());
+    let dcm = temp_file("plan.txt", &dicom::static_arc_plan().to_bytes());
     assert!(is_dicom_file(&dcm));
-    let json = fixtures::write_bytes("plan.dcm", b"{\"format\": \"arcsim-plan/1\"}");
+    let json = temp_file("plan.dcm", b"{\"format\": \"arcsim-plan/1\"}");
     assert!(!is_dicom_file(&json));
-    assert!(!is_dicom_file(fixtures::temp_dir().join("missing.dcm")));
+    assert!(!is_dicom_file(temp_dir().join("missing.dcm")));
 }
 
 // ---- errors ----------------------------------------------------------------------------------------
@@ -412,7 +411,7 @@ fn message(e: &DicomImportError) -> String {
 
 #[test]
 fn missing_gantry_angle_names_tag_beam_and_control_point() {
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[1].cps[0].angle = None;
     let e = import_err(&spec);
     assert!(
@@ -435,7 +434,7 @@ fn missing_gantry_angle_names_tag_beam_and_control_point() {
 
 #[test]
 fn missing_energy_names_the_control_point_that_needs_it() {
-    let mut spec = fixtures::dynamic_arc_plan();
+    let mut spec = dicom::dynamic_arc_plan();
     spec.beams[0].cps[0].energy = None;
     let m = message(&import_err(&spec));
     assert!(
@@ -446,7 +445,7 @@ fn missing_energy_names_the_control_point_that_needs_it() {
 
 #[test]
 fn missing_final_cumulative_meterset_weight() {
-    let mut spec = fixtures::static_arc_plan();
+    let mut spec = dicom::static_arc_plan();
     spec.beams[0].write_final_weight = false; // BeamNumber 5, first item of the sequence
     let m = message(&import_err(&spec));
     assert!(
@@ -458,7 +457,7 @@ fn missing_final_cumulative_meterset_weight() {
 
 #[test]
 fn missing_beam_meterset() {
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[1].meterset = None;
     let m = message(&import_err(&spec));
     assert!(m.contains("BeamMeterset (300A,0086)"), "{m}");
@@ -467,7 +466,7 @@ fn missing_beam_meterset() {
         "{m}"
     );
 
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[0].referenced = false;
     let e = import_err(&spec);
     assert!(
@@ -482,7 +481,7 @@ fn missing_beam_meterset() {
 
 #[test]
 fn weight_count_must_equal_spot_count() {
-    let mut spec = fixtures::dynamic_arc_plan();
+    let mut spec = dicom::dynamic_arc_plan();
     spec.beams[0].cps[4].n_spots = Some(99);
     let e = import_err(&spec);
     assert!(
@@ -499,7 +498,7 @@ fn weight_count_must_equal_spot_count() {
 
 #[test]
 fn weights_without_spot_count() {
-    let mut spec = fixtures::dynamic_arc_plan();
+    let mut spec = dicom::dynamic_arc_plan();
     spec.beams[0].cps[2].n_spots = None;
     let m = message(&import_err(&spec));
     assert!(
@@ -508,7 +507,7 @@ fn weights_without_spot_count() {
         "{m}"
     );
 
-    let mut spec = fixtures::dynamic_arc_plan();
+    let mut spec = dicom::dynamic_arc_plan();
     spec.beams[0].cps[2].weights = None;
     let m = message(&import_err(&spec));
     assert!(
@@ -520,7 +519,7 @@ fn weights_without_spot_count() {
 
 #[test]
 fn photon_plan_is_rejected_clearly() {
-    let e = import_err(&fixtures::photon_plan());
+    let e = import_err(&dicom::photon_plan());
     assert!(matches!(e, DicomImportError::PhotonPlan { .. }), "{e:?}");
     let m = message(&e);
     assert!(
@@ -532,7 +531,7 @@ fn photon_plan_is_rejected_clearly() {
 
 #[test]
 fn other_sop_classes_are_named() {
-    let mut spec = fixtures::static_arc_plan();
+    let mut spec = dicom::static_arc_plan();
     spec.sop_class = dicom_dictionary_std::uids::CT_IMAGE_STORAGE;
     let e = import_err(&spec);
     let m = message(&e);
@@ -544,7 +543,7 @@ fn other_sop_classes_are_named() {
 
 #[test]
 fn non_dicom_file() {
-    let path = fixtures::write_bytes(
+    let path = temp_file(
         "notes.dcm",
         "just some text, long enough to pass 132 bytes. "
             .repeat(5)
@@ -555,14 +554,14 @@ fn non_dicom_file() {
     assert!(message(&e).contains("DICM"), "{e}");
     let e = read_rt_ion_plan_from_bytes(b"tiny").expect_err("not DICOM");
     assert!(matches!(e, DicomImportError::NotDicom { .. }), "{e:?}");
-    let e = read_rt_ion_plan(fixtures::temp_dir().join("absent.dcm")).expect_err("no file");
+    let e = read_rt_ion_plan(temp_dir().join("absent.dcm")).expect_err("no file");
     assert!(matches!(e, DicomImportError::Io { .. }), "{e:?}");
 }
 
 #[test]
 fn truncated_files_fail_without_panicking() {
-    let bytes = fixtures::two_arc_plan().to_bytes();
-    let path = fixtures::write_bytes("truncated.dcm", &bytes[..bytes.len() / 2]);
+    let bytes = dicom::two_arc_plan().to_bytes();
+    let path = temp_file("truncated.dcm", &bytes[..bytes.len() / 2]);
     let e = read_rt_ion_plan(&path).expect_err("truncated");
     assert!(matches!(e, DicomImportError::Unreadable { .. }), "{e:?}");
     assert!(
@@ -587,7 +586,7 @@ fn plan_without_ion_beams() {
     let e = import_err(&PlanSpec::ion("EMPTY", Vec::new()));
     assert!(matches!(e, DicomImportError::NoIonBeams { .. }), "{e:?}");
 
-    let mut spec = fixtures::static_arc_plan();
+    let mut spec = dicom::static_arc_plan();
     for beam in &mut spec.beams {
         beam.delivery = "SETUP";
     }
@@ -598,7 +597,7 @@ fn plan_without_ion_beams() {
 
 #[test]
 fn inconsistent_control_point_count() {
-    let mut spec = fixtures::static_arc_plan();
+    let mut spec = dicom::static_arc_plan();
     spec.beams[2].number_of_control_points = Some(3);
     let m = message(&import_err(&spec));
     assert!(
@@ -619,7 +618,7 @@ fn deeply_nested_sequences_are_refused_before_parsing() {
     // dicom-object parses nested sequences recursively: 8,000 levels used to overflow the stack and
     // abort the process. The nesting pre-scan is iterative, so this runs on a test thread's stack.
     for explicit_vr in [true, false] {
-        let bytes = fixtures::deeply_nested_file(8_000, explicit_vr);
+        let bytes = dicom::deeply_nested_file(8_000, explicit_vr);
         assert!(bytes.len() > 250_000, "{} bytes", bytes.len());
         let e = read_rt_ion_plan_from_bytes(&bytes).expect_err("nested 8,000 levels deep");
         assert!(
@@ -642,9 +641,8 @@ fn deeply_nested_sequences_are_refused_before_parsing() {
 
         // Exactly MAX_NESTING levels pass the pre-scan; the parser reads the file and the reader
         // then finds the (empty) beams wanting.
-        let e =
-            read_rt_ion_plan_from_bytes(&fixtures::deeply_nested_file(MAX_NESTING, explicit_vr))
-                .expect_err("not a plan");
+        let e = read_rt_ion_plan_from_bytes(&dicom::deeply_nested_file(MAX_NESTING, explicit_vr))
+            .expect_err("not a plan");
         assert!(
             matches!(
                 e,
@@ -661,7 +659,7 @@ fn deeply_nested_sequences_are_refused_before_parsing() {
 #[test]
 fn number_of_paintings_is_bounded() {
     let paint = |paintings: i64| {
-        let layers = fixtures::dynamic_arc_layers(0.0, 2.0, 2);
+        let layers = dicom::dynamic_arc_layers(0.0, 2.0, 2);
         let mut beam = BeamSpec::from_layers(1, "DYNAMIC", "CW", 80.0, &layers);
         beam.cps[2].paintings = Some(paintings);
         PlanSpec::ion("PAINT", vec![beam])
@@ -692,7 +690,7 @@ fn number_of_paintings_is_bounded() {
         .expect("1000 paintings are accepted");
     // The spot list is not repeated per painting (issue 12): the count stays the file's.
     let spots = spots_of(&plan, 0, 1, 0);
-    assert_eq!(spots.count as usize, fixtures::weights_of(1).len());
+    assert_eq!(spots.count as usize, dicom::weights_of(1).len());
     assert_eq!(spots.paintings, Some(MAX_PAINTINGS));
 }
 
@@ -740,7 +738,7 @@ fn spots_after_repainting_are_bounded_plan_wide() {
 #[test]
 fn two_beams_with_one_beam_number_are_refused() {
     // Beam 2 used to take beam 1's BeamMeterset silently.
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[1].number = 1;
     let e = import_err(&spec);
     assert!(
@@ -781,7 +779,7 @@ fn several_values_where_one_is_expected_are_refused() {
     };
 
     // A decimal string "10\20": read from a file as two strings, built in memory as one string.
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[0].cps[2]
         .extra
         .push(DataElement::new(tags::GANTRY_ANGLE, VR::DS, "10\\20"));
@@ -796,7 +794,7 @@ fn several_values_where_one_is_expected_are_refused() {
     check(e, "GantryAngle", "(300A,011E)", "10\\20", angle_at);
 
     // A binary value with two numbers.
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[0].cps[2].extra.push(DataElement::new(
         tags::GANTRY_ANGLE,
         VR::FD,
@@ -811,7 +809,7 @@ fn several_values_where_one_is_expected_are_refused() {
     );
 
     // An integer string (IS).
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[1]
         .extra
         .push(DataElement::new(tags::BEAM_NUMBER, VR::IS, "2\\3"));
@@ -843,8 +841,8 @@ fn assert_positions(got: &[[f64; 2]], want: &[[f32; 2]], what: &str) {
 /// The dynamic 180-layer arc with its own spot map on every layer and paintings 3 (layers 0-59,
 /// inherited), 1 (60-119) and 7 (120-179).
 fn dynamic_arc_with_maps() -> PlanSpec {
-    let mut spec = fixtures::dynamic_arc_plan();
-    let positions: Vec<Vec<[f32; 2]>> = (0..180).map(fixtures::positions_of).collect();
+    let mut spec = dicom::dynamic_arc_plan();
+    let positions: Vec<Vec<[f32; 2]>> = (0..180).map(dicom::positions_of).collect();
     let mut beam = spec.beams.remove(0).with_layer_positions(&positions);
     beam.cps[0].paintings = Some(3);
     beam.cps[120].paintings = Some(1);
@@ -870,7 +868,7 @@ fn dynamic_arc_with_spot_maps_has_positions_per_layer_in_file_order() {
     assert_eq!(plan.arcs[0].control_points.len(), 180);
     for i in 0..180 {
         let spots = spots_of(&plan, 0, i, 0);
-        let weights = fixtures::weights_of(i);
+        let weights = dicom::weights_of(i);
         assert_eq!(spots.count as usize, weights.len(), "layer {i}: spot count");
         assert_eq!(
             spots.paintings,
@@ -880,7 +878,7 @@ fn dynamic_arc_with_spot_maps_has_positions_per_layer_in_file_order() {
         let positions = spots.positions_mm.as_deref().expect("positions");
         // positions_of goes back and forth in x and moves 0.1 mm per layer: sorted, shared or
         // shifted positions would not match.
-        assert_positions(positions, &fixtures::positions_of(i), &format!("layer {i}"));
+        assert_positions(positions, &dicom::positions_of(i), &format!("layer {i}"));
         let mu = spots.mu.as_deref().expect("mu");
         for (m, w) in mu.iter().zip(&weights) {
             assert!(
@@ -904,11 +902,11 @@ fn dynamic_arc_with_spot_maps_has_positions_per_layer_in_file_order() {
 
 #[test]
 fn static_beams_with_spot_maps_have_positions_per_layer() {
-    let mut spec = fixtures::static_arc_plan();
+    let mut spec = dicom::static_arc_plan();
     // The file lists beams 5, 4, ..., 1; the arc follows BeamNumber, and so must the positions.
     for beam in &mut spec.beams {
         let i = (beam.number - 1) as usize;
-        beam.set_layer_map(0, SpotMap::of(&fixtures::positions_of(i)));
+        beam.set_layer_map(0, SpotMap::of(&dicom::positions_of(i)));
         if beam.number == 3 {
             beam.cps[0].paintings = Some(2);
         }
@@ -918,7 +916,7 @@ fn static_beams_with_spot_maps_have_positions_per_layer() {
     assert_eq!(plan.arcs[0].control_points.len(), 5);
     for i in 0..5 {
         let spots = spots_of(&plan, 0, i, 0);
-        assert_eq!(spots.count as usize, fixtures::weights_of(i).len());
+        assert_eq!(spots.count as usize, dicom::weights_of(i).len());
         assert_eq!(
             spots.paintings,
             (i == 2).then_some(2),
@@ -927,7 +925,7 @@ fn static_beams_with_spot_maps_have_positions_per_layer() {
         );
         assert_positions(
             spots.positions_mm.as_deref().expect("positions"),
-            &fixtures::positions_of(i),
+            &dicom::positions_of(i),
             &format!("beam {}", i + 1),
         );
         // Each beam's MU add up to its own BeamMeterset, paintings or not.
@@ -940,8 +938,8 @@ fn static_beams_with_spot_maps_have_positions_per_layer() {
 fn a_position_map_of_the_wrong_length_is_located() {
     // Beam 2 of the two-arc plan, layer 2 (control point 4) has 5 spots: 10 values expected.
     for len in [9, 12, 2] {
-        let mut spec = fixtures::two_arc_plan();
-        let mut values: Vec<f32> = fixtures::positions_of(2).concat();
+        let mut spec = dicom::two_arc_plan();
+        let mut values: Vec<f32> = dicom::positions_of(2).concat();
         values.resize(len, 1.5);
         spec.beams[1].set_layer_map(2, SpotMap::Values(values));
         let e = import_err(&spec);
@@ -972,7 +970,7 @@ fn a_position_map_of_the_wrong_length_is_located() {
         );
     }
     // The zero-weight control point that closes a layer is checked too.
-    let mut spec = fixtures::two_arc_plan();
+    let mut spec = dicom::two_arc_plan();
     spec.beams[0].cps[7].spot_map = SpotMap::Values(vec![0.0; 3]);
     let e = import_err(&spec);
     assert!(
@@ -999,8 +997,8 @@ fn a_non_finite_or_far_position_is_located() {
         (f32::INFINITY, 2.0, "spot 4 is at (inf, 2) mm"),
         (1.0, -2.0e4, "spot 4 is at (1, -20000) mm"),
     ] {
-        let mut spec = fixtures::dynamic_arc_plan();
-        let mut positions = fixtures::positions_of(3);
+        let mut spec = dicom::dynamic_arc_plan();
+        let mut positions = dicom::positions_of(3);
         positions[4] = [x, y];
         spec.beams[0].set_layer_map(3, SpotMap::of(&positions));
         let e = import_err(&spec);
@@ -1034,10 +1032,10 @@ fn a_non_finite_or_far_position_is_located() {
 #[test]
 fn a_plan_without_position_maps_imports_without_positions() {
     let old_style = import(
-        &fixtures::dynamic_arc_plan().without_spot_maps(),
+        &dicom::dynamic_arc_plan().without_spot_maps(),
         "no-maps.dcm",
     );
-    let mut with_maps = import(&fixtures::dynamic_arc_plan(), "raster-maps.dcm");
+    let mut with_maps = import(&dicom::dynamic_arc_plan(), "raster-maps.dcm");
     for cp in &mut with_maps.arcs[0].control_points {
         let spots = cp.layers[0].spots.as_mut().unwrap();
         // The builder's default map: spot j at (5 j, -2.5 j) mm.
@@ -1050,10 +1048,10 @@ fn a_plan_without_position_maps_imports_without_positions() {
     assert_eq!(old_style, with_maps);
 
     // Maps on the even layers only: positions on those, none on the others.
-    let mut spec = fixtures::dynamic_arc_plan();
+    let mut spec = dicom::dynamic_arc_plan();
     for layer in 0..180 {
         let map = if layer % 2 == 0 {
-            SpotMap::of(&fixtures::positions_of(layer))
+            SpotMap::of(&dicom::positions_of(layer))
         } else {
             SpotMap::Absent
         };
@@ -1064,7 +1062,7 @@ fn a_plan_without_position_maps_imports_without_positions() {
         let positions = spots_of(&plan, 0, layer, 0).positions_mm.as_deref();
         match positions {
             Some(p) if layer % 2 == 0 => {
-                assert_positions(p, &fixtures::positions_of(layer), &format!("layer {layer}"))
+                assert_positions(p, &dicom::positions_of(layer), &format!("layer {layer}"))
             }
             None if layer % 2 == 1 => {}
             other => panic!("layer {layer}: {other:?}"),

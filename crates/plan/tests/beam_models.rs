@@ -5,6 +5,7 @@ use arcsim_plan::{
     layer_beam_time, parse_machine, parse_plan, resolve, time_spots, BeamModel, Machine, PerMuBeam,
     PlanError, ScanningBeam, SpotEvent, Spots,
 };
+use arcsim_test_support::Rng;
 use serde_json::{json, Value};
 
 fn scanning(speed: Option<f64>, xy: Option<(f64, f64)>) -> ScanningBeam {
@@ -138,29 +139,14 @@ fn per_mu_matches_the_old_formula() {
     assert_eq!(t.total_s(), old);
 }
 
-/// splitmix64: a small seeded generator, so the random cases are the same in every run.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-}
-
 /// Random spot maps against a direct sum written independently of the model's loop: the spots'
 /// times, the scanning moves between consecutive spots (slower axis) with settling, the overhead;
 /// spots never overlap, each starts when the previous move ends.
 #[test]
 fn random_spot_maps_match_an_independent_sum() {
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     for case in 0..500 {
-        let n = 1 + (rng.next() * 60.0) as usize;
+        let n = 1 + (rng.unit() * 60.0) as usize;
         let energy = rng.range(50.0, 240.0);
         let (vx, vy) = (rng.range(500.0, 20_000.0), rng.range(500.0, 20_000.0));
         let mut b = scanning(None, Some((vx, vy)));

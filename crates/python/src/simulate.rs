@@ -301,6 +301,7 @@ fn run(
 /// (likely unit slips) instead of warning. The GIL is released while it runs.
 #[pyfunction]
 #[pyo3(signature = (plan, machine=None, schedule="optimal", period_s=None, motion=None, arc_ends="rest", strict=false))]
+// Each Python keyword argument of the signature above is one Rust parameter: pyo3 needs them all.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>,
@@ -371,6 +372,7 @@ pub fn simulate(
 /// s, layer speeds in deg/s as a numpy array).
 #[pyfunction]
 #[pyo3(signature = (irradiation_times_s, switching_times_s, spacing_deg, max_window_deg, jerk, accel, speed, decel=None, schedule="optimal"))]
+// Each Python keyword argument of the signature above is one Rust parameter: pyo3 needs them all.
 #[allow(clippy::too_many_arguments)]
 pub fn schedule_arrays<'py>(
     py: Python<'py>,
