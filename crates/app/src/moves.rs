@@ -1,30 +1,38 @@
-//! One planner move with `arcsim profile`'s options: minimum time, or an exact minimum duration,
-//! then optionally every phase on a servo period.
+//! One planner move with `arcsim profile`'s options: minimum time, or a minimum duration, then
+//! optionally every phase on a servo period.
 
-use arcsim_planner::{
-    discretize, exact_duration, min_time, Limits, Move, PlannerError, Profile, Reversal,
-};
+use arcsim_planner::{plan, Limits, Move, MoveOptions, PlannerError, Profile, Reversal};
 
 /// A move and its options, as `arcsim profile` takes them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MoveRequest {
+    /// The move (deg, deg/s).
     pub mv: Move,
-    /// Limits (deg/s³, deg/s², deg/s); `decel_deg_per_s2` `None`: equal to the acceleration.
+    /// Maximum jerk (deg/s³).
     pub jerk_deg_per_s3: f64,
+    /// Maximum acceleration (deg/s²).
     pub accel_deg_per_s2: f64,
+    /// Maximum deceleration (deg/s²); `None`: equal to the acceleration.
     pub decel_deg_per_s2: Option<f64>,
+    /// Maximum speed (deg/s).
     pub speed_deg_per_s: f64,
-    /// Last exactly this long (s) instead of the minimum time.
+    /// Last at least this long (s); `None` or 0: the minimum time. With [`Reversal::Forbid`] the
+    /// move lasts exactly this long or is infeasible (a duration between the move's feasible
+    /// intervals is reported, not lengthened); with [`Reversal::Allow`] it lasts the shortest
+    /// feasible duration of at least this long.
     pub min_duration_s: Option<f64>,
     /// Put every phase on this servo period (s).
     pub period_s: Option<f64>,
+    /// Whether the speed may go against the direction of travel.
     pub reverse: Reversal,
 }
 
 /// A solved move.
 #[derive(Clone, Debug)]
 pub struct SolvedMove {
+    /// The verified profile.
     pub profile: Profile,
+    /// The limits it was planned with.
     pub limits: Limits,
     /// Time the servo grid added against the continuous profile (s), with a period.
     pub added_time_s: Option<f64>,
@@ -32,17 +40,15 @@ pub struct SolvedMove {
 
 /// Why a move has no profile.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum MoveError {
     /// The planner's answer: invalid input, or no profile (unreachable, infeasible duration, …).
     #[error("{0}")]
     Planner(#[from] PlannerError),
-    /// A minimum duration keeps the speed within [0, V]; it does not combine with reversal.
-    #[error("min_duration keeps the speed in [0, V]: use reverse = forbid")]
-    MinDurationWithReversal,
 }
 
 impl MoveRequest {
-    /// The profile: [`min_time`] or [`exact_duration`], then [`discretize`] with a period.
+    /// The profile: [`plan`] with the request's options.
     pub fn solve(&self) -> Result<SolvedMove, MoveError> {
         let limits = Limits::with_decel(
             self.jerk_deg_per_s3,
@@ -50,27 +56,17 @@ impl MoveRequest {
             self.decel_deg_per_s2.unwrap_or(self.accel_deg_per_s2),
             self.speed_deg_per_s,
         )?;
-        let profile = match self.min_duration_s {
-            Some(_) if self.reverse == Reversal::Allow => {
-                return Err(MoveError::MinDurationWithReversal)
-            }
-            Some(t) => exact_duration(self.mv, &limits, t)?,
-            None => min_time(self.mv, &limits, self.reverse)?,
+        let min_duration_s = self.min_duration_s.unwrap_or(0.0);
+        let options = MoveOptions {
+            min_duration_s,
+            servo_period_s: self.period_s,
+            reversal: self.reverse,
         };
-        Ok(match self.period_s {
-            None => SolvedMove {
-                profile,
-                limits,
-                added_time_s: None,
-            },
-            Some(ts) => {
-                let d = discretize(&profile, ts, &limits)?;
-                SolvedMove {
-                    profile: d.profile,
-                    limits,
-                    added_time_s: Some(d.added_time),
-                }
-            }
+        let profile = plan(&self.mv, &limits, &options)?;
+        Ok(SolvedMove {
+            added_time_s: profile.servo_added_time(),
+            profile,
+            limits,
         })
     }
 }

@@ -1,10 +1,11 @@
 //! Planner benchmarks: one minimum-time move on random inputs (with rsruckig's 1-DoF
-//! calculation on the same inputs for comparison), an exact-duration move, and `state_at`.
+//! calculation on the same inputs for comparison), a move with a minimum duration, one with
+//! reversal allowed and a minimum duration, the duration analysis, and `state_at`.
 //! `cargo bench -p arcsim-planner --bench planner`
 
 use std::hint::black_box;
 
-use arcsim_planner::{exact_duration, min_time, Limits, Move, Reversal};
+use arcsim_planner::{plan, Limits, Move, MoveAnalysis, MoveOptions, Reversal};
 use criterion::{criterion_group, criterion_main, Criterion};
 use rsruckig::prelude::*;
 
@@ -40,17 +41,24 @@ fn inputs(n: usize) -> Vec<(Move, Limits)> {
 fn bench(c: &mut Criterion) {
     let data = inputs(1024);
     let mut i = 0;
-    c.bench_function("min_time (random gantry moves, reversal allowed)", |b| {
-        b.iter(|| {
-            i = (i + 1) & 1023;
-            let (mv, lim) = &data[i];
-            black_box(
-                min_time(black_box(*mv), lim, Reversal::Allow)
-                    .map(|p| p.duration())
-                    .unwrap_or(0.0),
-            )
-        })
-    });
+    let allow = MoveOptions {
+        reversal: Reversal::Allow,
+        ..MoveOptions::default()
+    };
+    c.bench_function(
+        "plan: minimum time (random gantry moves, reversal allowed)",
+        |b| {
+            b.iter(|| {
+                i = (i + 1) & 1023;
+                let (mv, lim) = &data[i];
+                black_box(
+                    plan(black_box(mv), lim, &allow)
+                        .map(|p| p.duration())
+                        .unwrap_or(0.0),
+                )
+            })
+        },
+    );
     let mut otg = Ruckig::<1, ThrowErrorHandler>::new(None, 0.001);
     let mut traj = Trajectory::new(None);
     let ruckig_inputs: Vec<InputParameter<1>> = data
@@ -74,27 +82,52 @@ fn bench(c: &mut Criterion) {
             black_box(traj.get_duration())
         })
     });
+    for (name, reversal) in [
+        ("plan: 5 s minimum (random gantry moves)", Reversal::Forbid),
+        (
+            "plan: 5 s minimum, reversal allowed (random gantry moves)",
+            Reversal::Allow,
+        ),
+    ] {
+        let options = MoveOptions {
+            min_duration_s: 5.0,
+            reversal,
+            ..MoveOptions::default()
+        };
+        let mut m = 0;
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                m = (m + 1) & 1023;
+                let (mv, lim) = &data[m];
+                black_box(
+                    plan(black_box(mv), lim, &options)
+                        .map(|p| p.duration())
+                        .unwrap_or(0.0),
+                )
+            })
+        });
+    }
     let mut m = 0;
-    c.bench_function("exact_duration (5 s minimum, random gantry moves)", |b| {
+    c.bench_function("MoveAnalysis: can last 5 s (random gantry moves)", |b| {
         b.iter(|| {
             m = (m + 1) & 1023;
             let (mv, lim) = &data[m];
             black_box(
-                exact_duration(black_box(*mv), lim, 5.0)
-                    .map(|p| p.duration())
-                    .unwrap_or(0.0),
+                MoveAnalysis::new(black_box(mv), lim, Reversal::Forbid)
+                    .map(|a| a.can_last_at_least(5.0))
+                    .unwrap_or(false),
             )
         })
     });
     let lim = Limits::new(0.5, 0.5, 5.0).expect("limits");
-    let p = min_time(
-        Move {
+    let p = plan(
+        &Move {
             distance: 4.0,
             v_start: 1.0,
             v_end: 1.5,
         },
         &lim,
-        Reversal::Forbid,
+        &MoveOptions::default(),
     )
     .expect("profile");
     let total = p.duration();

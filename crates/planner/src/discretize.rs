@@ -1,23 +1,15 @@
-//! Phase durations on a servo period (after the seed repository's idea, without its defect).
+//! Phase durations on a servo period.
 //!
 //! A servo runs at a fixed period Ts, so each phase must last a whole number of periods. With
 //! the durations fixed, the distance is linear in the extreme speed `c` (eq. 4 summed over the
 //! phases), so `c` and then each jerk are re-solved exactly. Phases are rounded up, which needs
 //! less jerk and acceleration; where that alone cannot keep a limit (a move on a reachability
 //! bound, a phase of zero length that the new `c` needs), neighbouring whole counts are searched
-//! and the shortest that keeps every limit wins. Rounding down regardless of the limits (as the
-//! seed repository does) would exceed them.
+//! and the shortest that keeps every limit wins. Rounding every phase down regardless of the
+//! limits would exceed them, so a phase never loses a period unless the limits still hold.
 
-use crate::profile::{Profile, Segment, TwoStep};
+use crate::profile::{Profile, Segment, SevenPhases};
 use crate::{Limits, PlannerError};
-
-/// A profile on the servo grid and the time it adds to the continuous one.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Discretized {
-    pub profile: Profile,
-    /// Added duration (s), >= 0.
-    pub added_time: f64,
-}
 
 /// Rounds up to a whole number of periods (an exact multiple stays as it is).
 fn round_up(t: f64, period: f64) -> f64 {
@@ -28,13 +20,13 @@ fn round_up(t: f64, period: f64) -> f64 {
 }
 
 /// Re-times `profile` so every phase is a whole multiple of `period`, keeping its start and end
-/// state and every limit in `lim`, and lasting at least as long. Works on seven-phase
-/// (peak/valley, cruise) profiles.
-pub fn discretize(
+/// state and every limit in `lim`, and lasting at least as long; the result carries the time
+/// added ([`Profile::servo_added_time`]). Works on seven-phase (peak/valley, cruise) profiles.
+pub(crate) fn discretize(
     profile: &Profile,
     period: f64,
     lim: &Limits,
-) -> Result<Discretized, PlannerError> {
+) -> Result<Profile, PlannerError> {
     if !(period.is_finite() && period > 0.0) {
         return Err(PlannerError::InvalidInput {
             name: "period",
@@ -43,7 +35,7 @@ pub fn discretize(
         });
     }
     lim.validate()?;
-    let Some(shape) = profile.two_step().copied() else {
+    let Some(shape) = profile.seven_phases().copied() else {
         return Err(PlannerError::PeriodTooCoarse {
             period,
             detail:
@@ -51,7 +43,7 @@ pub fn discretize(
                     .into(),
         });
     };
-    let TwoStep {
+    let SevenPhases {
         direction: dir,
         v_start: vs,
         v_end: ve,
@@ -59,10 +51,7 @@ pub fn discretize(
     } = shape;
     let start = profile.start_state();
     if profile.duration() <= 0.0 {
-        return Ok(Discretized {
-            profile: profile.clone(),
-            added_time: 0.0,
-        });
+        return Ok(profile.clone().with_servo_added_time(0.0));
     }
     let distance = dir * (profile.end_state().position - start.position);
     let scale = lim.max_vel.max(vs.abs()).max(ve.abs());
@@ -126,17 +115,18 @@ pub fn discretize(
             jerk: -dir * j2,
         },
     ];
-    let new = Profile::new(start.position, start.velocity, 0.0, &segs).with_two_step(TwoStep {
-        direction: dir,
-        v_start: vs,
-        v_peak: c,
-        v_end: ve,
-        t1,
-        t2,
-        t3,
-        t4,
-        t5,
-    });
+    let new =
+        Profile::new(start.position, start.velocity, 0.0, &segs).with_seven_phases(SevenPhases {
+            direction: dir,
+            v_start: vs,
+            v_peak: c,
+            v_end: ve,
+            t1,
+            t2,
+            t3,
+            t4,
+            t5,
+        });
     new.verify(
         profile.end_state().position,
         profile.end_state().velocity,
@@ -145,10 +135,7 @@ pub fn discretize(
         1e-9,
     )?;
     let added_time = new.duration() - profile.duration();
-    Ok(Discretized {
-        profile: new,
-        added_time,
-    })
+    Ok(new.with_servo_added_time(added_time))
 }
 
 /// Periods a phase may lose (rounding down is fine while the limits hold) or gain in the search.
@@ -176,7 +163,7 @@ struct GridPhases {
 /// phase up alone is not enough: a move on a reachability bound (its only duration) or a zero
 /// phase that the new `c` needs cannot be kept that way, so neighbouring counts are searched too.
 fn search_grid(
-    shape: &TwoStep,
+    shape: &SevenPhases,
     distance: f64,
     period: f64,
     lim: &Limits,
@@ -198,13 +185,8 @@ fn search_grid(
             .map(|n| n as f64 * period)
             .collect::<Vec<f64>>()
     };
-    let acc_bound = |j: f64| {
-        if j >= 0.0 {
-            lim.max_accel
-        } else {
-            lim.max_decel
-        }
-    };
+    // A positive jerk along travel starts a rising speed.
+    let acc_bound = |j: f64| lim.accel_bound(0.0, j);
     // The jerk of a speed change by `dv` over (t_a, t_b, t_a), if it keeps J and the acceleration.
     let change = |dv: f64, t_a: f64, t_b: f64| -> Option<f64> {
         if t_a <= 0.0 {

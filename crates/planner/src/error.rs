@@ -7,38 +7,65 @@ use std::fmt;
 #[derive(Clone, Debug, PartialEq)]
 pub enum PlannerError {
     /// A limit is not a finite number > 0.
-    InvalidLimit { name: &'static str, value: f64 },
+    InvalidLimit {
+        /// The limit's field name in [`crate::Limits`].
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
     /// An input is not finite (or otherwise malformed).
     InvalidInput {
+        /// The input's name.
         name: &'static str,
+        /// The value given.
         value: f64,
+        /// What was expected instead.
         expected: &'static str,
     },
     /// A boundary speed exceeds the speed limit V.
     SpeedAboveLimit {
+        /// `v_start` or `v_end`.
         name: &'static str,
+        /// The speed given (units/s).
         value: f64,
+        /// The speed limit V (units/s).
         limit: f64,
     },
     /// Reversal is forbidden and a boundary speed points against the direction of travel.
-    SpeedAgainstTravel { name: &'static str, value: f64 },
-    /// Reversal is forbidden and `v_end` cannot be reached within the distance (paper case 3).
-    /// `max_end_speed` is the highest end speed reachable from `v_start`; `max_start_speed` the
-    /// highest start speed from which `v_end` is still reachable.
+    SpeedAgainstTravel {
+        /// `v_start` or `v_end`.
+        name: &'static str,
+        /// The speed given (units/s).
+        value: f64,
+    },
+    /// Reversal is forbidden and `v_end` cannot be reached within the distance (paper case 3,
+    /// eq. 8).
     Unreachable {
+        /// Start speed of the move (units/s).
         v_start: f64,
+        /// End speed of the move (units/s).
         v_end: f64,
+        /// Distance of the move (units).
         distance: f64,
+        /// The highest end speed reachable from `v_start` (along travel).
         max_end_speed: f64,
+        /// The highest start speed from which `v_end` is still reachable (along travel).
         max_start_speed: f64,
     },
-    /// No profile lasts the requested duration; `feasible` lists the durations that exist.
+    /// No profile lasts the requested duration or longer.
     DurationInfeasible {
+        /// The duration asked for (s).
         requested: f64,
+        /// The feasible durations, as closed intervals (s); an upper end may be infinite.
         feasible: Vec<(f64, f64)>,
     },
     /// The servo period is too coarse to keep the limits for this move.
-    PeriodTooCoarse { period: f64, detail: String },
+    PeriodTooCoarse {
+        /// The servo period (s).
+        period: f64,
+        /// What could not be kept.
+        detail: String,
+    },
     /// A profile failed its own integration check: a planner bug, never silently returned.
     Verification(String),
 }

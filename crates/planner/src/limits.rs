@@ -1,5 +1,6 @@
 //! Axis limits: jerk J, acceleration A, deceleration D and speed V.
 
+use crate::speed_change::duration;
 use crate::PlannerError;
 
 /// Kinematic limits of one axis, all finite and > 0.
@@ -56,6 +57,32 @@ impl Limits {
             }
         }
         Ok(())
+    }
+
+    /// The acceleration bound of a speed change from `v0` to `v1` along the direction of travel:
+    /// `max_accel` when the speed rises (`v1 >= v0`), `max_decel` when it falls.
+    #[inline]
+    pub fn accel_bound(&self, v0: f64, v1: f64) -> f64 {
+        if v1 >= v0 {
+            self.max_accel
+        } else {
+            self.max_decel
+        }
+    }
+
+    /// Duration of the time-optimal speed change from `v0` to `v1` with zero acceleration at both
+    /// ends (paper eq. 3–4): `|Δv|/a + a/J` when the acceleration limit `a` (see
+    /// [`Limits::accel_bound`]) is reached (`|Δv| >= a²/J`), else `2·sqrt(|Δv|/J)`.
+    #[inline]
+    pub fn speed_change_duration(&self, v0: f64, v1: f64) -> f64 {
+        duration((v1 - v0).abs(), self.max_jerk, self.accel_bound(v0, v1))
+    }
+
+    /// Distance covered by the time-optimal speed change from `v0` to `v1` (paper eq. 4):
+    /// `(v0 + v1)/2 ·` [`Limits::speed_change_duration`].
+    #[inline]
+    pub fn speed_change_distance(&self, v0: f64, v1: f64) -> f64 {
+        0.5 * (v0 + v1) * self.speed_change_duration(v0, v1)
     }
 
     /// The same limits seen from a move in the opposite direction (A and D swap roles).

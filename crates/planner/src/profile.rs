@@ -4,7 +4,7 @@
 use crate::{Limits, PlannerError};
 
 /// Most segments any planner profile has (cruise, brake, dwell, accelerate, cruise).
-pub const MAX_SEGMENTS: usize = 10;
+pub(crate) const MAX_SEGMENTS: usize = 10;
 
 /// One piece of constant jerk.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -20,9 +20,13 @@ pub struct Segment {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct State {
+    /// Position from the move's start (units).
     pub position: f64,
+    /// Signed speed (units/s).
     pub velocity: f64,
+    /// Signed acceleration (units/s²).
     pub acceleration: f64,
+    /// Signed jerk (units/s³) of the segment the instant falls in.
     pub jerk: f64,
 }
 
@@ -30,34 +34,59 @@ pub struct State {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Extrema {
+    /// Lowest position (units).
     pub min_position: f64,
+    /// Highest position (units).
     pub max_position: f64,
+    /// Lowest signed speed (units/s).
     pub min_velocity: f64,
+    /// Highest signed speed (units/s).
     pub max_velocity: f64,
+    /// Lowest signed acceleration (units/s²).
     pub min_acceleration: f64,
+    /// Highest signed acceleration (units/s²).
     pub max_acceleration: f64,
+    /// Largest |jerk| (units/s³).
     pub max_abs_jerk: f64,
 }
 
-/// The seven-phase structure of a distance-constrained move: speed change `v_start → v_peak`
-/// (periods t1, t2, t1), cruise t3 at `v_peak`, speed change `v_peak → v_end` (t4, t5, t4).
-/// Stored in the direction of travel (`direction` = ±1) so the servo discretisation can re-solve it.
+/// The seven phases of a distance-constrained move (paper section 2.2): speed change
+/// `v_start → v_peak` (periods t1, t2, t1 of eq. 3), cruise t3 at `v_peak`, speed change
+/// `v_peak → v_end` (t4, t5, t4). Speeds are along the direction of travel (`direction` = ±1
+/// maps them to coordinates), so the servo discretisation can re-solve the move.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub struct TwoStep {
+pub struct SevenPhases {
+    /// Direction of travel: +1 or -1.
     pub direction: f64,
+    /// Start speed along travel (units/s).
     pub v_start: f64,
+    /// Extreme speed along travel: a peak, or a valley (negative when the axis reverses).
     pub v_peak: f64,
+    /// End speed along travel (units/s).
     pub v_end: f64,
+    /// Each jerk period of the first speed change (s), eq. 3.
     pub t1: f64,
+    /// Constant-acceleration period of the first speed change (s), eq. 3.
     pub t2: f64,
+    /// Cruise at `v_peak` (s).
     pub t3: f64,
+    /// Each jerk period of the second speed change (s), eq. 3.
     pub t4: f64,
+    /// Constant-acceleration period of the second speed change (s), eq. 3.
     pub t5: f64,
 }
 
-/// A move: start state and constant-jerk segments, with the state at every segment boundary
-/// precomputed (so `state_at` is a short scan and a cubic).
+impl SevenPhases {
+    /// Total duration 2·t1 + t2 + t3 + 2·t4 + t5 (eq. 4 for each speed change plus the cruise).
+    pub fn duration(&self) -> f64 {
+        2.0 * self.t1 + self.t2 + self.t3 + 2.0 * self.t4 + self.t5
+    }
+}
+
+/// A planned move: start state and constant-jerk segments, with the state at every segment
+/// boundary precomputed (so `state_at` is a short scan and a cubic). Every profile
+/// [`crate::plan`] returns has been re-integrated and checked against its target and the limits.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Profile {
     len: usize,
@@ -67,7 +96,9 @@ pub struct Profile {
     p: [f64; MAX_SEGMENTS + 1],
     v: [f64; MAX_SEGMENTS + 1],
     a: [f64; MAX_SEGMENTS + 1],
-    two_step: Option<TwoStep>,
+    seven_phases: Option<SevenPhases>,
+    /// Time the servo grid added against the continuous profile (s), when put on one.
+    servo_added_time: Option<f64>,
 }
 
 #[inline]
@@ -84,8 +115,14 @@ const MIN_POSITION_SCALE_DEG: f64 = 1e-12;
 
 impl Profile {
     /// Builds a profile from a start state and segments; zero-length segments are dropped.
-    /// Panics only if more than [`MAX_SEGMENTS`] non-empty segments are given (a planner bug).
-    pub fn new(position: f64, velocity: f64, acceleration: f64, segments: &[Segment]) -> Self {
+    /// Panics only if more than [`MAX_SEGMENTS`] non-empty segments are given (a planner bug:
+    /// no planner profile has more).
+    pub(crate) fn new(
+        position: f64,
+        velocity: f64,
+        acceleration: f64,
+        segments: &[Segment],
+    ) -> Self {
         let mut prof = Profile {
             len: 0,
             segments: [Segment::default(); MAX_SEGMENTS],
@@ -93,7 +130,8 @@ impl Profile {
             p: [0.0; MAX_SEGMENTS + 1],
             v: [0.0; MAX_SEGMENTS + 1],
             a: [0.0; MAX_SEGMENTS + 1],
-            two_step: None,
+            seven_phases: None,
+            servo_added_time: None,
         };
         prof.p[0] = position;
         prof.v[0] = velocity;
@@ -115,14 +153,26 @@ impl Profile {
         prof
     }
 
-    pub(crate) fn with_two_step(mut self, shape: TwoStep) -> Self {
-        self.two_step = Some(shape);
+    pub(crate) fn with_seven_phases(mut self, phases: SevenPhases) -> Self {
+        self.seven_phases = Some(phases);
         self
     }
 
-    /// The seven-phase structure, when the profile has one (min-time and peak/valley moves).
-    pub fn two_step(&self) -> Option<&TwoStep> {
-        self.two_step.as_ref()
+    pub(crate) fn with_servo_added_time(mut self, added: f64) -> Self {
+        self.servo_added_time = Some(added);
+        self
+    }
+
+    /// The seven-phase structure, when the profile has one (minimum-time and peak/valley moves;
+    /// not the direct speed change with cruises at both end speeds that some durations need).
+    pub fn seven_phases(&self) -> Option<&SevenPhases> {
+        self.seven_phases.as_ref()
+    }
+
+    /// With a servo period ([`crate::MoveOptions::servo_period_s`]): the time the whole-period
+    /// phases added against the continuous profile (s, >= 0); `None` without one.
+    pub fn servo_added_time(&self) -> Option<f64> {
+        self.servo_added_time
     }
 
     /// The non-empty constant-jerk segments in order.
@@ -258,7 +308,7 @@ impl Profile {
     /// Re-derives the end state by integrating the segments one after another from the start
     /// state, independently of the stored boundary states, and checks both agree, that the end
     /// state is the target and that no limit is exceeded. `tol` is relative to the move's scale.
-    pub fn verify(
+    pub(crate) fn verify(
         &self,
         target_position: f64,
         target_velocity: f64,
@@ -304,7 +354,7 @@ impl Profile {
         let lim_tol = 1e-9;
         // The planner knows the direction of a seven-phase move; otherwise derive it (the two
         // agree except for zero-length moves, where re-timing may leave a sub-ulp residue).
-        let dir = match self.two_step {
+        let dir = match self.seven_phases {
             Some(s) => s.direction,
             None => travel_direction(target_position - self.p[0], self.v[0], target_velocity),
         };
@@ -344,7 +394,7 @@ impl Profile {
 
 /// Direction of travel of a move (±1): the sign of the distance, or for a zero distance the
 /// direction the boundary speeds point to. `max_accel` acts along it.
-pub fn travel_direction(distance: f64, v_start: f64, v_end: f64) -> f64 {
+pub(crate) fn travel_direction(distance: f64, v_start: f64, v_end: f64) -> f64 {
     if distance < 0.0 || (distance == 0.0 && v_start + v_end < 0.0) {
         -1.0
     } else {

@@ -6,16 +6,19 @@
 //!
 //! Note that the set of reachable speeds is not always an interval: with a jerk limit, braking
 //! from `v_s` to a *partial* stop can need more distance than braking to rest. The bounds here
-//! are the monotone branches a scheduler uses: speeding up (`v_e >= v_s`) for [`max_end_speed`],
-//! braking (`v_s >= v_e`) for [`max_start_speed`]. A move fits without reversing iff the gap is
-//! at least the shorter of the direct speed change and stopping and starting again.
+//! are the monotone branches a scheduler uses: speeding up (`v_e >= v_s`) for
+//! [`LinearGap::max_end_speed`], braking (`v_s >= v_e`) for [`LinearGap::max_start_speed`]. A move
+//! fits without reversing iff the gap is at least the shorter of the direct speed change and
+//! stopping and starting again ([`LinearGap::fits`]).
 
-use crate::roots::newton_bracketed;
+use crate::roots::{brent, newton_bracketed};
 use crate::speed_change::{duration, duration_deriv};
-use crate::{Limits, PlannerError};
+use crate::travel::{min_forward_distance, travel_frame};
+use crate::{Limits, Move, PlannerError};
 
 /// The beam-off gap as a linear function of the boundary speeds (eq. 5):
-/// `distance - (v_start·t_start + v_end·t_end) / 2`.
+/// `distance - (v_start·t_start + v_end·t_end) / 2`, and the reachable speeds across it without
+/// reversing (eq. 8). Speeds are magnitudes along the direction of travel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct LinearGap {
@@ -40,6 +43,77 @@ impl LinearGap {
     /// The gap left at boundary speeds `vs`, `ve`.
     pub fn at(&self, vs: f64, ve: f64) -> f64 {
         self.distance - 0.5 * (vs * self.t_start + ve * self.t_end)
+    }
+
+    /// Highest end speed `v_e in [v_s, V]` reachable from `v_start` without reversing, when the
+    /// speed change must fit in `self.at(v_start, v_e)` (eq. 8, solved exactly). `None` when not
+    /// even `v_e = v_start` fits.
+    pub fn max_end_speed(&self, v_start: f64, lim: &Limits) -> Result<Option<f64>, PlannerError> {
+        lim.validate()?;
+        self.validate()?;
+        let vs = check_speed("v_start", v_start, lim)?;
+        Ok(max_end_speed_travel(vs, self, lim))
+    }
+
+    /// Highest start speed `v_s in [v_e, V]` from which `v_end` is reached without reversing
+    /// within `self.at(v_s, v_end)` (eq. 8 with time reversed). `None` when not even
+    /// `v_s = v_end` fits.
+    pub fn max_start_speed(&self, v_end: f64, lim: &Limits) -> Result<Option<f64>, PlannerError> {
+        lim.validate()?;
+        self.validate()?;
+        let ve = check_speed("v_end", v_end, lim)?;
+        Ok(max_start_speed_travel(ve, self, lim))
+    }
+
+    /// Whether a move from `v_start` to `v_end` fits in the gap without reversing: whether the
+    /// gap left at these speeds is at least the shorter of the direct speed change (eq. 6) and
+    /// stopping and starting again; equivalent to [`crate::MoveAnalysis::new`] succeeding with
+    /// [`crate::Reversal::Forbid`]. Closed form, no root solve. False for invalid input.
+    pub fn fits(&self, v_start: f64, v_end: f64, lim: &Limits) -> bool {
+        let d = self.at(v_start, v_end);
+        if d < 0.0 {
+            return false;
+        }
+        let mv = Move {
+            distance: d,
+            v_start,
+            v_end,
+        };
+        match travel_frame(&mv, lim, true) {
+            Ok(tr) => min_forward_distance(tr.vs, tr.ve, lim) <= tr.d,
+            Err(_) => false,
+        }
+    }
+
+    /// Largest factor `s in [0, 1]` such that the axis can brake from `s·v_start` to rest and
+    /// speed up again to `s·v_end` within `self.at(s·v_start, s·v_end)` (eq. 4 for each change),
+    /// on the safe side of the root; a dwell at rest then makes the move last as long as wanted.
+    /// 1 when stopping already fits at the given speeds.
+    pub fn max_stop_scale(
+        &self,
+        v_start: f64,
+        v_end: f64,
+        lim: &Limits,
+    ) -> Result<f64, PlannerError> {
+        lim.validate()?;
+        self.validate()?;
+        let vs = check_speed("v_start", v_start, lim)?;
+        let ve = check_speed("v_end", v_end, lim)?;
+        let excess = |s: f64| {
+            let (a, b) = (s * vs, s * ve);
+            lim.speed_change_distance(a, 0.0) + lim.speed_change_distance(0.0, b) - self.at(a, b)
+        };
+        if excess(1.0) <= 0.0 {
+            return Ok(1.0);
+        }
+        // excess(0) = -distance <= 0 and excess increases with s: the root is where stopping
+        // just fits (nudged to the safe side).
+        let s = brent(excess, 0.0, 1.0);
+        Ok(if excess(s) <= 0.0 {
+            s
+        } else {
+            (s * (1.0 - 1e-12)).max(0.0)
+        })
     }
 
     fn reversed(&self) -> Self {
@@ -87,33 +161,6 @@ fn check_speed(name: &'static str, value: f64, lim: &Limits) -> Result<f64, Plan
         });
     }
     Ok(value.clamp(0.0, lim.max_vel))
-}
-
-/// Highest end speed `v_e in [v_s, V]` reachable from `v_start` without reversing, when the
-/// speed change must fit in `gap.at(v_start, v_e)`. `None` when not even `v_e = v_start` fits.
-/// Speeds are magnitudes along the direction of travel.
-pub fn max_end_speed(
-    v_start: f64,
-    gap: &LinearGap,
-    lim: &Limits,
-) -> Result<Option<f64>, PlannerError> {
-    lim.validate()?;
-    gap.validate()?;
-    let vs = check_speed("v_start", v_start, lim)?;
-    Ok(max_end_speed_travel(vs, gap, lim))
-}
-
-/// Highest start speed `v_s in [v_e, V]` from which `v_end` is reached without reversing within
-/// `gap.at(v_s, v_end)`. `None` when not even `v_s = v_end` fits.
-pub fn max_start_speed(
-    v_end: f64,
-    gap: &LinearGap,
-    lim: &Limits,
-) -> Result<Option<f64>, PlannerError> {
-    lim.validate()?;
-    gap.validate()?;
-    let ve = check_speed("v_end", v_end, lim)?;
-    Ok(max_start_speed_travel(ve, gap, lim))
 }
 
 pub(crate) fn max_end_speed_travel(vs: f64, gap: &LinearGap, lim: &Limits) -> Option<f64> {
@@ -193,22 +240,4 @@ fn highest_fit(vs: f64, gap: &LinearGap, lim: &Limits, via_rest: bool) -> Option
 pub(crate) fn max_start_speed_travel(ve: f64, gap: &LinearGap, lim: &Limits) -> Option<f64> {
     // Braking v_s -> v_e under D is speeding up v_e -> v_s under D with time reversed.
     max_end_speed_travel(ve, &gap.reversed(), &lim.time_reversed())
-}
-
-/// Whether a move from `v_start` to `v_end` (magnitudes along travel) fits in `gap` without
-/// reversing; equivalent to `min_time(..., Reversal::Forbid)` succeeding.
-pub fn fits(v_start: f64, v_end: f64, gap: &LinearGap, lim: &Limits) -> bool {
-    let d = gap.at(v_start, v_end);
-    if d < 0.0 {
-        return false;
-    }
-    let mv = crate::Move {
-        distance: d,
-        v_start,
-        v_end,
-    };
-    match crate::min_time::travel_frame(&mv, lim, true) {
-        Ok(tr) => crate::min_time::min_forward_distance(tr.vs, tr.ve, lim) <= tr.d,
-        Err(_) => false,
-    }
 }

@@ -8,7 +8,12 @@
 /// The iteration runs in `w = sqrt(x - lo)`: the planner's distance functions behave like
 /// `sqrt(x - lo)` next to the low end (a speed change that has just started), which would turn
 /// Newton in `x` into a slow bisection towards `lo`; in `w` they are smooth.
-pub fn newton_bracketed(mut fdf: impl FnMut(f64) -> (f64, f64), lo: f64, hi: f64, x0: f64) -> f64 {
+pub(crate) fn newton_bracketed(
+    mut fdf: impl FnMut(f64) -> (f64, f64),
+    lo: f64,
+    hi: f64,
+    x0: f64,
+) -> f64 {
     let (f_lo, _) = fdf(lo);
     if f_lo >= 0.0 {
         // A root at the low end (e.g. an extreme speed exactly at its base) is common: take it.
@@ -66,7 +71,7 @@ pub fn newton_bracketed(mut fdf: impl FnMut(f64) -> (f64, f64), lo: f64, hi: f64
 
 /// Root of a continuous `f` on `[a, b]` with `f(a)` and `f(b)` of opposite signs (or zero), by
 /// Brent's method (inverse quadratic interpolation, secant and bisection), to machine precision.
-pub fn brent(mut f: impl FnMut(f64) -> f64, a: f64, b: f64) -> f64 {
+pub(crate) fn brent(mut f: impl FnMut(f64) -> f64, a: f64, b: f64) -> f64 {
     let (mut a, mut b) = (a, b);
     let (mut fa, mut fb) = (f(a), f(b));
     if fa == 0.0 {
@@ -136,13 +141,13 @@ pub fn brent(mut f: impl FnMut(f64) -> f64, a: f64, b: f64) -> f64 {
 }
 
 /// Maximum of a unimodal `f` on `[a, b]` by golden-section search to relative width ~1e-12.
-pub fn golden_max(f: impl FnMut(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
+pub(crate) fn golden_max(f: impl FnMut(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
     golden_max_tol(f, a, b, 1e-13)
 }
 
 /// [`golden_max`] to a relative width `tol` of the interval (for brackets that a root finder
 /// refines afterwards).
-pub fn golden_max_tol(
+pub(crate) fn golden_max_tol(
     mut f: impl FnMut(f64) -> f64,
     mut a: f64,
     mut b: f64,

@@ -3,7 +3,7 @@
 
 /// Time-optimal speed change: jerk `jerk` for `t1`, zero jerk for `t2`, jerk `-jerk` for `t1`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SpeedChange {
+pub(crate) struct SpeedChange {
     /// Duration of each jerk period (eq. 3).
     pub t1: f64,
     /// Duration of the constant-acceleration period (eq. 3); 0 for a triangular acceleration.
@@ -13,17 +13,9 @@ pub struct SpeedChange {
 }
 
 impl SpeedChange {
-    /// The bang-bang profile from `v0` to `v1` under jerk `max_jerk` and acceleration bound
-    /// `max_acc` (the bound that applies to this direction of change).
-    pub fn new(v0: f64, v1: f64, max_jerk: f64, max_acc: f64) -> Self {
-        let u = (v1 - v0).abs();
-        let (t1, t2) = periods(u, max_jerk, max_acc);
-        let jerk = if v1 >= v0 { max_jerk } else { -max_jerk };
-        SpeedChange { t1, t2, jerk }
-    }
-
-    /// The speed change of magnitude `u >= 0`, up (`speed_up`) or down.
-    pub fn from_delta(u: f64, speed_up: bool, max_jerk: f64, max_acc: f64) -> Self {
+    /// The speed change of magnitude `u >= 0`, up (`speed_up`) or down, under jerk `max_jerk` and
+    /// the acceleration bound `max_acc` of that direction of change.
+    pub(crate) fn from_delta(u: f64, speed_up: bool, max_jerk: f64, max_acc: f64) -> Self {
         let (t1, t2) = periods(u, max_jerk, max_acc);
         SpeedChange {
             t1,
@@ -31,16 +23,11 @@ impl SpeedChange {
             jerk: if speed_up { max_jerk } else { -max_jerk },
         }
     }
-
-    /// Total duration 2·t1 + t2 (eq. 4).
-    pub fn duration(&self) -> f64 {
-        2.0 * self.t1 + self.t2
-    }
 }
 
 /// (t1, t2) of eq. 3 for a speed change of magnitude `u`.
 #[inline]
-pub fn periods(u: f64, j: f64, a: f64) -> (f64, f64) {
+pub(crate) fn periods(u: f64, j: f64, a: f64) -> (f64, f64) {
     if u * j >= a * a {
         (a / j, u / a - a / j)
     } else {
@@ -50,7 +37,7 @@ pub fn periods(u: f64, j: f64, a: f64) -> (f64, f64) {
 
 /// Duration 2·t1 + t2 of a speed change of magnitude `u >= 0` (eq. 3–4).
 #[inline]
-pub fn duration(u: f64, j: f64, a: f64) -> f64 {
+pub(crate) fn duration(u: f64, j: f64, a: f64) -> f64 {
     if u * j >= a * a {
         u / a + a / j
     } else {
@@ -60,7 +47,7 @@ pub fn duration(u: f64, j: f64, a: f64) -> f64 {
 
 /// Derivative of [`duration`] with respect to `u` (infinite at u = 0 for the triangle).
 #[inline]
-pub fn duration_deriv(u: f64, j: f64, a: f64) -> f64 {
+pub(crate) fn duration_deriv(u: f64, j: f64, a: f64) -> f64 {
     if u * j >= a * a {
         1.0 / a
     } else if u > 0.0 {
@@ -68,12 +55,4 @@ pub fn duration_deriv(u: f64, j: f64, a: f64) -> f64 {
     } else {
         f64::INFINITY
     }
-}
-
-/// Distance covered while changing speed from `v0` to `v1` (eq. 4), with `a_up` bounding
-/// acceleration when speeding up and `a_down` when slowing down.
-#[inline]
-pub fn distance(v0: f64, v1: f64, j: f64, a_up: f64, a_down: f64) -> f64 {
-    let a = if v1 >= v0 { a_up } else { a_down };
-    0.5 * (v0 + v1) * duration((v1 - v0).abs(), j, a)
 }

@@ -3,8 +3,7 @@
 
 mod common;
 
-use arcsim_planner::speed_change::duration;
-use arcsim_planner::{min_time, Limits, Move, Reversal};
+use arcsim_planner::{Limits, Move, Reversal};
 use common::*;
 
 #[test]
@@ -13,7 +12,7 @@ fn brute_force_integration_matches_profile_end() {
     for case in 0..20_000 {
         let lim = random_limits(&mut rng);
         let mv = random_move(&mut rng, &lim, false);
-        let p = min_time(mv, &lim, Reversal::Allow).expect("profile");
+        let p = min_time(&mv, &lim, Reversal::Allow).expect("profile");
         let (pos, vel, acc) = brute_force_end(&p, 16);
         let scale = move_scale(&mv, &lim, p.duration());
         assert!(
@@ -39,7 +38,7 @@ fn brute_force_integration_matches_profile_end() {
 fn state_at_is_continuous_and_samples_cover_the_move() {
     let lim = Limits::new(0.5, 0.5, 5.0).expect("limits");
     let p = min_time(
-        Move {
+        &Move {
             distance: 10.0,
             v_start: 0.5,
             v_end: 1.0,
@@ -72,26 +71,16 @@ fn no_grid_extreme_speed_beats_the_planner() {
     for case in 0..400 {
         let lim = random_limits(&mut rng);
         let mv = random_move(&mut rng, &lim, false);
-        let p = min_time(mv, &lim, Reversal::Allow).expect("profile");
-        let dir = arcsim_planner::profile::travel_direction(mv.distance, mv.v_start, mv.v_end);
+        let p = min_time(&mv, &lim, Reversal::Allow).expect("profile");
+        let dir = mv.direction();
         let (d, vs, ve) = (dir * mv.distance, dir * mv.v_start, dir * mv.v_end);
         let n = 20_000;
         let mut best = f64::INFINITY;
         for i in 0..=n {
             let c = -lim.max_vel + 2.0 * lim.max_vel * i as f64 / n as f64;
-            let a1 = if c >= vs {
-                lim.max_accel
-            } else {
-                lim.max_decel
-            };
-            let a2 = if ve >= c {
-                lim.max_accel
-            } else {
-                lim.max_decel
-            };
             let (t1, t2) = (
-                duration((c - vs).abs(), lim.max_jerk, a1),
-                duration((ve - c).abs(), lim.max_jerk, a2),
+                lim.speed_change_duration(vs, c),
+                lim.speed_change_duration(c, ve),
             );
             let dist = 0.5 * (vs + c) * t1 + 0.5 * (c + ve) * t2;
             let cruise = if c != 0.0 {

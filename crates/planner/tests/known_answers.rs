@@ -2,13 +2,13 @@
 
 mod common;
 
-use arcsim_planner::{min_time, Limits, Move, PlannerError, Reversal};
-use common::{new_ruckig, ruckig_duration};
+use arcsim_planner::{Limits, Move, PlannerError, Reversal};
+use common::{min_time, new_ruckig, ruckig_duration};
 
 fn peak(j: f64, a: f64, v: f64, d: f64, vs: f64, ve: f64) -> (f64, f64) {
     let lim = Limits::new(j, a, v).expect("limits");
     let p = min_time(
-        Move {
+        &Move {
             distance: d,
             v_start: vs,
             v_end: ve,
@@ -17,7 +17,7 @@ fn peak(j: f64, a: f64, v: f64, d: f64, vs: f64, ve: f64) -> (f64, f64) {
         Reversal::Allow,
     )
     .expect("profile");
-    (p.two_step().expect("seven-phase").v_peak, p.duration())
+    (p.seven_phases().expect("seven-phase").v_peak, p.duration())
 }
 
 /// Table 3, case 1 (A = 20, V = 1.2) reproduces with an effective jerk of J/2 = 1000: the paper's
@@ -86,7 +86,7 @@ fn table3_true_optimum_under_stated_limits() {
     // Ex8: v_e = 1.2 exceeds V = 0.8: a typed error, not a profile.
     let lim = Limits::new(1.2e4, 40.0, 0.8).expect("limits");
     let err = min_time(
-        Move {
+        &Move {
             distance: 0.033,
             v_start: 0.0,
             v_end: 1.2,
@@ -101,18 +101,30 @@ fn table3_true_optimum_under_stated_limits() {
     );
 }
 
-/// Speed change alone (eq. 3–4): trapezoid and triangle durations and distances.
+/// Speed change alone (eq. 3–4): trapezoid and triangle durations and distances, and the
+/// minimum-time profile of a move that is exactly one speed change.
 #[test]
 fn basic_profile_equations() {
-    use arcsim_planner::speed_change::{distance, SpeedChange};
-    // Trapezoid: Δv = 2 >= A²/J = 0.5 → t1 = A/J = 1, t2 = Δv/A - A/J = 3.
-    let sc = SpeedChange::new(0.5, 2.5, 0.5, 0.5);
-    assert!((sc.t1 - 1.0).abs() < 1e-15 && (sc.t2 - 3.0).abs() < 1e-15 && sc.jerk == 0.5);
-    assert!((distance(0.5, 2.5, 0.5, 0.5, 0.5) - 1.5 * 5.0).abs() < 1e-12);
-    // Triangle: Δv = 0.125 < 0.5 → t1 = sqrt(Δv/J) = 0.5, t2 = 0; slowing down flips the jerk.
-    let sc = SpeedChange::new(1.0, 0.875, 0.5, 0.5);
-    assert!((sc.t1 - 0.5).abs() < 1e-15 && sc.t2 == 0.0 && sc.jerk == -0.5);
-    assert!((sc.duration() - 1.0).abs() < 1e-15);
+    let lim = Limits::with_decel(0.5, 0.5, 0.25, 5.0).expect("limits");
+    // Trapezoid: Δv = 2 >= A²/J = 0.5 → t1 = A/J = 1, t2 = Δv/A - A/J = 3, duration 5.
+    assert!((lim.speed_change_duration(0.5, 2.5) - 5.0).abs() < 1e-15);
+    assert!((lim.speed_change_distance(0.5, 2.5) - 1.5 * 5.0).abs() < 1e-12);
+    // Triangle: Δv = 0.125 < A²/J = 0.5 → t1 = sqrt(Δv/J) = 0.5, t2 = 0, duration 1.
+    assert!((lim.speed_change_duration(0.5, 0.625) - 1.0).abs() < 1e-15);
+    // Falling under D = 0.25: Δv = 1 >= D²/J = 0.125 → Δv/D + D/J = 4.5.
+    assert!((lim.speed_change_duration(2.0, 1.0) - 4.5).abs() < 1e-15);
+    assert_eq!(lim.accel_bound(1.0, 2.0), 0.5);
+    assert_eq!(lim.accel_bound(2.0, 1.0), 0.25);
+    // A move whose distance is exactly that of the speed change is the speed change.
+    let mv = Move {
+        distance: lim.speed_change_distance(0.5, 2.5),
+        v_start: 0.5,
+        v_end: 2.5,
+    };
+    let p = min_time(&mv, &lim, Reversal::Forbid).expect("profile");
+    assert!((p.duration() - 5.0).abs() < 1e-12, "{}", p.duration());
+    let phases = p.seven_phases().expect("seven phases");
+    assert!((phases.t1 - 1.0).abs() < 1e-12 && (phases.t2 - 3.0).abs() < 1e-12);
 }
 
 /// Invalid limits and inputs are typed errors, never panics or NaN.
@@ -136,7 +148,7 @@ fn bad_inputs_are_typed_errors() {
         v_end: 0.0,
     };
     assert!(matches!(
-        min_time(nan, &lim, Reversal::Allow),
+        min_time(&nan, &lim, Reversal::Allow),
         Err(PlannerError::InvalidInput {
             name: "distance",
             ..
@@ -148,10 +160,10 @@ fn bad_inputs_are_typed_errors() {
         v_end: 0.0,
     };
     assert!(matches!(
-        min_time(back, &lim, Reversal::Forbid),
+        min_time(&back, &lim, Reversal::Forbid),
         Err(PlannerError::SpeedAgainstTravel { .. })
     ));
-    assert!(min_time(back, &lim, Reversal::Allow).is_ok());
+    assert!(min_time(&back, &lim, Reversal::Allow).is_ok());
 }
 
 /// Inside an arc (reversal forbidden) a gap too short to brake is a typed result whose bounds
@@ -164,7 +176,7 @@ fn gap_too_short_reports_exact_bounds() {
         v_start: 2.0,
         v_end: 0.5,
     };
-    let err = min_time(mv, &lim, Reversal::Forbid).unwrap_err();
+    let err = min_time(&mv, &lim, Reversal::Forbid).unwrap_err();
     let PlannerError::Unreachable {
         max_start_speed, ..
     } = err
@@ -176,12 +188,12 @@ fn gap_too_short_reports_exact_bounds() {
         v_start: max_start_speed,
         ..mv
     };
-    assert!(min_time(ok, &lim, Reversal::Forbid).is_ok());
+    assert!(min_time(&ok, &lim, Reversal::Forbid).is_ok());
     let too_fast = Move {
         v_start: max_start_speed * (1.0 + 1e-9),
         ..mv
     };
-    assert!(min_time(too_fast, &lim, Reversal::Forbid).is_err());
+    assert!(min_time(&too_fast, &lim, Reversal::Forbid).is_err());
 }
 
 /// An analytic optimum: from speed v back to the same point at rest (d = 0, v_e = 0) with only a
@@ -197,7 +209,7 @@ fn golden_ratio_return_to_start() {
     ] {
         let lim = Limits::new(j, 1e6, 10.0).expect("limits");
         let p = min_time(
-            Move {
+            &Move {
                 distance: 0.0,
                 v_start: v,
                 v_end: 0.0,
@@ -212,7 +224,7 @@ fn golden_ratio_return_to_start() {
             "v={v}: {} vs {t}",
             p.duration()
         );
-        let vm = p.two_step().expect("seven-phase").v_peak;
+        let vm = p.seven_phases().expect("seven-phase").v_peak;
         assert!((vm + v / phi).abs() <= 1e-9 * v, "v={v}: valley {vm}");
     }
 }

@@ -1,30 +1,58 @@
-//! Step 2 (exact durations) and the servo-period discretisation, on seeded random moves.
+//! Step 2 (minimum durations) and the servo-period discretisation, on seeded random moves.
 
 mod common;
 
-use arcsim_planner::{
-    can_last_at_least, discretize, exact_duration, feasible_durations, max_duration, min_time,
-    shortest_duration_at_least, Move, PlannerError, Reversal,
-};
+use arcsim_planner::{plan, LinearGap, Move, MoveAnalysis, MoveOptions, PlannerError, Reversal};
 use common::*;
 
+/// `plan` with a minimum duration, reversal forbidden, continuous time.
+fn at_least(
+    mv: Move,
+    lim: &arcsim_planner::Limits,
+    t: f64,
+) -> Result<arcsim_planner::Profile, PlannerError> {
+    let options = MoveOptions {
+        min_duration_s: t,
+        ..MoveOptions::default()
+    };
+    plan(&mv, lim, &options)
+}
+
+/// `plan` on a servo period, no minimum duration.
+fn on_servo(
+    mv: Move,
+    lim: &arcsim_planner::Limits,
+    period: f64,
+    reversal: Reversal,
+) -> Result<arcsim_planner::Profile, PlannerError> {
+    let options = MoveOptions {
+        servo_period_s: Some(period),
+        reversal,
+        ..MoveOptions::default()
+    };
+    plan(&mv, lim, &options)
+}
+
 #[test]
-fn exact_durations_on_random_moves() {
+fn minimum_durations_on_random_moves() {
     let mut rng = Rng::new(99);
-    let (mut solved, mut infeasible, mut reversing) = (0, 0, 0);
+    let (mut solved, mut lengthened, mut infeasible, mut reversing) = (0, 0, 0, 0);
     for case in 0..30_000 {
         let lim = random_limits(&mut rng);
         let mv = random_move(&mut rng, &lim, true);
-        let set = match feasible_durations(mv, &lim) {
-            Ok(s) => s,
+        let set = match MoveAnalysis::new(&mv, &lim, Reversal::Forbid) {
+            Ok(a) => a.durations(),
             Err(PlannerError::Unreachable { .. }) => {
                 reversing += 1;
-                assert!(min_time(mv, &lim, Reversal::Forbid).is_err(), "case {case}");
+                assert!(
+                    min_time(&mv, &lim, Reversal::Forbid).is_err(),
+                    "case {case}"
+                );
                 continue;
             }
             Err(e) => panic!("case {case}: {e}"),
         };
-        let t_opt = min_time(mv, &lim, Reversal::Forbid)
+        let t_opt = min_time(&mv, &lim, Reversal::Forbid)
             .expect("forbid ok")
             .duration();
         assert!(
@@ -37,16 +65,19 @@ fn exact_durations_on_random_moves() {
         } else {
             t_opt * (1.0 + rng.log_uniform(-6.0, 1.3))
         };
-        match exact_duration(mv, &lim, t_req) {
+        match at_least(mv, &lim, t_req) {
             Ok(p) => {
                 solved += 1;
+                // The requested duration when feasible, else the next feasible one.
+                let want = if set.contains(t_req) {
+                    t_req
+                } else {
+                    lengthened += 1;
+                    set.at_least(t_req).expect("a longer feasible duration")
+                };
                 assert!(
-                    set.contains(t_req),
-                    "case {case}: solved {t_req} outside {set:?}"
-                );
-                assert!(
-                    (p.duration() - t_req).abs() <= 1e-9 * t_req.max(1.0),
-                    "case {case}: {} vs {t_req}",
+                    (p.duration() - want).abs() <= 1e-9 * want.max(1.0),
+                    "case {case}: {} vs {want} (asked {t_req}, {set:?})",
                     p.duration()
                 );
                 let end = p.end_state();
@@ -76,18 +107,20 @@ fn exact_durations_on_random_moves() {
             Err(PlannerError::DurationInfeasible { feasible, .. }) => {
                 infeasible += 1;
                 assert!(
-                    !set.contains(t_req),
-                    "case {case}: {t_req} in {set:?} but refused {mv:?} {lim:?}"
+                    set.at_least(t_req).is_none(),
+                    "case {case}: {t_req} below the end of {set:?} but refused {mv:?} {lim:?}"
                 );
-                assert_eq!(feasible, set.intervals);
+                assert_eq!(feasible, set.intervals());
             }
             Err(e) => panic!("case {case}: {e}"),
         }
     }
-    println!("solved {solved}, infeasible {infeasible}, reversing {reversing}");
+    println!(
+        "solved {solved} ({lengthened} lengthened), infeasible {infeasible}, reversing {reversing}"
+    );
     assert!(
-        solved > 10_000 && infeasible > 100,
-        "solved {solved}, infeasible {infeasible}"
+        solved > 10_000 && infeasible > 100 && lengthened > 0,
+        "solved {solved}, lengthened {lengthened}, infeasible {infeasible}"
     );
 }
 
@@ -101,18 +134,21 @@ fn energy_switch_on_atom_gantry() {
         v_start: 1.5,
         v_end: 1.5,
     };
-    let t_max = max_duration(fast, &lim).expect("feasible");
+    let analysis = |mv: &Move| MoveAnalysis::new(mv, &lim, Reversal::Forbid).expect("feasible");
+    let t_max = analysis(&fast).durations().max();
     assert!(t_max.is_finite() && t_max < 5.0, "{t_max}");
-    let err = exact_duration(fast, &lim, 5.0).unwrap_err();
+    assert!(!analysis(&fast).can_last_at_least(5.0));
+    let err = at_least(fast, &lim, 5.0).unwrap_err();
     assert!(err.to_string().contains("feasible durations"), "{err}");
     let slow = Move {
         distance: 1.6,
         v_start: 0.3,
         v_end: 0.3,
     };
-    let p = exact_duration(slow, &lim, 5.0).expect("slow enough");
+    let p = at_least(slow, &lim, 5.0).expect("slow enough");
     assert!((p.duration() - 5.0).abs() < 1e-9);
-    assert!(max_duration(slow, &lim).expect("ok").is_infinite());
+    assert!(analysis(&slow).durations().max().is_infinite());
+    assert!(analysis(&slow).can_last_at_least(5.0));
 }
 
 #[test]
@@ -128,7 +164,7 @@ fn servo_discretisation_keeps_limits_and_end_state() {
         } else {
             Reversal::Allow
         };
-        let Ok(p) = min_time(mv, &lim, reversal) else {
+        let Ok(p) = min_time(&mv, &lim, reversal) else {
             continue;
         };
         // Periods from 1e-4 to 1e-1 of the move's duration (and an absolute servo-like 1 ms).
@@ -137,15 +173,17 @@ fn servo_discretisation_keeps_limits_and_end_state() {
         } else {
             p.duration().max(1e-9) * rng.log_uniform(-4.0, -1.0)
         };
-        match discretize(&p, period, &lim) {
+        match on_servo(mv, &lim, period, reversal) {
             Ok(dz) => {
                 ok += 1;
+                let added = dz.servo_added_time().expect("on a servo period");
                 assert!(
-                    dz.added_time >= -1e-12 * p.duration().max(1.0),
-                    "case {case}: {}",
-                    dz.added_time
+                    added >= -1e-12 * p.duration().max(1.0)
+                        && (dz.duration() - p.duration() - added).abs()
+                            <= 1e-12 * p.duration().max(1.0),
+                    "case {case}: {added}"
                 );
-                for s in dz.profile.segments() {
+                for s in dz.segments() {
                     let n = s.duration / period;
                     assert!(
                         (n - n.round()).abs() <= 1e-9 * n.max(1.0),
@@ -153,8 +191,8 @@ fn servo_discretisation_keeps_limits_and_end_state() {
                         s.duration
                     );
                 }
-                let (e0, e1) = (p.end_state(), dz.profile.end_state());
-                let scale = move_scale(&mv, &lim, dz.profile.duration());
+                let (e0, e1) = (p.end_state(), dz.end_state());
+                let scale = move_scale(&mv, &lim, dz.duration());
                 assert!(
                     (e1.position - e0.position).abs() <= 1e-9 * scale,
                     "case {case}: {e1:?} vs {e0:?}"
@@ -163,7 +201,7 @@ fn servo_discretisation_keeps_limits_and_end_state() {
                     (e1.velocity - e0.velocity).abs() <= 1e-9 * lim.max_vel,
                     "case {case}"
                 );
-                let e = dz.profile.extrema();
+                let e = dz.extrema();
                 assert!(
                     e.max_abs_jerk <= lim.max_jerk * (1.0 + 1e-12),
                     "case {case}: jerk {}",
@@ -180,7 +218,7 @@ fn servo_discretisation_keeps_limits_and_end_state() {
             Err(PlannerError::PeriodTooCoarse { .. }) => coarse += 1,
             Err(e) => panic!(
                 "case {case}: {e} {mv:?} {lim:?} period {period} {:?}",
-                p.two_step()
+                p.seven_phases()
             ),
         }
     }
@@ -190,28 +228,23 @@ fn servo_discretisation_keeps_limits_and_end_state() {
     assert!(ok > 20_800, "ok {ok}, coarse {coarse}");
 }
 
-/// Seed-repository defect check: rounding phases down would need more jerk than J; rounding up
-/// on a 1 ms servo adds less than 2 ms per phase.
+/// Rounding phases down would need more jerk than J; rounding up on a 1 ms servo adds less than
+/// 1 ms per phase and keeps the jerk.
 #[test]
 fn servo_rounding_up_adds_bounded_time() {
     let lim = arcsim_planner::Limits::new(0.5, 0.5, 5.0).expect("limits");
-    let p = min_time(
-        Move {
-            distance: 2.0,
-            v_start: 1.0,
-            v_end: 0.4,
-        },
-        &lim,
-        Reversal::Forbid,
-    )
-    .expect("ok");
-    let dz = discretize(&p, 1e-3, &lim).expect("fine period");
-    assert!(
-        dz.added_time >= 0.0 && dz.added_time < 7.0 * 1e-3,
-        "{}",
-        dz.added_time
-    );
-    assert!(dz.profile.extrema().max_abs_jerk <= 0.5 * (1.0 + 1e-12));
+    let mv = Move {
+        distance: 2.0,
+        v_start: 1.0,
+        v_end: 0.4,
+    };
+    let p = min_time(&mv, &lim, Reversal::Forbid).expect("ok");
+    let dz = on_servo(mv, &lim, 1e-3, Reversal::Forbid).expect("fine period");
+    let added = dz.servo_added_time().expect("on a servo period");
+    assert!((0.0..7.0 * 1e-3).contains(&added), "{added}");
+    assert!((dz.duration() - p.duration() - added).abs() < 1e-12);
+    assert!(dz.extrema().max_abs_jerk <= 0.5 * (1.0 + 1e-12));
+    assert!(p.servo_added_time().is_none());
 }
 
 /// The one-root test `can_last_at_least` agrees with the full duration analysis: whenever it says
@@ -224,22 +257,27 @@ fn can_last_at_least_agrees_with_the_duration_set() {
     for case in 0..30_000 {
         let lim = random_limits(&mut rng);
         let mv = random_move(&mut rng, &lim, true);
-        let Ok(set) = feasible_durations(mv, &lim) else {
-            assert!(can_last_at_least(mv, &lim, 1.0).is_err(), "case {case}");
+        let Ok(analysis) = MoveAnalysis::new(&mv, &lim, Reversal::Forbid) else {
+            assert!(
+                !LinearGap::plain(mv.distance).fits(mv.v_start, mv.v_end, &lim),
+                "case {case}"
+            );
             continue;
         };
+        let set = analysis.durations();
         let t = if rng.chance(0.5) && set.max().is_finite() {
             set.max() * (1.0 + rng.uniform(-0.5, 0.5))
         } else {
             set.min() * (1.0 + rng.log_uniform(-6.0, 1.3))
         };
-        let fast = can_last_at_least(mv, &lim, t).expect("valid move");
-        let full = shortest_duration_at_least(mv, &lim, t).expect("valid move");
+        let fast = analysis.can_last_at_least(t);
+        let full = analysis.shortest_duration_at_least(t);
         if fast {
             yes += 1;
             let d = full.unwrap_or_else(|| panic!("case {case}: {set:?} t {t}"));
-            let p = exact_duration(mv, &lim, d).expect("a profile that long");
+            let p = analysis.profile(d).expect("a profile that long");
             assert!(p.duration() >= t * (1.0 - 1e-9), "case {case}");
+            assert!((p.duration() - d).abs() <= 1e-9 * d.max(1.0), "case {case}");
         } else {
             no += 1;
             assert!(

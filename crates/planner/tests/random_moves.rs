@@ -4,7 +4,7 @@
 
 mod common;
 
-use arcsim_planner::{min_time, Move, PlannerError, Reversal};
+use arcsim_planner::{Move, PlannerError, Reversal};
 use common::*;
 
 #[derive(Default, Debug)]
@@ -28,7 +28,7 @@ fn check_case(
     let ctx = || format!("case {case}: {mv:?} {lim:?}");
 
     // Reversal allowed: always a profile.
-    let prof = min_time(mv, &lim, Reversal::Allow).unwrap_or_else(|e| panic!("{}: {e}", ctx()));
+    let prof = min_time(&mv, &lim, Reversal::Allow).unwrap_or_else(|e| panic!("{}: {e}", ctx()));
     tally.allow += 1;
     let t = prof.duration();
     assert!(t.is_finite() && t >= 0.0, "{}: duration {t}", ctx());
@@ -74,7 +74,7 @@ fn check_case(
     }
     // Sampled limits agree with the extrema (sampling can only find less): the acceleration
     // along travel within A, against it within D.
-    let dir = arcsim_planner::profile::travel_direction(mv.distance, mv.v_start, mv.v_end);
+    let dir = mv.direction();
     for (_, st) in prof.samples(t / 37.0) {
         let along = dir * st.acceleration;
         assert!(
@@ -115,7 +115,7 @@ fn check_case(
 
     // Reversal forbidden: the same profile when it does not reverse, else a typed result.
     if forward_only {
-        match min_time(mv, &lim, Reversal::Forbid) {
+        match min_time(&mv, &lim, Reversal::Forbid) {
             Ok(p) => {
                 tally.forbid_ok += 1;
                 assert!(
@@ -152,7 +152,7 @@ fn check_case(
                         v_end: max_end_speed,
                         ..mv
                     };
-                    let ok = min_time(m, &lim, Reversal::Forbid);
+                    let ok = min_time(&m, &lim, Reversal::Forbid);
                     assert!(
                         ok.is_ok(),
                         "{}: bound {max_end_speed} not reachable: {ok:?}",

@@ -98,11 +98,13 @@ impl Profile {
 
 /// The minimum-time move over `distance` (deg) from `v_start` to `v_end` (deg/s) within the
 /// limits `jerk`, `accel`, `vel` (and `decel`, default `accel`), as `arcsim profile` computes it:
-/// with `min_duration` (s) it lasts exactly that long, with `period_s` every phase is on the
-/// servo grid, `reverse` "forbid" (default) or "allow" a move against the travel. Raises
-/// ProfileError when there is no such move.
+/// with `min_duration` (s; 0: no minimum) it lasts the shortest duration of at least that long
+/// (that value itself when the move can last it), with `period_s` every phase is on the servo grid,
+/// `reverse` "forbid" (default) or "allow" a move against the travel. Raises ProfileError when
+/// there is no such move.
 #[pyfunction]
 #[pyo3(signature = (distance, v_start, v_end, jerk, accel, vel, decel=None, min_duration=None, period_s=None, reverse="forbid"))]
+// Each Python keyword argument of the signature above is one Rust parameter: pyo3 needs them all.
 #[allow(clippy::too_many_arguments)]
 pub fn profile(
     distance: f64,
@@ -163,6 +165,7 @@ fn broadcast(name: &str, x: &Bound<'_, PyAny>, n: Option<usize>) -> PyResult<Vec
 /// where ok, else the message).
 #[pyfunction]
 #[pyo3(signature = (distance, v_start, v_end, jerk, accel, vel, decel=None, min_duration=None, period_s=None, reverse="forbid"))]
+// Each Python keyword argument of the signature above is one Rust parameter: pyo3 needs them all.
 #[allow(clippy::too_many_arguments)]
 pub fn profile_batch<'py>(
     py: Python<'py>,

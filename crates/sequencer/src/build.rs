@@ -1,10 +1,7 @@
 //! Entry points: resolve, schedule, then build, measure and verify one delivery.
 
 use arcsim_plan::{ArcPlan, Machine, ResolvedArc};
-use arcsim_planner::{
-    exact_duration, min_time_shape, shortest_duration_at_least, Limits, Move, Profile, Reversal,
-    TwoStep,
-};
+use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal, SevenPhases};
 
 use crate::free;
 use crate::optimal::optimal;
@@ -13,8 +10,8 @@ use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
 use crate::{
-    ArcEnds, Breakdown, Delivery, LayerRow, Limiter, LimiterCounts, Motion, Options, Schedule,
-    SequenceError, SpeedBound, TransitionRow, Violation,
+    ArcEnds, Breakdown, Delivery, Infeasibility, LayerRow, Limiter, LimiterCounts, Motion, Options,
+    Schedule, SequenceError, SpeedBound, TransitionRow, Violation,
 };
 
 /// The planner limits of a machine model.
@@ -54,7 +51,7 @@ fn arc_time_on_grid(p: &ArcProblem, v: &[f64], lim: &Limits, period: f64) -> f64
             grid_duration(p.transition_move(k, v[k], v[k + 1]), lim, d, period)
         })
         .sum();
-    moving.map_or(f64::INFINITY, |m| m + p.t.iter().sum::<f64>())
+    moving.map_or(f64::INFINITY, |m| m + p.irradiation_s.iter().sum::<f64>())
 }
 
 fn check_period(opts: &Options) -> Result<(), SequenceError> {
@@ -76,99 +73,134 @@ pub fn simulate_resolved(
     check_period(opts)?;
     check_motion(opts)?;
     let problems: Vec<ArcProblem> = arcs.iter().map(|a| ArcProblem::new(a, limits)).collect();
-    let mut speeds = Vec::with_capacity(arcs.len());
-    let mut bounds = Vec::with_capacity(arcs.len());
-    let mut violations = Vec::new();
-    let mut first_layer = 0;
-    let period = opts.servo_period_s;
-    for (arc, p) in arcs.iter().zip(&problems) {
-        let (v, b) = match opts.schedule {
-            Schedule::StepAndShoot => (vec![0.0; p.len()], vec![SpeedBound::StepAndShoot; p.len()]),
-            // On a servo period, the continuous scan's speeds are kept where their transitions
-            // fit the grid and lowered only where not, so a period never shortens a transition
-            // (a scan from the caps on a fine grid could settle on other, faster speeds); the
-            // scan from the caps is the fallback when that repair does not settle.
-            Schedule::Scan => {
-                let cont = scan(p, limits, &p.cap, &p.cap_bound, true, None);
-                match period {
-                    Some(_) => scan_converged(p, limits, &cont.0, &cont.1, true, period)
-                        .unwrap_or_else(|| scan(p, limits, &p.cap, &p.cap_bound, true, period)),
-                    None => cont,
-                }
-            }
-            Schedule::Optimal => {
-                let (upper, _) = scan(p, limits, &p.cap, &p.cap_bound, false, None);
-                let (seed, seed_bounds) = scan(p, limits, &p.cap, &p.cap_bound, true, None);
-                let (best, _tol) = optimal(p, limits, &upper, &seed);
-                let b = best
-                    .iter()
-                    .zip(&seed_bounds)
-                    .enumerate()
-                    .map(|(k, (&v, &sb))| {
-                        if (v - p.cap[k]).abs() <= 1e-12 * (1.0 + v) {
-                            p.cap_bound[k]
-                        } else if v == seed[k] {
-                            sb
-                        } else {
-                            SpeedBound::Optimised
-                        }
-                    })
-                    .collect::<Vec<_>>();
-                match period {
-                    // The optimum is found in continuous time; the scan then lowers any speeds
-                    // whose transitions cannot be put on the servo grid. The servo-aware scan
-                    // from the caps can still do better: keep whichever is shorter.
-                    // `scan` on the same period (the seed, which is the continuous scan,
-                    // repaired on the grid; else the scan from the caps, `direct`) is a
-                    // candidate too, so `optimal` is never worse.
-                    Some(ts) => {
-                        let repaired = scan(p, limits, &best, &b, true, period);
-                        let direct = scan(p, limits, &p.cap, &p.cap_bound, true, period);
-                        let scanned = scan_converged(p, limits, &seed, &seed_bounds, true, period);
-                        let time = |v: &[f64]| arc_time_on_grid(p, v, limits, ts);
-                        std::iter::once(direct)
-                            .chain(scanned)
-                            .fold(repaired, |a, c| if time(&c.0) < time(&a.0) { c } else { a })
-                    }
-                    None => (best, b),
-                }
-            }
-            Schedule::Prescribed => {
-                let (caps, caps_bound, mut found) = prescribed_caps(arc, p, limits, first_layer);
-                let (mut v, mut b) = scan(p, limits, &caps, &caps_bound, true, None);
-                if period.is_some() {
-                    (v, b) = scan_converged(p, limits, &v, &b, true, period)
-                        .unwrap_or_else(|| scan(p, limits, &caps, &caps_bound, true, period));
-                }
-                for viol in &mut found {
-                    viol.corrected_deg_per_s = v[viol.layer - first_layer];
-                }
-                violations.extend(found);
-                (v, b)
-            }
-        };
-        speeds.push(v);
-        bounds.push(b);
-        first_layer += p.len();
-    }
+    let chosen = choose_speeds(arcs, &problems, limits, opts);
     // Free motion needs only the constant-speed total (its baseline), not its timeline.
     let constant_opts = Options {
         build_timeline: opts.build_timeline && opts.motion == Motion::Constant,
         ..opts.clone()
     };
-    let constant = assemble(
-        arcs,
-        &problems,
-        &speeds,
-        &bounds,
-        limits,
-        &constant_opts,
-        violations,
-    )?;
+    let constant = assemble(arcs, &problems, &chosen, limits, &constant_opts)?;
     match opts.motion {
         Motion::Constant => Ok(constant),
-        Motion::Free => simulate_free(arcs, &problems, &speeds, limits, opts, constant),
+        Motion::Free => simulate_free(arcs, &problems, &chosen.speeds, limits, opts, constant),
     }
+}
+
+/// Layer speeds chosen for every arc (magnitudes, delivery order), what bounds each, and the
+/// prescribed speeds that could not be delivered.
+struct ChosenSpeeds {
+    speeds: Vec<Vec<f64>>,
+    bounds: Vec<Vec<SpeedBound>>,
+    violations: Vec<Violation>,
+}
+
+/// Runs the options' schedule on every arc.
+fn choose_speeds(
+    arcs: &[ResolvedArc],
+    problems: &[ArcProblem],
+    limits: &Limits,
+    opts: &Options,
+) -> ChosenSpeeds {
+    let mut chosen = ChosenSpeeds {
+        speeds: Vec::with_capacity(arcs.len()),
+        bounds: Vec::with_capacity(arcs.len()),
+        violations: Vec::new(),
+    };
+    let mut first_layer = 0;
+    let period = opts.servo_period_s;
+    for (arc, p) in arcs.iter().zip(problems) {
+        let (v, b) = match opts.schedule {
+            Schedule::StepAndShoot => (vec![0.0; p.len()], vec![SpeedBound::StepAndShoot; p.len()]),
+            Schedule::Scan => scan_speeds(p, limits, period),
+            Schedule::Optimal => optimal_speeds(p, limits, period),
+            Schedule::Prescribed => {
+                let (v, b, found) = prescribed_speeds(arc, p, limits, first_layer, period);
+                chosen.violations.extend(found);
+                (v, b)
+            }
+        };
+        chosen.speeds.push(v);
+        chosen.bounds.push(b);
+        first_layer += p.len();
+    }
+    chosen
+}
+
+/// The scan's speeds. On a servo period, the continuous scan's speeds are kept where their
+/// transitions fit the grid and lowered only where not, so a period never shortens a transition
+/// (a scan from the caps on a fine grid could settle on other, faster speeds); the scan from the
+/// caps is the fallback when that repair does not settle.
+fn scan_speeds(
+    p: &ArcProblem,
+    limits: &Limits,
+    period: Option<f64>,
+) -> (Vec<f64>, Vec<SpeedBound>) {
+    let cont = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
+    match period {
+        Some(_) => scan_converged(p, limits, &cont.0, &cont.1, true, period)
+            .unwrap_or_else(|| scan(p, limits, &p.speed_cap, &p.cap_bound, true, period)),
+        None => cont,
+    }
+}
+
+/// The optimal schedule's speeds, each labelled with what bounds it.
+fn optimal_speeds(
+    p: &ArcProblem,
+    limits: &Limits,
+    period: Option<f64>,
+) -> (Vec<f64>, Vec<SpeedBound>) {
+    let (upper, _) = scan(p, limits, &p.speed_cap, &p.cap_bound, false, None);
+    let (seed, seed_bounds) = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
+    let (best, _tol) = optimal(p, limits, &upper, &seed);
+    let b = best
+        .iter()
+        .zip(&seed_bounds)
+        .enumerate()
+        .map(|(k, (&v, &sb))| {
+            if (v - p.speed_cap[k]).abs() <= 1e-12 * (1.0 + v) {
+                p.cap_bound[k]
+            } else if v == seed[k] {
+                sb
+            } else {
+                SpeedBound::Optimised
+            }
+        })
+        .collect::<Vec<_>>();
+    let Some(ts) = period else {
+        return (best, b);
+    };
+    // The optimum is found in continuous time; the scan then lowers any speeds whose transitions
+    // cannot be put on the servo grid. Two other candidates can do better, and the shortest of
+    // the three is kept: the servo-aware scan from the caps, and `scan` on the same period (the
+    // continuous scan repaired on the grid), so `optimal` is never worse than `scan`.
+    let repaired = scan(p, limits, &best, &b, true, period);
+    let direct = scan(p, limits, &p.speed_cap, &p.cap_bound, true, period);
+    let scanned = scan_converged(p, limits, &seed, &seed_bounds, true, period);
+    let time = |v: &[f64]| arc_time_on_grid(p, v, limits, ts);
+    std::iter::once(direct)
+        .chain(scanned)
+        .fold(repaired, |a, c| if time(&c.0) < time(&a.0) { c } else { a })
+}
+
+/// The prescribed speeds, lowered by the scan where they cannot be delivered, and every point
+/// where they could not.
+fn prescribed_speeds(
+    arc: &ResolvedArc,
+    p: &ArcProblem,
+    limits: &Limits,
+    first_layer: usize,
+    period: Option<f64>,
+) -> (Vec<f64>, Vec<SpeedBound>, Vec<Violation>) {
+    let (caps, caps_bound, mut found) = prescribed_caps(arc, p, limits, first_layer);
+    let (mut v, mut b) = scan(p, limits, &caps, &caps_bound, true, None);
+    if period.is_some() {
+        (v, b) = scan_converged(p, limits, &v, &b, true, period)
+            .unwrap_or_else(|| scan(p, limits, &caps, &caps_bound, true, period));
+    }
+    for viol in &mut found {
+        viol.corrected_deg_per_s = v[viol.layer - first_layer];
+    }
+    (v, b, found)
 }
 
 /// Checks the motion options against the rest of the options.
@@ -203,10 +235,10 @@ fn simulate_free(
     let mut solved = Vec::with_capacity(arcs.len());
     let mut constant_arcs = Vec::with_capacity(arcs.len());
     for (ai, ((arc, p), v)) in arcs.iter().zip(problems).zip(speeds).enumerate() {
-        let base = free::from_constant(p, limits, v).ok_or_else(|| SequenceError::Infeasible {
+        let base = free::from_constant(p, limits, v).ok_or(SequenceError::Infeasible {
             arc: arc.arc_index,
             layer: 0,
-            message: "the constant-speed schedule could not be rebuilt as free motion".into(),
+            reason: Infeasibility::FreeMotionRebuild,
         })?;
         let (start, end) = match opts.arc_ends {
             ArcEnds::Rest => (free::Start::Rest, free::End::Rest),
@@ -277,7 +309,7 @@ fn prescribed_caps(
     offset: usize,
 ) -> (Vec<f64>, Vec<SpeedBound>, Vec<Violation>) {
     let n = p.len();
-    let mut caps = p.cap.clone();
+    let mut caps = p.speed_cap.clone();
     let mut bounds = p.cap_bound.clone();
     let mut found = Vec::new();
     let req: Vec<Option<f64>> = arc
@@ -309,14 +341,14 @@ fn prescribed_caps(
                 v,
                 format!("above the gantry speed limit V = {} deg/s", lim.max_vel),
             );
-        } else if v * p.t[k] > p.window[k] * (1.0 + 1e-12) {
+        } else if v * p.irradiation_s[k] > p.window[k] * (1.0 + 1e-12) {
             flag(
                 k,
                 v,
                 format!(
                     "sweeps {:.4} deg in {:.4} s, more than the {:.4} deg window",
-                    v * p.t[k],
-                    p.t[k],
+                    v * p.irradiation_s[k],
+                    p.irradiation_s[k],
                     p.window[k]
                 ),
             );
@@ -332,12 +364,16 @@ fn prescribed_caps(
             continue;
         };
         let (a, b) = (
-            if k == 0 { 0.0 } else { a.min(p.cap[k]) },
-            if k + 2 == n { 0.0 } else { b.min(p.cap[k + 1]) },
+            if k == 0 { 0.0 } else { a.min(p.speed_cap[k]) },
+            if k + 2 == n {
+                0.0
+            } else {
+                b.min(p.speed_cap[k + 1])
+            },
         );
         if p.cost(k, a, b, lim).is_none() {
             let mv = p.transition_move(k, a, b);
-            let why = match min_time_shape(mv, lim, Reversal::Forbid) {
+            let why = match MoveAnalysis::new(&mv, lim, Reversal::Forbid) {
                 Err(e) => format!(
                     "transition to the next layer does not fit its {:.4} deg gap: {e}",
                     mv.distance
@@ -381,37 +417,38 @@ pub fn simulate_with_speeds(
             let cap = if k == 0 || k + 1 == p.len() {
                 0.0
             } else {
-                p.cap[k]
+                p.speed_cap[k]
             };
             if !(s.is_finite() && s >= 0.0 && s <= cap * (1.0 + 1e-9) + 1e-12) {
                 return Err(SequenceError::Infeasible {
                     arc: a.arc_index,
                     layer: k,
-                    message: format!("speed {s} deg/s is outside [0, {cap}] (window, V, or rest at the arc's ends)"),
+                    reason: Infeasibility::SpeedOutOfRange {
+                        speed_deg_per_s: s,
+                        cap_deg_per_s: cap,
+                    },
                 });
             }
         }
         speeds.push(
             v.iter()
                 .enumerate()
-                .map(|(k, &s)| s.min(p.cap[k]))
+                .map(|(k, &s)| s.min(p.speed_cap[k]))
                 .collect::<Vec<_>>(),
         );
         bounds.push(vec![SpeedBound::Prescribed; p.len()]);
         at += p.len();
     }
-    assemble(
-        arcs,
-        &problems,
-        &speeds,
-        &bounds,
-        limits,
-        &Options {
-            schedule: Schedule::Prescribed,
-            ..opts.clone()
-        },
-        Vec::new(),
-    )
+    let chosen = ChosenSpeeds {
+        speeds,
+        bounds,
+        violations: Vec::new(),
+    };
+    let opts = Options {
+        schedule: Schedule::Prescribed,
+        ..opts.clone()
+    };
+    assemble(arcs, &problems, &chosen, limits, &opts)
 }
 
 /// One solved transition: its profile (when a timeline is built) and its summary.
@@ -422,7 +459,7 @@ struct Solved {
     limiter: Limiter,
 }
 
-fn limiter_of(shape: &TwoStep, lim: &Limits) -> Limiter {
+fn limiter_of(shape: &SevenPhases, lim: &Limits) -> Limiter {
     if shape.duration() <= 0.0 {
         Limiter::None
     } else if shape.t3 > 0.0 && shape.v_peak.abs() >= lim.max_vel * (1.0 - 1e-9) {
@@ -434,23 +471,33 @@ fn limiter_of(shape: &TwoStep, lim: &Limits) -> Limiter {
     }
 }
 
+/// Where a move sits (for errors) and what to build of it.
+struct MoveContext {
+    /// The servo period every transition is put on, if any (s).
+    period: Option<f64>,
+    /// Whether to build the profile (a timeline is wanted) or only time it.
+    with_profile: bool,
+    /// The arc's index, for errors.
+    arc: usize,
+    /// The layer the move leads into (index within the arc), for errors.
+    layer: usize,
+}
+
 /// Solves one forward move of `mv` lasting at least `elst`.
-#[allow(clippy::too_many_arguments)]
 fn solve_move(
     mv: Move,
     elst: f64,
     lim: &Limits,
-    period: Option<f64>,
-    with_profile: bool,
-    arc: usize,
-    layer: usize,
+    at: &MoveContext,
 ) -> Result<Solved, SequenceError> {
-    let infeasible = |e: arcsim_planner::PlannerError| SequenceError::Infeasible {
-        arc,
-        layer,
-        message: e.to_string(),
+    let infeasible = |reason: Infeasibility| SequenceError::Infeasible {
+        arc: at.arc,
+        layer: at.layer,
+        reason,
     };
-    let shape = min_time_shape(mv, lim, Reversal::Forbid).map_err(infeasible)?;
+    let planner = |e: arcsim_planner::PlannerError| infeasible(e.into());
+    let analysis = MoveAnalysis::new(&mv, lim, Reversal::Forbid).map_err(planner)?;
+    let shape = analysis.min_time_phases();
     let min_time = shape.duration();
     let limiter = if elst > min_time {
         Limiter::Elst
@@ -458,28 +505,19 @@ fn solve_move(
         limiter_of(&shape, lim)
     };
     let duration = if elst > min_time {
-        shortest_duration_at_least(mv, lim, elst)
-            .map_err(infeasible)?
-            .ok_or_else(|| SequenceError::Infeasible {
-                arc,
-                layer,
-                message: format!("the move cannot last its {elst} s energy switch"),
-            })?
+        analysis
+            .shortest_duration_at_least(elst)
+            .ok_or_else(|| infeasible(Infeasibility::CannotLastElst { elst_s: elst }))?
     } else {
         min_time
     };
-    let duration = match period {
-        Some(ts) => {
-            grid_duration(mv, lim, duration, ts).ok_or_else(|| SequenceError::Infeasible {
-                arc,
-                layer,
-                message: format!("the move cannot last a whole number of {ts} s servo periods"),
-            })?
-        }
+    let duration = match at.period {
+        Some(ts) => grid_duration(mv, lim, duration, ts)
+            .ok_or_else(|| infeasible(Infeasibility::NotOnServoGrid { period_s: ts }))?,
         None => duration,
     };
-    let profile = if with_profile {
-        Some(exact_duration(mv, lim, duration).map_err(infeasible)?)
+    let profile = if at.with_profile {
+        Some(analysis.profile(duration).map_err(planner)?)
     } else {
         None
     };
@@ -517,151 +555,245 @@ fn push_profile(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Builds, times and verifies the constant-speed delivery at the chosen speeds.
 fn assemble(
     arcs: &[ResolvedArc],
     problems: &[ArcProblem],
-    speeds: &[Vec<f64>],
-    bounds: &[Vec<SpeedBound>],
+    chosen: &ChosenSpeeds,
     lim: &Limits,
     opts: &Options,
-    violations: Vec<Violation>,
 ) -> Result<Delivery, SequenceError> {
-    let build = opts.build_timeline;
-    let period = opts.servo_period_s;
-    let mut layers = Vec::new();
-    let mut transitions: Vec<TransitionRow> = Vec::new();
-    let mut pieces = Vec::new();
-    let mut t = 0.0;
-    let mut prev_end: Option<(f64, usize)> = None; // angle and layer index at the end of the previous arc
+    let mut a = Assembly {
+        lim,
+        period: opts.servo_period_s,
+        build: opts.build_timeline,
+        layers: Vec::new(),
+        transitions: Vec::new(),
+        pieces: Vec::new(),
+        t: 0.0,
+    };
+    // Angle and delivery index of the last layer of the previous arc.
+    let mut prev_end: Option<(f64, usize)> = None;
     for (ai, (arc, p)) in arcs.iter().zip(problems).enumerate() {
-        let v = &speeds[ai];
+        let v = &chosen.speeds[ai];
         for k in 0..p.len() {
-            let idx = layers.len();
-            let half = 0.5 * v[k] * p.t[k];
-            let (t_in, lim_in) = if k == 0 {
-                match prev_end {
-                    None => (0.0, Limiter::None),
-                    Some((angle, from)) => {
-                        // Stop-and-turn between arcs: rest to rest, lasting at least the ELST.
-                        let delta = p.angle[0] - angle;
-                        let dir = if delta < 0.0 { -1.0 } else { 1.0 };
-                        let mv = Move {
-                            distance: delta.abs(),
-                            v_start: 0.0,
-                            v_end: 0.0,
-                        };
-                        let s = solve_move(mv, p.elst[0], lim, period, build, arc.arc_index, 0)?;
-                        if let Some(prof) = &s.profile {
-                            push_profile(&mut pieces, prof, t, angle, dir, transitions.len());
-                        }
-                        transitions.push(TransitionRow {
-                            index: transitions.len(),
-                            from_layer: from,
-                            to_layer: idx,
-                            arc_change: true,
-                            t_start_s: t,
-                            duration_s: s.duration,
-                            min_time_s: s.min_time,
-                            elst_s: p.elst[0],
-                            gap_deg: delta.abs(),
-                            v_start_deg_per_s: 0.0,
-                            v_end_deg_per_s: 0.0,
-                            limited_by: s.limiter,
-                            lost_s: (s.duration - p.elst[0]).max(0.0),
-                        });
-                        t += s.duration;
-                        (s.duration, s.limiter)
-                    }
-                }
-            } else {
-                let mv = p.transition_move(k - 1, v[k - 1], v[k]);
-                let s = solve_move(mv, p.elst[k], lim, period, build, arc.arc_index, k)?;
-                if let Some(prof) = &s.profile {
-                    let angle0 = p.angle[k - 1] + p.dir * 0.5 * v[k - 1] * p.t[k - 1];
-                    push_profile(&mut pieces, prof, t, angle0, p.dir, transitions.len());
-                }
-                transitions.push(TransitionRow {
-                    index: transitions.len(),
-                    from_layer: idx - 1,
-                    to_layer: idx,
-                    arc_change: false,
-                    t_start_s: t,
-                    duration_s: s.duration,
-                    min_time_s: s.min_time,
-                    elst_s: p.elst[k],
-                    gap_deg: mv.distance,
-                    v_start_deg_per_s: v[k - 1],
-                    v_end_deg_per_s: v[k],
-                    limited_by: s.limiter,
-                    lost_s: (s.duration - p.elst[k]).max(0.0),
-                });
-                t += s.duration;
-                (s.duration, s.limiter)
+            let transition_in = match (k, prev_end) {
+                (0, None) => (0.0, Limiter::None),
+                (0, Some((angle, from))) => a.turn_between_arcs(arc, p, angle, from)?,
+                _ => a.move_within_arc(arc, p, k, v)?,
             };
-            if build && p.t[k] > 0.0 {
-                pieces.push(Piece {
-                    t_start_s: t,
-                    duration_s: p.t[k],
-                    angle_deg: p.angle[k] - p.dir * half,
-                    speed_deg_per_s: p.dir * v[k],
-                    accel_deg_per_s2: 0.0,
-                    jerk_deg_per_s3: 0.0,
-                    kind: PieceKind::Beam { layer: idx },
-                });
-            }
-            let l = &arc.layers[k];
-            layers.push(LayerRow {
-                index: idx,
-                arc: arc.arc_index,
-                control_point: l.control_point,
-                layer: l.layer,
-                angle_deg: l.angle_deg,
-                energy_mev: l.energy_mev,
-                irradiation_s: p.t[k],
-                speed_deg_per_s: v[k],
-                speed_on_deg_per_s: v[k],
-                speed_off_deg_per_s: v[k],
-                speed_bound: bounds[ai][k],
-                window_deg: p.window[k],
-                window_used_deg: v[k] * p.t[k],
-                t_start_s: t,
-                t_end_s: t + p.t[k],
-                transition_in_s: t_in,
-                transition_limited_by: lim_in,
-            });
-            t += p.t[k];
+            a.beam_on(arc, p, k, v[k], chosen.bounds[ai][k], transition_in);
         }
         if let Some(&last) = p.angle.last() {
-            prev_end = Some((last, layers.len() - 1));
+            prev_end = Some((last, a.layers.len() - 1));
         }
     }
-    let energy_switching_s: f64 = transitions.iter().map(|tr| tr.elst_s).sum();
-    let lost_s: f64 = transitions.iter().map(|tr| tr.lost_s).sum();
-    let counts = limiter_counts(&transitions);
-    let (timeline, margins) = if build {
-        let tl = Timeline { pieces };
-        verify_timeline(&tl, arcs, problems, &layers, &transitions, lim, false)?;
-        let m = margins(&tl, &layers, &transitions, lim);
-        (Some(tl), Some(m))
-    } else {
-        (None, None)
-    };
-    Ok(Delivery {
-        schedule: opts.schedule,
-        motion: Motion::Constant,
-        arc_ends: ArcEnds::Rest,
-        constant_speed_total_s: None,
-        total_s: t,
-        breakdown: Breakdown::of(arcs, energy_switching_s, lost_s),
-        limits: (*lim).into(),
-        servo_period_s: period,
-        lost_time: crate::LostTime::of(&layers, &transitions),
-        layers,
-        transitions,
-        limiter_counts: counts,
-        margins,
-        violations,
-        timeline,
-    })
+    a.finish(arcs, problems, opts, chosen.violations.clone())
+}
+
+/// A constant-speed delivery being assembled: its rows, timeline pieces and clock.
+struct Assembly<'a> {
+    lim: &'a Limits,
+    period: Option<f64>,
+    build: bool,
+    layers: Vec<LayerRow>,
+    transitions: Vec<TransitionRow>,
+    pieces: Vec<Piece>,
+    /// Time so far (s).
+    t: f64,
+}
+
+/// One transition to solve and record.
+struct TransitionSpec {
+    /// The move along its direction of travel.
+    mv: Move,
+    elst_s: f64,
+    from_layer: usize,
+    arc_change: bool,
+    /// Where the move starts (deg) and its direction (+1 or −1).
+    start_angle_deg: f64,
+    dir: f64,
+    /// Where it sits, for errors: the arc and the layer it leads into.
+    at_arc: usize,
+    at_layer: usize,
+}
+
+impl Assembly<'_> {
+    /// Solves a transition, appends its row (and profile) and advances the clock; returns its
+    /// duration and what limits it.
+    fn transition(&mut self, spec: TransitionSpec) -> Result<(f64, Limiter), SequenceError> {
+        let at = MoveContext {
+            period: self.period,
+            with_profile: self.build,
+            arc: spec.at_arc,
+            layer: spec.at_layer,
+        };
+        let s = solve_move(spec.mv, spec.elst_s, self.lim, &at)?;
+        let index = self.transitions.len();
+        if let Some(prof) = &s.profile {
+            push_profile(
+                &mut self.pieces,
+                prof,
+                self.t,
+                spec.start_angle_deg,
+                spec.dir,
+                index,
+            );
+        }
+        self.transitions.push(TransitionRow {
+            index,
+            from_layer: spec.from_layer,
+            to_layer: self.layers.len(),
+            arc_change: spec.arc_change,
+            t_start_s: self.t,
+            duration_s: s.duration,
+            min_time_s: s.min_time,
+            elst_s: spec.elst_s,
+            gap_deg: spec.mv.distance,
+            v_start_deg_per_s: spec.mv.v_start,
+            v_end_deg_per_s: spec.mv.v_end,
+            limited_by: s.limiter,
+            lost_s: (s.duration - spec.elst_s).max(0.0),
+        });
+        self.t += s.duration;
+        Ok((s.duration, s.limiter))
+    }
+
+    /// Stop-and-turn between arcs: rest to rest, lasting at least the ELST.
+    fn turn_between_arcs(
+        &mut self,
+        arc: &ResolvedArc,
+        p: &ArcProblem,
+        from_angle: f64,
+        from_layer: usize,
+    ) -> Result<(f64, Limiter), SequenceError> {
+        let delta = p.angle[0] - from_angle;
+        self.transition(TransitionSpec {
+            mv: Move {
+                distance: delta.abs(),
+                v_start: 0.0,
+                v_end: 0.0,
+            },
+            elst_s: p.elst[0],
+            from_layer,
+            arc_change: true,
+            start_angle_deg: from_angle,
+            dir: if delta < 0.0 { -1.0 } else { 1.0 },
+            at_arc: arc.arc_index,
+            at_layer: 0,
+        })
+    }
+
+    /// The move from layer `k − 1` to layer `k` of an arc, between their beam-on sweeps.
+    fn move_within_arc(
+        &mut self,
+        arc: &ResolvedArc,
+        p: &ArcProblem,
+        k: usize,
+        v: &[f64],
+    ) -> Result<(f64, Limiter), SequenceError> {
+        self.transition(TransitionSpec {
+            mv: p.transition_move(k - 1, v[k - 1], v[k]),
+            elst_s: p.elst[k],
+            from_layer: self.layers.len() - 1,
+            arc_change: false,
+            start_angle_deg: p.angle[k - 1] + p.dir * 0.5 * v[k - 1] * p.irradiation_s[k - 1],
+            dir: p.dir,
+            at_arc: arc.arc_index,
+            at_layer: k,
+        })
+    }
+
+    /// Layer `k` irradiated at constant speed `speed`, centred on its angle.
+    fn beam_on(
+        &mut self,
+        arc: &ResolvedArc,
+        p: &ArcProblem,
+        k: usize,
+        speed: f64,
+        bound: SpeedBound,
+        (transition_in_s, limited_by): (f64, Limiter),
+    ) {
+        let index = self.layers.len();
+        let irradiation_s = p.irradiation_s[k];
+        if self.build && irradiation_s > 0.0 {
+            self.pieces.push(Piece {
+                t_start_s: self.t,
+                duration_s: irradiation_s,
+                angle_deg: p.angle[k] - p.dir * 0.5 * speed * irradiation_s,
+                speed_deg_per_s: p.dir * speed,
+                accel_deg_per_s2: 0.0,
+                jerk_deg_per_s3: 0.0,
+                kind: PieceKind::Beam { layer: index },
+            });
+        }
+        let l = &arc.layers[k];
+        self.layers.push(LayerRow {
+            index,
+            arc: arc.arc_index,
+            control_point: l.control_point,
+            layer: l.layer,
+            angle_deg: l.angle_deg,
+            energy_mev: l.energy_mev,
+            irradiation_s,
+            speed_deg_per_s: speed,
+            speed_on_deg_per_s: speed,
+            speed_off_deg_per_s: speed,
+            speed_bound: bound,
+            window_deg: p.window[k],
+            window_used_deg: speed * irradiation_s,
+            t_start_s: self.t,
+            t_end_s: self.t + irradiation_s,
+            transition_in_s,
+            transition_limited_by: limited_by,
+        });
+        self.t += irradiation_s;
+    }
+
+    /// The delivery: totals and breakdown, and the timeline verified by integration when built.
+    fn finish(
+        self,
+        arcs: &[ResolvedArc],
+        problems: &[ArcProblem],
+        opts: &Options,
+        violations: Vec<Violation>,
+    ) -> Result<Delivery, SequenceError> {
+        let Assembly {
+            lim,
+            period,
+            build,
+            layers,
+            transitions,
+            pieces,
+            t,
+        } = self;
+        let energy_switching_s: f64 = transitions.iter().map(|tr| tr.elst_s).sum();
+        let lost_s: f64 = transitions.iter().map(|tr| tr.lost_s).sum();
+        let counts = limiter_counts(&transitions);
+        let (timeline, margins) = if build {
+            let tl = Timeline { pieces };
+            verify_timeline(&tl, arcs, problems, &layers, &transitions, lim, false)?;
+            let m = margins(&tl, &layers, &transitions, lim);
+            (Some(tl), Some(m))
+        } else {
+            (None, None)
+        };
+        Ok(Delivery {
+            schedule: opts.schedule,
+            motion: Motion::Constant,
+            arc_ends: ArcEnds::Rest,
+            constant_speed_total_s: None,
+            total_s: t,
+            breakdown: Breakdown::of(arcs, energy_switching_s, lost_s),
+            limits: (*lim).into(),
+            servo_period_s: period,
+            lost_time: crate::LostTime::of(&layers, &transitions),
+            layers,
+            transitions,
+            limiter_counts: counts,
+            margins,
+            violations,
+            timeline,
+        })
+    }
 }

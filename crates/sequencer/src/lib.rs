@@ -21,7 +21,7 @@ mod timeline;
 mod types;
 mod verify;
 
-pub use error::SequenceError;
+pub use error::{Infeasibility, SequenceError};
 pub use lost::{GapClass, LostGroup, LostTime, LostTransition, SwitchKind};
 pub use spots::{spot_timeline, SpotRow};
 pub use timeline::{GantryState, Piece, PieceKind, Timeline};

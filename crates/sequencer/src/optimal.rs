@@ -7,7 +7,7 @@
 //! and rest, so the optimum is never worse than `scan` or `step-and-shoot`. Each refinement
 //! halves the grid spacing around the best path; the reported tolerance is the spacing left.
 
-use arcsim_planner::{max_end_speed, max_start_speed, Limits};
+use arcsim_planner::Limits;
 
 use crate::scan::ArcProblem;
 
@@ -33,7 +33,7 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
         let max_end: Vec<f64> = from
             .iter()
             .map(|&vs| {
-                max_end_speed(vs, &gap, lim)
+                gap.max_end_speed(vs, lim)
                     .ok()
                     .flatten()
                     .unwrap_or(f64::NEG_INFINITY)
@@ -42,7 +42,7 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
         let max_start: Vec<f64> = to
             .iter()
             .map(|&ve| {
-                max_start_speed(ve, &gap, lim)
+                gap.max_start_speed(ve, lim)
                     .ok()
                     .flatten()
                     .unwrap_or(f64::NEG_INFINITY)

@@ -7,11 +7,7 @@
 
 use crate::servo::grid_duration_in;
 use arcsim_plan::ResolvedArc;
-use arcsim_planner::speed_change::duration;
-use arcsim_planner::{
-    can_last_at_least, feasible_durations, fits, max_end_speed, max_start_speed, min_time_shape,
-    shortest_duration_at_least, Limits, LinearGap, Move, Reversal,
-};
+use arcsim_planner::{Limits, LinearGap, Move, MoveAnalysis, Reversal};
 
 use crate::SpeedBound;
 
@@ -20,15 +16,20 @@ use crate::SpeedBound;
 pub(crate) struct ArcProblem {
     /// +1 for CW (angle increases), -1 for CC.
     pub dir: f64,
+    /// Each layer's angle (deg).
     pub angle: Vec<f64>,
     /// Position along travel, from the first layer (deg, non-decreasing).
-    pub s: Vec<f64>,
-    pub t: Vec<f64>,
+    pub travel_deg: Vec<f64>,
+    /// Each layer's irradiation time (s).
+    pub irradiation_s: Vec<f64>,
+    /// Each layer's tolerance window (deg).
     pub window: Vec<f64>,
     /// ELST of the switch into each layer (s); entry 0 is the switch into the arc.
     pub elst: Vec<f64>,
-    /// Highest speed each layer may have on its own: 0 at the ends, else min(V, window / time).
-    pub cap: Vec<f64>,
+    /// Highest speed each layer may have on its own (deg/s): 0 at the ends, else
+    /// min(V, window / irradiation time).
+    pub speed_cap: Vec<f64>,
+    /// What sets each layer's `speed_cap`.
     pub cap_bound: Vec<SpeedBound>,
 }
 
@@ -40,17 +41,17 @@ impl ArcProblem {
         let mut p = ArcProblem {
             dir,
             angle: Vec::with_capacity(n),
-            s: Vec::with_capacity(n),
-            t: Vec::with_capacity(n),
+            travel_deg: Vec::with_capacity(n),
+            irradiation_s: Vec::with_capacity(n),
             window: Vec::with_capacity(n),
             elst: Vec::with_capacity(n),
-            cap: Vec::with_capacity(n),
+            speed_cap: Vec::with_capacity(n),
             cap_bound: Vec::with_capacity(n),
         };
         for (k, l) in arc.layers.iter().enumerate() {
             p.angle.push(l.angle_deg);
-            p.s.push((dir * (l.angle_deg - first)).max(0.0));
-            p.t.push(l.irradiation_s);
+            p.travel_deg.push((dir * (l.angle_deg - first)).max(0.0));
+            p.irradiation_s.push(l.irradiation_s);
             p.window.push(l.window_deg);
             p.elst.push(l.switch_in_s);
             let (cap, bound) = if k == 0 || k + 1 == n {
@@ -60,22 +61,22 @@ impl ArcProblem {
             } else {
                 (lim.max_vel, SpeedBound::MaxSpeed)
             };
-            p.cap.push(cap);
+            p.speed_cap.push(cap);
             p.cap_bound.push(bound);
         }
         p
     }
 
     pub fn len(&self) -> usize {
-        self.s.len()
+        self.travel_deg.len()
     }
 
     /// The gap of transition `k` as a linear function of its boundary speeds (planner eq. 5).
     pub fn gap(&self, k: usize) -> LinearGap {
         LinearGap {
-            distance: (self.s[k + 1] - self.s[k]).max(0.0),
-            t_start: self.t[k],
-            t_end: self.t[k + 1],
+            distance: (self.travel_deg[k + 1] - self.travel_deg[k]).max(0.0),
+            t_start: self.irradiation_s[k],
+            t_end: self.irradiation_s[k + 1],
         }
     }
 
@@ -91,7 +92,7 @@ impl ArcProblem {
     /// Whether the gap of transition `k` is not negative at speeds `vs`, `ve` (the two layers'
     /// swept windows do not overlap), to rounding.
     fn gap_open(&self, k: usize, vs: f64, ve: f64) -> bool {
-        self.gap(k).at(vs, ve) >= -1e-12 * (1.0 + self.s[k + 1])
+        self.gap(k).at(vs, ve) >= -1e-12 * (1.0 + self.travel_deg[k + 1])
     }
 
     /// Duration of transition `k` at speeds `vs`, `ve`: the shortest feasible duration of at least
@@ -101,12 +102,13 @@ impl ArcProblem {
             return None;
         }
         let mv = self.transition_move(k, vs, ve);
-        let t_opt = min_time_shape(mv, lim, Reversal::Forbid).ok()?.duration();
+        let analysis = MoveAnalysis::new(&mv, lim, Reversal::Forbid).ok()?;
+        let t_opt = analysis.min_time();
         let e = self.elst[k + 1];
         if e <= t_opt {
             Some(t_opt)
         } else {
-            shortest_duration_at_least(mv, lim, e).ok()?
+            analysis.shortest_duration_at_least(e)
         }
     }
 }
@@ -158,7 +160,9 @@ pub(crate) fn scan_converged(
         for k in (0..n - 1).rev() {
             // Braking branch (v_k >= v_k+1): the highest start speed that still reaches v_k+1.
             if v[k] > v[k + 1] && braked_ok[k] != Some((v[k], v[k + 1])) {
-                let b = max_start_speed(v[k + 1], &p.gap(k), lim)
+                let b = p
+                    .gap(k)
+                    .max_start_speed(v[k + 1], lim)
                     .ok()
                     .flatten()
                     .unwrap_or(v[k + 1]);
@@ -173,7 +177,9 @@ pub(crate) fn scan_converged(
         for k in 1..n {
             // Speed-up branch (v_k > v_k-1): the highest end speed reachable from v_k-1.
             if v[k] > v[k - 1] && sped_ok[k - 1] != Some((v[k - 1], v[k])) {
-                let b = max_end_speed(v[k - 1], &p.gap(k - 1), lim)
+                let b = p
+                    .gap(k - 1)
+                    .max_end_speed(v[k - 1], lim)
                     .ok()
                     .flatten()
                     .unwrap_or(v[k - 1]);
@@ -257,27 +263,9 @@ pub(crate) fn scan_converged(
 
 /// Largest factor `s` in [0, 1] such that the gantry can brake from `s·vs` to rest and start
 /// again to `s·ve` within the gap of transition `k` (then a dwell at rest makes the transition
-/// last as long as any ELST).
+/// last as long as any ELST); 0 (rest) if the speeds are out of range.
 fn stop_fits_scale(p: &ArcProblem, k: usize, vs: f64, ve: f64, lim: &Limits) -> f64 {
-    let gap = p.gap(k);
-    let excess = |s: f64| stop_and_go(s * vs, s * ve, lim) - gap.at(s * vs, s * ve);
-    if excess(1.0) <= 0.0 {
-        return 1.0;
-    }
-    // excess(0) = -distance <= 0; the root is where stopping just fits (nudged to the safe side).
-    let s = arcsim_planner::roots::brent(excess, 0.0, 1.0);
-    if excess(s) <= 0.0 {
-        s
-    } else {
-        (s * (1.0 - 1e-12)).max(0.0)
-    }
-}
-
-/// Shortest distance in which the gantry brakes from `vs` to rest and speeds up again to `ve`.
-fn stop_and_go(vs: f64, ve: f64, lim: &Limits) -> f64 {
-    use arcsim_planner::speed_change::distance;
-    distance(vs, 0.0, lim.max_jerk, lim.max_accel, lim.max_decel)
-        + distance(0.0, ve, lim.max_jerk, lim.max_accel, lim.max_decel)
+    p.gap(k).max_stop_scale(vs, ve, lim).unwrap_or(0.0)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -306,29 +294,33 @@ fn transition_check(
     }
     let mv = p.transition_move(k, vs, ve);
     // Closed form: the move fits iff its shortest forward distance does.
-    if !fits(vs, ve, &LinearGap::plain(mv.distance), lim) {
+    if !LinearGap::plain(mv.distance).fits(vs, ve, lim) {
         return Check::DoesNotFit;
     }
     let e = if with_elst { p.elst[k + 1] } else { 0.0 };
-    let Some(ts) = period else {
+    if period.is_none() {
         // Every move lasts at least its speed change and d / V: when that already covers the
         // ELST, nothing need be solved; else only whether some duration lasts it matters.
-        let a = lim.max_accel.max(lim.max_decel);
-        let lower = duration((ve - vs).abs(), lim.max_jerk, a).max(mv.distance / lim.max_vel);
+        let lower = lim
+            .speed_change_duration(vs, ve)
+            .max(mv.distance / lim.max_vel);
         if e <= lower {
             return Check::Ok;
         }
-        return match can_last_at_least(mv, lim, e) {
-            Ok(true) => Check::Ok,
-            Ok(false) => Check::TooShortForElst,
-            Err(_) => Check::DoesNotFit,
+    }
+    let Ok(analysis) = MoveAnalysis::new(&mv, lim, Reversal::Forbid) else {
+        return Check::DoesNotFit;
+    };
+    let Some(ts) = period else {
+        return if analysis.can_last_at_least(e) {
+            Check::Ok
+        } else {
+            Check::TooShortForElst
         };
     };
     // One duration analysis answers both: a duration >= the ELST (the set starts at the minimum
     // time), and one on the grid.
-    let Ok(set) = feasible_durations(mv, lim) else {
-        return Check::DoesNotFit;
-    };
+    let set = analysis.durations();
     if set.at_least(e).is_none() {
         return Check::TooShortForElst;
     }

@@ -2,8 +2,17 @@
 //! brute-force integrator independent of the planner's own boundary states.
 #![allow(dead_code)]
 
-use arcsim_planner::{Limits, Move, Profile};
+use arcsim_planner::{plan, Limits, Move, MoveOptions, PlannerError, Profile, Reversal};
 use rsruckig::prelude::*;
+
+/// The minimum-time profile: [`plan`] with no minimum duration and no servo period.
+pub fn min_time(mv: &Move, lim: &Limits, reversal: Reversal) -> Result<Profile, PlannerError> {
+    let options = MoveOptions {
+        reversal,
+        ..MoveOptions::default()
+    };
+    plan(mv, lim, &options)
+}
 
 /// xorshift64*: tiny, seeded, reproducible.
 pub struct Rng(u64);
@@ -95,8 +104,7 @@ pub fn ruckig_duration(
     lim: &Limits,
     otg: &mut Ruckig<1, ThrowErrorHandler>,
 ) -> Option<f64> {
-    let forward =
-        arcsim_planner::profile::travel_direction(mv.distance, mv.v_start, mv.v_end) > 0.0;
+    let forward = mv.direction() > 0.0;
     let (a_max, a_min) = if forward {
         (lim.max_accel, -lim.max_decel)
     } else {
@@ -162,8 +170,7 @@ pub fn check_accel(
     lim: &Limits,
     rel: f64,
 ) -> Result<(), String> {
-    let forward =
-        arcsim_planner::profile::travel_direction(mv.distance, mv.v_start, mv.v_end) > 0.0;
+    let forward = mv.direction() > 0.0;
     let (along, against) = if forward {
         (e.max_acceleration, -e.min_acceleration)
     } else {

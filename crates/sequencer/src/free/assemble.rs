@@ -8,7 +8,7 @@ use super::mover::{FullMove, FullState, Mover};
 use super::solve::FreeArc;
 use crate::scan::ArcProblem;
 use crate::timeline::{Piece, PieceKind};
-use crate::{LayerRow, Limiter, SequenceError, SpeedBound, TransitionRow};
+use crate::{Infeasibility, LayerRow, Limiter, SequenceError, SpeedBound, TransitionRow};
 
 /// The constant-speed schedule `speeds` of one arc as a free-motion arc (so arcs where the
 /// search finds nothing better keep it).
@@ -19,7 +19,7 @@ pub(crate) fn from_constant(p: &ArcProblem, lim: &Limits, speeds: &[f64]) -> Opt
     let mut t = 0.0;
     for k in 0..n {
         let on = FullState {
-            pos: p.s[k] - 0.5 * speeds[k] * p.t[k],
+            pos: p.travel_deg[k] - 0.5 * speeds[k] * p.irradiation_s[k],
             vel: speeds[k],
             acc: 0.0,
         };
@@ -27,22 +27,25 @@ pub(crate) fn from_constant(p: &ArcProblem, lim: &Limits, speeds: &[f64]) -> Opt
         moves.push(FullMove {
             start: on,
             segments: vec![Segment {
-                duration: p.t[k],
+                duration: p.irradiation_s[k],
                 jerk: 0.0,
             }],
         });
-        t += p.t[k];
+        t += p.irradiation_s[k];
         if k + 1 < n {
             let d = p.cost(k, speeds[k], speeds[k + 1], lim)?;
-            let prof = arcsim_planner::exact_duration(
-                p.transition_move(k, speeds[k], speeds[k + 1]),
+            let prof = arcsim_planner::plan(
+                &p.transition_move(k, speeds[k], speeds[k + 1]),
                 lim,
-                d,
+                &arcsim_planner::MoveOptions {
+                    min_duration_s: d,
+                    ..Default::default()
+                },
             )
             .ok()?;
             moves.push(FullMove {
                 start: FullState {
-                    pos: p.s[k] + 0.5 * speeds[k] * p.t[k],
+                    pos: p.travel_deg[k] + 0.5 * speeds[k] * p.irradiation_s[k],
                     vel: speeds[k],
                     acc: 0.0,
                 },
@@ -139,13 +142,13 @@ pub(crate) fn assemble(
         if let Some((from, from_layer, last_off)) = prev {
             let to = FullState::rest(angle0 + dir * wait_at.pos);
             let elst = p.elst[0];
-            let mv = turn
-                .solve(from, to, (elst - lead).max(0.0))
-                .ok_or_else(|| SequenceError::Infeasible {
-                    arc: arc.arc_index,
-                    layer: 0,
-                    message: "no stop-and-turn move reaches the arc's start".into(),
-                })?;
+            let mv =
+                turn.solve(from, to, (elst - lead).max(0.0))
+                    .ok_or(SequenceError::Infeasible {
+                        arc: arc.arc_index,
+                        layer: 0,
+                        reason: Infeasibility::NoStopAndTurn,
+                    })?;
             let index = out.transitions.len();
             push_move(
                 &mut out.pieces,
@@ -193,7 +196,7 @@ pub(crate) fn assemble(
         let n = p.len();
         // Beam intervals (absolute) and transition indices of this arc.
         let on: Vec<f64> = fa.beam_on.iter().map(|b| t_arc + b).collect();
-        let off: Vec<f64> = (0..n).map(|k| on[k] + p.t[k]).collect();
+        let off: Vec<f64> = (0..n).map(|k| on[k] + p.irradiation_s[k]).collect();
         let tr0 = out.transitions.len();
         for k in 0..n {
             let s_on = track.state_at(on[k] - t_arc);
@@ -215,9 +218,9 @@ pub(crate) fn assemble(
                 layer: l.layer,
                 angle_deg: l.angle_deg,
                 energy_mev: l.energy_mev,
-                irradiation_s: p.t[k],
-                speed_deg_per_s: if p.t[k] > 0.0 {
-                    used / p.t[k]
+                irradiation_s: p.irradiation_s[k],
+                speed_deg_per_s: if p.irradiation_s[k] > 0.0 {
+                    used / p.irradiation_s[k]
                 } else {
                     s_on.vel
                 },

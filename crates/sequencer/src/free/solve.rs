@@ -29,7 +29,7 @@ pub(crate) enum End {
 
 /// Layers `first..=last` delivered along one move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Stretch {
+struct LayerSpan {
     first: usize,
     last: usize,
     /// At rest for the whole beam (the arc's first or last layer with `rest` ends).
@@ -72,10 +72,10 @@ struct Solver<'a> {
 
 impl Solver<'_> {
     fn lo(&self, k: usize) -> f64 {
-        self.p.s[k] - 0.5 * self.p.window[k]
+        self.p.travel_deg[k] - 0.5 * self.p.window[k]
     }
     fn hi(&self, k: usize) -> f64 {
-        self.p.s[k] + 0.5 * self.p.window[k]
+        self.p.travel_deg[k] + 0.5 * self.p.window[k]
     }
     /// Range of an anchor's position: its layer's window, or (for the rest state after the last
     /// beam of a braking end) up to a braking distance beyond it.
@@ -89,30 +89,35 @@ impl Solver<'_> {
         }
     }
     fn edge_tol(&self) -> f64 {
-        1e-12 * (1.0 + self.p.s.last().copied().unwrap_or(0.0))
+        1e-12 * (1.0 + self.p.travel_deg.last().copied().unwrap_or(0.0))
     }
 
     /// Beams of `st` scheduled as early as possible along `mv`: the first at 0, each next one
     /// when the gantry is in its window and the switch has had its ELST; every beam must end
     /// before the gantry leaves its window and before the move ends. The end of the last beam.
-    fn schedule(&self, st: Stretch, mv: &FullMove, beam_on: Option<&mut Vec<f64>>) -> Option<f64> {
+    fn schedule(
+        &self,
+        st: LayerSpan,
+        mv: &FullMove,
+        beam_on: Option<&mut Vec<f64>>,
+    ) -> Option<f64> {
         let p = self.p;
         let tol = self.edge_tol();
         let end = mv.duration();
         let exit = |k: usize| mv.time_at_position(self.hi(k) + tol).min(end);
         let mut out = Vec::new();
-        if p.t[st.first] > exit(st.first) + 1e-12 {
+        if p.irradiation_s[st.first] > exit(st.first) + 1e-12 {
             return None;
         }
         out.push(0.0);
-        let mut off = p.t[st.first];
+        let mut off = p.irradiation_s[st.first];
         for k in st.first + 1..=st.last {
             let on = mv.time_at_position(self.lo(k) - tol).max(off + p.elst[k]);
-            if on + p.t[k] > exit(k) + 1e-12 * (1.0 + end) {
+            if on + p.irradiation_s[k] > exit(k) + 1e-12 * (1.0 + end) {
                 return None;
             }
             out.push(on);
-            off = on + p.t[k];
+            off = on + p.irradiation_s[k];
         }
         if let Some(b) = beam_on {
             *b = out;
@@ -124,25 +129,27 @@ impl Solver<'_> {
     /// its timing. Lengthened past the minimum time when the fastest one outruns a beam.
     fn solve_stretch(
         &mut self,
-        st: Stretch,
+        st: LayerSpan,
         on: FullState,
         off: FullState,
     ) -> Option<(FullMove, Timed)> {
         let p = self.p;
         if st.at_rest {
-            let mv = FullMove::dwell(on.pos, p.t[st.first]);
+            let mv = FullMove::dwell(on.pos, p.irradiation_s[st.first]);
             return Some((
                 mv,
                 Timed {
-                    duration: p.t[st.first],
-                    last_off: p.t[st.first],
+                    duration: p.irradiation_s[st.first],
+                    last_off: p.irradiation_s[st.first],
                 },
             ));
         }
         if off.pos < on.pos {
             return None;
         }
-        let chain: f64 = (st.first..=st.last).map(|k| p.t[k]).sum::<f64>()
+        let chain: f64 = (st.first..=st.last)
+            .map(|k| p.irradiation_s[k])
+            .sum::<f64>()
             + (st.first + 1..=st.last).map(|k| p.elst[k]).sum::<f64>();
         let mv = self.mover.solve(on, off, chain)?;
         let t_opt = mv.duration();
@@ -189,7 +196,7 @@ impl Solver<'_> {
         Some((mv, Timed { duration, last_off }))
     }
 
-    fn stretch_time(&mut self, st: Stretch, on: FullState, off: FullState) -> Option<Timed> {
+    fn stretch_time(&mut self, st: LayerSpan, on: FullState, off: FullState) -> Option<Timed> {
         self.solve_stretch(st, on, off).map(|(_, t)| t)
     }
 
@@ -209,7 +216,7 @@ impl Solver<'_> {
 /// Anchor states and the costs they give.
 #[derive(Clone)]
 struct State {
-    stretches: Vec<Stretch>,
+    stretches: Vec<LayerSpan>,
     on: Vec<FullState>,
     off: Vec<FullState>,
     timed: Vec<Timed>,
@@ -256,12 +263,12 @@ pub(crate) fn solve_arc(
         mover: Mover::new(lim, false),
     };
     let on0 = |k: usize| FullState {
-        pos: p.s[k] - 0.5 * speeds[k] * p.t[k],
+        pos: p.travel_deg[k] - 0.5 * speeds[k] * p.irradiation_s[k],
         vel: speeds[k],
         acc: 0.0,
     };
     let off0 = |k: usize| FullState {
-        pos: p.s[k] + 0.5 * speeds[k] * p.t[k],
+        pos: p.travel_deg[k] + 0.5 * speeds[k] * p.irradiation_s[k],
         vel: speeds[k],
         acc: 0.0,
     };
@@ -281,14 +288,14 @@ pub(crate) fn solve_arc(
     if end == End::Rest {
         cut_after[n - 2] = true;
     }
-    let build = |cut_after: &[bool]| -> Vec<Stretch> {
+    let build = |cut_after: &[bool]| -> Vec<LayerSpan> {
         let mut out = Vec::new();
         let mut first = 0;
         for k in 0..n {
             if k + 1 == n || cut_after.get(k).copied().unwrap_or(false) {
                 let at_rest =
                     (start == Start::Rest && k == 0) || (end == End::Rest && first == n - 1);
-                out.push(Stretch {
+                out.push(LayerSpan {
                     first,
                     last: k,
                     at_rest,
@@ -325,7 +332,7 @@ pub(crate) fn solve_arc(
         .iter()
         .map(|st| {
             if st.at_rest {
-                FullState::rest(p.s[st.first])
+                FullState::rest(p.travel_deg[st.first])
             } else {
                 on0(st.first)
             }
@@ -335,7 +342,7 @@ pub(crate) fn solve_arc(
         .iter()
         .map(|st| {
             if st.at_rest {
-                FullState::rest(p.s[st.last])
+                FullState::rest(p.travel_deg[st.last])
             } else {
                 off0(st.last)
             }
@@ -460,7 +467,7 @@ enum Anchor {
     Off,
 }
 
-/// Stretch `i`'s anchor states with one coordinate (`var`: position, speed, acceleration) of
+/// LayerSpan `i`'s anchor states with one coordinate (`var`: position, speed, acceleration) of
 /// one anchor moved by `d`; `None` outside the limits or the position `range`. A stretch at rest
 /// moves both anchors (one state).
 fn nudged(
