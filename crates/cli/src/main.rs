@@ -13,6 +13,7 @@ mod profile;
 mod report;
 mod simulate;
 mod sweep;
+mod table;
 mod validate;
 mod viewer;
 

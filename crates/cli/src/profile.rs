@@ -3,9 +3,10 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use arcsim_planner::{Limits, Move, PlannerError, Profile, Reversal};
+use arcsim_planner::{Limits, Move, PlannerError, Profile, Reversal, State};
 use serde::Serialize;
 
+use crate::table::{csv_table, Column};
 use crate::CliError;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -179,7 +180,7 @@ fn describe(s: &Solved) -> ProfileOut {
     ProfileOut {
         duration_s: s.profile.duration(),
         peak_speed_deg_per_s: peak,
-        extreme_speed_deg_per_s: s.profile.two_step().map(|ts| ts.direction * ts.v_peak),
+        extreme_speed_deg_per_s: s.profile.seven_phases().map(|ts| ts.direction * ts.v_peak),
         servo_added_time_s: s.added_time_s,
         speed_use: peak / s.limits.max_vel,
         accel_use: e.max_acceleration.max(-e.min_acceleration)
@@ -238,16 +239,33 @@ fn write_samples(path: &Path, profile: &Profile, dt: f64) -> Result<(), CliError
             "--dt {dt} would write more than 5e7 samples"
         )));
     }
-    let mut s = String::from("t_s,angle_deg,speed_deg_per_s,accel_deg_per_s2,jerk_deg_per_s3\n");
-    for (t, st) in profile.samples(dt) {
-        let _ = writeln!(
-            s,
-            "{t},{},{},{},{}",
-            st.position, st.velocity, st.acceleration, st.jerk
-        );
-    }
-    crate::output::write_file(path, s.as_bytes())
+    let table = csv_table(&SAMPLE_COLUMNS, profile.samples(dt));
+    crate::output::write_file(path, &table)
 }
+
+/// The columns of `profile --csv`: one sample of the move.
+const SAMPLE_COLUMNS: [Column<(f64, State)>; 5] = [
+    Column {
+        name: "t_s",
+        get: |(t, _)| t.to_string(),
+    },
+    Column {
+        name: "angle_deg",
+        get: |(_, s)| s.position.to_string(),
+    },
+    Column {
+        name: "speed_deg_per_s",
+        get: |(_, s)| s.velocity.to_string(),
+    },
+    Column {
+        name: "accel_deg_per_s2",
+        get: |(_, s)| s.acceleration.to_string(),
+    },
+    Column {
+        name: "jerk_deg_per_s3",
+        get: |(_, s)| s.jerk.to_string(),
+    },
+];
 
 pub fn run(args: Args) -> Result<(), CliError> {
     if let Some(batch) = &args.batch {
@@ -290,150 +308,331 @@ pub fn run(args: Args) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Quotes a CSV field when it needs it.
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
+/// One column of a batch input: its name, whether every input must have it, and how its field
+/// (trimmed, not empty) sets the move. Columns are found by name, in any order.
+struct InputColumn {
+    name: &'static str,
+    required: bool,
+    set: fn(&mut MoveSpec, &str) -> Result<(), String>,
+}
+
+const INPUT_COLUMNS: [InputColumn; 10] = [
+    InputColumn {
+        name: "distance",
+        required: true,
+        set: |m, t| {
+            m.mv.distance = finite(t)?;
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "v_start",
+        required: true,
+        set: |m, t| {
+            m.mv.v_start = finite(t)?;
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "v_end",
+        required: true,
+        set: |m, t| {
+            m.mv.v_end = finite(t)?;
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "jerk",
+        required: true,
+        set: |m, t| {
+            m.jerk = finite(t)?;
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "accel",
+        required: true,
+        set: |m, t| {
+            m.accel = finite(t)?;
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "vel",
+        required: true,
+        set: |m, t| {
+            m.vel = finite(t)?;
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "decel",
+        required: false,
+        set: |m, t| {
+            m.decel = Some(finite(t)?);
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "min_duration",
+        required: false,
+        set: |m, t| {
+            m.min_duration = Some(finite(t)?);
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "period",
+        required: false,
+        set: |m, t| {
+            m.period = Some(finite(t)?);
+            Ok(())
+        },
+    },
+    InputColumn {
+        name: "reverse",
+        required: false,
+        set: |m, t| {
+            m.reverse = if t.eq_ignore_ascii_case("allow") {
+                Reversal::Allow
+            } else if t.eq_ignore_ascii_case("forbid") {
+                Reversal::Forbid
+            } else {
+                return Err(format!("'{t}' is not allow or forbid"));
+            };
+            Ok(())
+        },
+    },
+];
+
+/// A finite number, or what was wrong.
+fn finite(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("'{text}' is not a finite number")),
     }
 }
 
-const REQUIRED: [&str; 6] = ["distance", "v_start", "v_end", "jerk", "accel", "vel"];
-const OPTIONAL: [&str; 4] = ["decel", "min_duration", "period", "reverse"];
+/// The positions of [`INPUT_COLUMNS`] in a batch input's header (`None`: not in the input).
+fn input_header(
+    names: &csv::StringRecord,
+    file: &str,
+) -> Result<[Option<usize>; INPUT_COLUMNS.len()], CliError> {
+    let heads: Vec<String> = names
+        .iter()
+        .map(|h| h.trim().to_ascii_lowercase())
+        .collect();
+    if heads.iter().all(String::is_empty) {
+        return Err(CliError::failed(format!(
+            "{file}: empty file, expected a header line"
+        )));
+    }
+    let mut at = [None; INPUT_COLUMNS.len()];
+    for (i, h) in heads.iter().enumerate() {
+        let Some(k) = INPUT_COLUMNS.iter().position(|c| c.name == h) else {
+            return Err(CliError::failed(format!(
+                "{file}: line 1: unknown column '{h}'"
+            )));
+        };
+        if at[k].replace(i).is_some() {
+            return Err(CliError::failed(format!(
+                "{file}: line 1: column '{h}' appears twice"
+            )));
+        }
+    }
+    if let Some(c) = INPUT_COLUMNS
+        .iter()
+        .zip(&at)
+        .find_map(|(c, i)| (c.required && i.is_none()).then_some(c))
+    {
+        let required: Vec<&str> = INPUT_COLUMNS
+            .iter()
+            .filter(|c| c.required)
+            .map(|c| c.name)
+            .collect();
+        return Err(CliError::failed(format!(
+            "{file}: line 1: header lacks the column '{}' (need {})",
+            c.name,
+            required.join(",")
+        )));
+    }
+    Ok(at)
+}
 
-/// Parses one data row into a move; the error names the field and the value.
+/// Parses one data row into a move; the error names the column and the value.
 fn parse_row(
-    cols: &[usize; 10],
-    cells: &[&str],
+    at: &[Option<usize>; INPUT_COLUMNS.len()],
+    record: &csv::StringRecord,
+    columns: usize,
     default_reverse: Reversal,
 ) -> Result<MoveSpec, String> {
-    let names: Vec<&str> = REQUIRED.iter().chain(OPTIONAL.iter()).copied().collect();
-    let cell = |k: usize| -> Option<&str> {
-        let i = cols[k];
-        if i == usize::MAX {
-            return None;
-        }
-        cells.get(i).map(|c| c.trim()).filter(|c| !c.is_empty())
-    };
-    let num = |k: usize| -> Result<Option<f64>, String> {
-        match cell(k) {
-            None => Ok(None),
-            Some(text) => match text.parse::<f64>() {
-                Ok(v) if v.is_finite() => Ok(Some(v)),
-                _ => Err(format!(
-                    "field {}: '{text}' is not a finite number",
-                    names[k]
-                )),
-            },
-        }
-    };
-    let req = |k: usize| -> Result<f64, String> {
-        num(k)?.ok_or_else(|| format!("field {}: missing value", names[k]))
-    };
-    let reverse = match cell(9) {
-        None => default_reverse,
-        Some(t) if t.eq_ignore_ascii_case("allow") => Reversal::Allow,
-        Some(t) if t.eq_ignore_ascii_case("forbid") => Reversal::Forbid,
-        Some(t) => return Err(format!("field reverse: '{t}' is not allow or forbid")),
-    };
-    Ok(MoveSpec {
+    if record.len() != columns {
+        return Err(format!(
+            "{} fields; expected {columns} (as the header)",
+            record.len()
+        ));
+    }
+    let mut spec = MoveSpec {
         mv: Move {
-            distance: req(0)?,
-            v_start: req(1)?,
-            v_end: req(2)?,
+            distance: f64::NAN,
+            v_start: f64::NAN,
+            v_end: f64::NAN,
         },
-        jerk: req(3)?,
-        accel: req(4)?,
-        vel: req(5)?,
-        decel: num(6)?,
-        min_duration: num(7)?,
-        period: num(8)?,
-        reverse,
-    })
+        jerk: f64::NAN,
+        accel: f64::NAN,
+        decel: None,
+        vel: f64::NAN,
+        min_duration: None,
+        period: None,
+        reverse: default_reverse,
+    };
+    for (c, i) in INPUT_COLUMNS.iter().zip(at) {
+        match i.and_then(|i| record.get(i)).map(str::trim) {
+            Some(t) if !t.is_empty() => {
+                (c.set)(&mut spec, t).map_err(|e| format!("field {}: {e}", c.name))?
+            }
+            _ if c.required => return Err(format!("field {}: missing value", c.name)),
+            _ => {}
+        }
+    }
+    Ok(spec)
+}
+
+/// One line of the `--batch` output.
+struct BatchLine {
+    /// The line of the move in the input file.
+    line: usize,
+    status: &'static str,
+    duration_s: Option<f64>,
+    peak_speed: Option<f64>,
+    message: String,
+}
+
+/// The columns of the `--batch` output.
+const BATCH_COLUMNS: [Column<BatchLine>; 5] = [
+    Column {
+        name: "line",
+        get: |r| r.line.to_string(),
+    },
+    Column {
+        name: "status",
+        get: |r| r.status.to_string(),
+    },
+    Column {
+        name: "duration_s",
+        get: |r| r.duration_s.map(|v| v.to_string()).unwrap_or_default(),
+    },
+    Column {
+        name: "peak_speed",
+        get: |r| r.peak_speed.map(|v| v.to_string()).unwrap_or_default(),
+    },
+    Column {
+        name: "message",
+        get: |r| r.message.clone(),
+    },
+];
+
+/// The result of the move of input line `line`.
+fn batch_line(line: usize, parsed: Result<MoveSpec, String>) -> BatchLine {
+    let (status, duration_s, peak_speed, message) = match parsed.map(|s| solve(&s)) {
+        Err(m) | Ok(Outcome::Error(m)) => ("error", None, None, m),
+        Ok(Outcome::Infeasible(m)) => ("infeasible", None, None, m),
+        Ok(Outcome::Ok(s)) => {
+            let d = describe(&s);
+            (
+                "ok",
+                Some(d.duration_s),
+                Some(d.peak_speed_deg_per_s),
+                String::new(),
+            )
+        }
+    };
+    BatchLine {
+        line,
+        status,
+        duration_s,
+        peak_speed,
+        message,
+    }
 }
 
 fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Result<(), CliError> {
     crate::output::check_outputs(&[input], &[("--out", out)])?;
     let text = crate::input::read_text(input)?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let Some((_, header)) = lines.next() else {
-        return Err(CliError::failed(format!(
-            "{}: empty file, expected a header line",
-            input.display()
-        )));
-    };
-    let heads: Vec<String> = header
-        .split(',')
-        .map(|h| h.trim().to_ascii_lowercase())
-        .collect();
-    let mut cols = [usize::MAX; 10];
-    for (k, name) in REQUIRED.iter().chain(OPTIONAL.iter()).enumerate() {
-        if let Some(i) = heads.iter().position(|h| h == name) {
-            cols[k] = i;
+    let file = input.display().to_string();
+    // Quoted fields, a byte-order mark and CRLF line ends read; a line of another length is a
+    // row error, not the end of the batch.
+    let mut reader = csv::ReaderBuilder::new()
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let header = reader
+        .headers()
+        .map_err(|e| CliError::failed(format!("{file}: {e}")))?;
+    let at = input_header(header, &file)?;
+    let columns = header.len();
+    let mut lines = LineNumbers::new(&text);
+    let mut results = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| CliError::failed(format!("{file}: {e}")))?;
+        if record.iter().all(|f| f.trim().is_empty()) {
+            continue;
         }
+        let line = lines.at(record.position().map_or(0, |p| p.byte()));
+        results.push(batch_line(
+            line,
+            parse_row(&at, &record, columns, default_reverse),
+        ));
     }
-    for (k, name) in REQUIRED.iter().enumerate() {
-        if cols[k] == usize::MAX {
-            return Err(CliError::failed(format!(
-                "{}: line 1: header lacks the column '{name}' (need {})",
-                input.display(),
-                REQUIRED.join(",")
-            )));
-        }
-    }
-    if let Some(unknown) = heads
-        .iter()
-        .find(|h| !REQUIRED.contains(&h.as_str()) && !OPTIONAL.contains(&h.as_str()))
-    {
-        return Err(CliError::failed(format!(
-            "{}: line 1: unknown column '{unknown}'",
-            input.display()
-        )));
-    }
-    let mut report = String::from("line,status,duration_s,peak_speed,message\n");
-    let (mut ok, mut infeasible, mut errors) = (0, 0, 0);
-    for (i, line) in lines {
-        let cells: Vec<&str> = line.split(',').collect();
-        let (status, duration, peak, message) =
-            match parse_row(&cols, &cells, default_reverse).map(|s| solve(&s)) {
-                Err(m) | Ok(Outcome::Error(m)) => {
-                    errors += 1;
-                    ("error", String::new(), String::new(), m)
-                }
-                Ok(Outcome::Infeasible(m)) => {
-                    infeasible += 1;
-                    ("infeasible", String::new(), String::new(), m)
-                }
-                Ok(Outcome::Ok(s)) => {
-                    ok += 1;
-                    let d = describe(&s);
-                    (
-                        "ok",
-                        format!("{}", d.duration_s),
-                        format!("{}", d.peak_speed_deg_per_s),
-                        String::new(),
-                    )
-                }
-            };
-        let _ = writeln!(
-            report,
-            "{},{status},{duration},{peak},{}",
-            i + 1,
-            csv_field(&message)
-        );
-    }
+    let count = |status: &str| results.iter().filter(|r| r.status == status).count();
+    let (ok, infeasible, errors) = (count("ok"), count("infeasible"), count("error"));
+    let report = csv_table(&BATCH_COLUMNS, results);
     match out {
-        Some(p) => crate::output::write_file(p, report.as_bytes())?,
-        None => crate::output::print(&report),
+        Some(p) => crate::output::write_file(p, &report)?,
+        None => crate::output::print(&String::from_utf8_lossy(&report)),
     }
     eprintln!(
         "{}: {ok} ok, {infeasible} infeasible, {errors} with an error",
         crate::count(ok + infeasible + errors, "row")
     );
     Ok(())
+}
+
+/// Line numbers (from 1) of the records of a text, in order. (The `csv` reader's own count
+/// lags a line behind after a CRLF line end.)
+struct LineNumbers<'a> {
+    text: &'a [u8],
+    /// Bytes counted so far, and the line they end on.
+    byte: usize,
+    line: usize,
+}
+
+impl<'a> LineNumbers<'a> {
+    fn new(text: &'a str) -> Self {
+        LineNumbers {
+            text: text.as_bytes(),
+            byte: 0,
+            line: 1,
+        }
+    }
+
+    /// The line of the record the reader places at `byte`: the first line with content from
+    /// there (the position may be at the line end before it). Positions must not decrease.
+    fn at(&mut self, byte: u64) -> usize {
+        let mut end = usize::try_from(byte).map_or(self.text.len(), |b| b.min(self.text.len()));
+        while self
+            .text
+            .get(end)
+            .is_some_and(|b| matches!(b, b'\r' | b'\n'))
+        {
+            end += 1;
+        }
+        if end > self.byte {
+            self.line += self.text[self.byte..end]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count();
+            self.byte = end;
+        }
+        self.line
+    }
 }

@@ -5,10 +5,11 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use arcsim_sequencer::{
-    simulate, spot_timeline, ArcEnds, Delivery, Limiter, Motion, Schedule, SpotRow,
+    simulate, spot_timeline, ArcEnds, Delivery, GantryState, Limiter, Motion, Schedule, SpotRow,
 };
 
 use crate::input::{load_machine_hashed, load_plan_hashed};
+use crate::table::{csv_table, Column};
 use crate::CliError;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -366,55 +367,123 @@ fn where_lost(s: &mut String, d: &Delivery) {
 }
 
 /// The spot table: one row per spot delivery, columns named with their units.
-fn write_spots_csv(path: &Path, spots: &[SpotRow]) -> Result<(), CliError> {
-    let mut s = String::from("layer_index,arc,control_point,layer,spot,painting,x_mm,y_mm,mu,t_start_s,t_end_s,angle_start_deg,angle_end_deg\n");
-    let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
-    for r in spots {
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            r.layer_index,
-            r.arc,
-            r.control_point,
-            r.layer,
-            r.spot,
-            r.painting,
-            opt(r.x_mm),
-            opt(r.y_mm),
-            r.mu,
-            r.t_start_s,
-            r.t_end_s,
-            r.angle_start_deg,
-            r.angle_end_deg
-        );
-    }
-    crate::output::write_file(path, s.as_bytes())
+const SPOT_COLUMNS: [Column<SpotRow>; 13] = [
+    Column {
+        name: "layer_index",
+        get: |r| r.layer_index.to_string(),
+    },
+    Column {
+        name: "arc",
+        get: |r| r.arc.to_string(),
+    },
+    Column {
+        name: "control_point",
+        get: |r| r.control_point.to_string(),
+    },
+    Column {
+        name: "layer",
+        get: |r| r.layer.to_string(),
+    },
+    Column {
+        name: "spot",
+        get: |r| r.spot.to_string(),
+    },
+    Column {
+        name: "painting",
+        get: |r| r.painting.to_string(),
+    },
+    Column {
+        name: "x_mm",
+        get: |r| optional(r.x_mm),
+    },
+    Column {
+        name: "y_mm",
+        get: |r| optional(r.y_mm),
+    },
+    Column {
+        name: "mu",
+        get: |r| r.mu.to_string(),
+    },
+    Column {
+        name: "t_start_s",
+        get: |r| r.t_start_s.to_string(),
+    },
+    Column {
+        name: "t_end_s",
+        get: |r| r.t_end_s.to_string(),
+    },
+    Column {
+        name: "angle_start_deg",
+        get: |r| r.angle_start_deg.to_string(),
+    },
+    Column {
+        name: "angle_end_deg",
+        get: |r| r.angle_end_deg.to_string(),
+    },
+];
+
+/// A number, or an empty field.
+fn optional(x: Option<f64>) -> String {
+    x.map(|v| v.to_string()).unwrap_or_default()
 }
+
+fn write_spots_csv(path: &Path, spots: &[SpotRow]) -> Result<(), CliError> {
+    crate::output::write_file(path, &csv_table(&SPOT_COLUMNS, spots))
+}
+
+/// One sample of the timeline: time, gantry state, and the layer being irradiated (its index
+/// and energy).
+struct Sample {
+    t: f64,
+    state: GantryState,
+    beam: Option<(usize, f64)>,
+}
+
+/// The columns of the timeline CSV.
+const SAMPLE_COLUMNS: [Column<Sample>; 7] = [
+    Column {
+        name: "t_s",
+        get: |s| format!("{:.6}", s.t),
+    },
+    Column {
+        name: "angle_deg",
+        get: |s| s.state.angle_deg.to_string(),
+    },
+    Column {
+        name: "speed_deg_per_s",
+        get: |s| s.state.speed_deg_per_s.to_string(),
+    },
+    Column {
+        name: "accel_deg_per_s2",
+        get: |s| s.state.accel_deg_per_s2.to_string(),
+    },
+    Column {
+        name: "jerk_deg_per_s3",
+        get: |s| s.state.jerk_deg_per_s3.to_string(),
+    },
+    Column {
+        name: "beam_layer",
+        get: |s| s.beam.map(|(l, _)| l.to_string()).unwrap_or_default(),
+    },
+    Column {
+        name: "energy_mev",
+        get: |s| optional(s.beam.map(|(_, e)| e)),
+    },
+];
 
 fn write_csv(path: &Path, d: &Delivery, dt: f64) -> Result<(), CliError> {
     let tl = d
         .timeline
         .as_ref()
         .ok_or_else(|| CliError::failed("no timeline was built"))?;
-    let mut s = String::from(
-        "t_s,angle_deg,speed_deg_per_s,accel_deg_per_s2,jerk_deg_per_s3,beam_layer,energy_mev\n",
-    );
-    for (t, st) in tl.samples(dt) {
-        let layer = tl.beam_layer_at(t);
-        let energy = layer
-            .map(|l| d.layers[l].energy_mev.to_string())
-            .unwrap_or_default();
-        let _ = writeln!(
-            s,
-            "{t:.6},{},{},{},{},{},{energy}",
-            st.angle_deg,
-            st.speed_deg_per_s,
-            st.accel_deg_per_s2,
-            st.jerk_deg_per_s3,
-            layer.map(|l| l.to_string()).unwrap_or_default()
-        );
-    }
-    crate::output::write_file(path, s.as_bytes())
+    let samples = tl.samples(dt).into_iter().map(|(t, state)| Sample {
+        t,
+        state,
+        beam: tl
+            .beam_layer_at(t)
+            .map(|l| (l, d.layers.get(l).map_or(f64::NAN, |x| x.energy_mev))),
+    });
+    crate::output::write_file(path, &csv_table(&SAMPLE_COLUMNS, samples))
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {

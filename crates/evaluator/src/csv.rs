@@ -14,31 +14,318 @@
 //!
 //! Tables of an older arcsim ([`CSV_HEADER_V1`]: without the two beam axes and the split of the
 //! beam-on time) still merge (with each other) and read back.
+//!
+//! Every column is defined once, in `COLUMNS`: its name and how a row writes it and reads back
+//! into one. The writer, the reader and the merge all go through that list and the `csv` crate,
+//! so a table read back may have its columns in any order (found by their header name), quoted
+//! fields, a UTF-8 byte-order mark and CRLF line ends.
 
 use std::io::Write;
 
-use arcsim_sequencer::{Breakdown, LimiterCounts};
+use arcsim_sequencer::{Breakdown, LimiterCounts, Margins};
+use csv::StringRecord;
 
 use crate::run::{Evaluator, Outcome, Row, Status};
-use crate::sweep::{Axis, Defaults, Setting};
+use crate::sweep::Axis;
 use crate::EvalError;
 
-/// The CSV header line (without the newline).
-pub const CSV_HEADER: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
-scan_speed_mm_per_s,dose_rate_scale,\
-status,total_s,beam_on_s,spot_irradiation_s,scanning_s,energy_switching_s,lost_s,speedup,\
-limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,\
-violations,speed_use,accel_use,jerk_use,window_slack_deg,elst_slack_s,message";
+/// How one column of the sweep table is written from a row and read back into one.
+#[derive(Clone, Copy)]
+enum Field {
+    /// The combination's index: read first, it names the combination the rest is checked against.
+    Index,
+    /// Text naming the combination (plan label, schedule entry): written from the row, and on
+    /// reading it must be what the sweep's combination of that index writes.
+    Name(fn(&Row) -> String),
+    /// The value of a limit used (see the module documentation): written from the setting and the
+    /// base machine; on reading it must be the sweep's combination's. A table without the column
+    /// (an older arcsim's) holds only combinations that leave the axis to the base machine.
+    Limit(Axis),
+    Status,
+    /// A number of an `ok` row's outcome; a table without the column (an older arcsim's) reads
+    /// it as unknown (NaN).
+    Number(fn(&Outcome) -> f64, fn(&mut Outcome) -> &mut f64),
+    /// A number of an `ok` row's outcome that may be absent (empty).
+    Optional(
+        fn(&Outcome) -> Option<f64>,
+        fn(&mut Outcome) -> &mut Option<f64>,
+    ),
+    /// A count of an `ok` row's outcome.
+    Count(fn(&Outcome) -> usize, fn(&mut Outcome) -> &mut usize),
+    /// A margin, written when the row has margins; not read back (summaries do not use them).
+    Margin(fn(&Margins) -> f64),
+    Message,
+}
+
+/// One column of the sweep table.
+#[derive(Clone, Copy)]
+struct Column {
+    name: &'static str,
+    field: Field,
+}
+
+/// Defines [`CSV_HEADER`] and [`COLUMNS`] from one list of `name => field`.
+macro_rules! sweep_columns {
+    ($first:literal => $first_field:expr, $($name:literal => $field:expr),+ $(,)?) => {
+        /// The CSV header line (without the newline): the names of the table's columns.
+        pub const CSV_HEADER: &str = concat!($first $(, ",", $name)+);
+
+        /// The columns of the sweep table, in the order written.
+        const COLUMNS: &[Column] = &[
+            Column { name: $first, field: $first_field },
+            $(Column { name: $name, field: $field },)+
+        ];
+    };
+}
+
+/// A [`Field::Number`], [`Field::Optional`] or [`Field::Count`] of the outcome field `$path`.
+macro_rules! outcome {
+    ($kind:ident, $($path:ident).+) => {
+        Field::$kind(|o| o.$($path).+, |o| &mut o.$($path).+)
+    };
+}
+
+sweep_columns! {
+    "index" => Field::Index,
+    "plan" => Field::Name(|r| r.plan.clone()),
+    "schedule" => Field::Name(|r| r.schedule.name()),
+    "jerk_deg_per_s3" => Field::Limit(Axis::Jerk),
+    "accel_deg_per_s2" => Field::Limit(Axis::Accel),
+    "speed_deg_per_s" => Field::Limit(Axis::Speed),
+    "elst_up_s" => Field::Limit(Axis::ElstUp),
+    "elst_down_s" => Field::Limit(Axis::ElstDown),
+    "window_deg" => Field::Limit(Axis::Window),
+    "scan_speed_mm_per_s" => Field::Limit(Axis::ScanSpeed),
+    "dose_rate_scale" => Field::Limit(Axis::DoseRateScale),
+    "status" => Field::Status,
+    "total_s" => outcome!(Number, total_s),
+    "beam_on_s" => outcome!(Number, breakdown.beam_on_s),
+    "spot_irradiation_s" => outcome!(Number, breakdown.spot_irradiation_s),
+    "scanning_s" => outcome!(Number, breakdown.scanning_s),
+    "energy_switching_s" => outcome!(Number, breakdown.energy_switching_s),
+    "lost_s" => outcome!(Number, breakdown.lost_s),
+    "speedup" => outcome!(Optional, speedup),
+    "limited_elst" => outcome!(Count, limiter_counts.elst),
+    "limited_speed" => outcome!(Count, limiter_counts.speed),
+    "limited_accel" => outcome!(Count, limiter_counts.accel),
+    "limited_jerk" => outcome!(Count, limiter_counts.jerk),
+    "limited_none" => outcome!(Count, limiter_counts.none),
+    "violations" => outcome!(Count, violations),
+    "speed_use" => Field::Margin(|m| m.speed_use.value),
+    "accel_use" => Field::Margin(|m| m.accel_use.value),
+    "jerk_use" => Field::Margin(|m| m.jerk_use.value),
+    "window_slack_deg" => Field::Margin(|m| m.window_slack_deg.value),
+    "elst_slack_s" => Field::Margin(|m| m.elst_slack_s.value),
+    "message" => Field::Message,
+}
 
 /// The header of an older arcsim's tables: no `scan_speed_mm_per_s`, `dose_rate_scale`,
-/// `spot_irradiation_s` or `scanning_s` columns. Such tables merge (with tables of the same
-/// header; the merged table keeps it) and read back ([`Evaluator::rows_from_csv`]).
+/// `spot_irradiation_s` or `scanning_s` columns, the others in the order of [`CSV_HEADER`]. Such
+/// tables merge (with tables of the same header; the merged table keeps it) and read back
+/// ([`Evaluator::rows_from_csv`]).
 pub const CSV_HEADER_V1: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
 status,total_s,beam_on_s,energy_switching_s,lost_s,speedup,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,\
 violations,speed_use,accel_use,jerk_use,window_slack_deg,elst_slack_s,message";
 
-/// The headers a table may have, the current one first.
-const HEADERS: [&str; 2] = [CSV_HEADER, CSV_HEADER_V1];
+/// Which header a table has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Layout {
+    /// [`CSV_HEADER`]'s columns.
+    Current,
+    /// [`CSV_HEADER_V1`]'s columns.
+    V1,
+}
+
+impl Layout {
+    /// Whether tables of this layout have `column`.
+    fn has(self, column: &Column) -> bool {
+        match self {
+            Layout::Current => true,
+            Layout::V1 => CSV_HEADER_V1.split(',').any(|n| n == column.name),
+        }
+    }
+
+    /// The columns of this layout, in the order written.
+    fn columns(self) -> impl Iterator<Item = &'static Column> {
+        COLUMNS.iter().filter(move |c| self.has(c))
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            Layout::Current => "the current arcsim sweep CSV header",
+            Layout::V1 => "an older arcsim's header (without the scan_speed_mm_per_s, dose_rate_scale, spot_irradiation_s and scanning_s columns)",
+        }
+    }
+}
+
+/// A table's header: its layout and where each of [`COLUMNS`] is (`None`: not in this layout).
+struct Header {
+    layout: Layout,
+    at: Vec<Option<usize>>,
+    /// The positions of the layout's columns, in the layout's order.
+    order: Vec<usize>,
+    len: usize,
+}
+
+impl Header {
+    /// Finds the columns by name; every name must be a column of the table, once, and the names
+    /// must be those of [`CSV_HEADER`] or [`CSV_HEADER_V1`] (in any order).
+    fn parse(names: &StringRecord) -> Result<Header, String> {
+        const EXPECTED: &str = "expected the arcsim sweep CSV header";
+        if names.iter().all(str::is_empty) {
+            return Err(format!("empty file; {EXPECTED}"));
+        }
+        let mut at = vec![None; COLUMNS.len()];
+        for (i, name) in names.iter().enumerate() {
+            let k = COLUMNS
+                .iter()
+                .position(|c| c.name == name)
+                .ok_or_else(|| format!("line 1: unknown column {name:?}; {EXPECTED}"))?;
+            if at[k].replace(i).is_some() {
+                return Err(format!("line 1: column {name} appears twice; {EXPECTED}"));
+            }
+        }
+        let present = |c: &Column| at[column_index(c.name)].is_some();
+        let layout = if COLUMNS.iter().all(present) {
+            Layout::Current
+        } else if COLUMNS.iter().all(|c| present(c) == Layout::V1.has(c)) {
+            Layout::V1
+        } else {
+            // Name the first missing column of the layout the table is closer to.
+            let newer = COLUMNS.iter().any(|c| present(c) && !Layout::V1.has(c));
+            let layout = if newer { Layout::Current } else { Layout::V1 };
+            let missing = layout
+                .columns()
+                .find(|c| !present(c))
+                .map_or("?", |c| c.name);
+            return Err(format!("line 1: no column {missing}; {EXPECTED}"));
+        };
+        let order = COLUMNS
+            .iter()
+            .zip(&at)
+            .filter(|(c, _)| layout.has(c))
+            .filter_map(|(_, i)| *i)
+            .collect();
+        Ok(Header {
+            layout,
+            at,
+            order,
+            len: names.len(),
+        })
+    }
+
+    /// The field of `COLUMNS[k]` in `record`; `None` when the table has no such column.
+    fn get<'r>(&self, record: &'r StringRecord, k: usize) -> Option<&'r str> {
+        self.at[k].and_then(|i| record.get(i))
+    }
+}
+
+/// The position of the column named `name` in [`COLUMNS`] (a name of the list).
+fn column_index(name: &str) -> usize {
+    COLUMNS
+        .iter()
+        .position(|c| c.name == name)
+        .unwrap_or_else(|| unreachable!("{name} is a column of COLUMNS"))
+}
+
+/// A reader of a table's text: columns by name, quoted fields, a byte-order mark, CRLF.
+fn reader(text: &str) -> csv::Reader<&[u8]> {
+    csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .from_reader(text.as_bytes())
+}
+
+/// The records of `text` after its header, each with its line number, and the header.
+fn records(text: &str) -> Result<(Header, Vec<(usize, StringRecord)>), String> {
+    let mut rd = reader(text);
+    let header = Header::parse(rd.headers().map_err(|e| e.to_string())?)?;
+    let mut lines = Lines::new(text);
+    let mut out = Vec::new();
+    for record in rd.records() {
+        let record = record.map_err(|e| e.to_string())?;
+        let line = lines.at(record.position().map_or(0, |p| p.byte()));
+        if record.len() != header.len {
+            return Err(format!(
+                "line {line}: {} fields; expected {} (as the header)",
+                record.len(),
+                header.len
+            ));
+        }
+        out.push((line, record));
+    }
+    Ok((header, out))
+}
+
+/// Line numbers (from 1) of the records of a text, in order. (The `csv` reader's own count
+/// lags a line behind after a CRLF line end.)
+struct Lines<'a> {
+    text: &'a [u8],
+    /// Bytes counted so far, and the line they end on.
+    byte: usize,
+    line: usize,
+}
+
+impl<'a> Lines<'a> {
+    fn new(text: &'a str) -> Self {
+        Lines {
+            text: text.as_bytes(),
+            byte: 0,
+            line: 1,
+        }
+    }
+
+    /// The line of the record the reader places at `byte`: the first line with content from
+    /// there (the position may be at the line end before it). Positions must not decrease.
+    fn at(&mut self, byte: u64) -> usize {
+        let mut end = usize::try_from(byte).map_or(self.text.len(), |b| b.min(self.text.len()));
+        while self
+            .text
+            .get(end)
+            .is_some_and(|b| matches!(b, b'\r' | b'\n'))
+        {
+            end += 1;
+        }
+        if end > self.byte {
+            self.line += self.text[self.byte..end]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count();
+            self.byte = end;
+        }
+        self.line
+    }
+}
+
+/// A text field on one line: a table row is one line (line breaks become spaces).
+fn one_line(s: &str) -> String {
+    s.chars()
+        .map(|c| if c == '\n' || c == '\r' { ' ' } else { c })
+        .collect()
+}
+
+/// Writes `records` as CSV lines (quoted where a field needs it).
+fn write_records<'a, I, R>(out: &mut impl Write, records: I) -> std::io::Result<()>
+where
+    I: IntoIterator<Item = R>,
+    R: IntoIterator<Item = &'a str>,
+{
+    let mut w = csv::WriterBuilder::new()
+        .flexible(true)
+        .buffer_capacity(4096)
+        .from_writer(out);
+    for r in records {
+        w.write_record(r).map_err(csv_io)?;
+    }
+    w.flush()
+}
+
+fn csv_io(e: csv::Error) -> std::io::Error {
+    match e.into_kind() {
+        csv::ErrorKind::Io(e) => e,
+        kind => std::io::Error::other(format!("{kind:?}")),
+    }
+}
 
 /// Writes the header line.
 pub fn write_csv_header(out: &mut impl Write) -> std::io::Result<()> {
@@ -49,114 +336,57 @@ pub fn write_csv_header(out: &mut impl Write) -> std::io::Result<()> {
 /// documentation); empty fields: a result the row does not have (and the upward ELST of a
 /// polynomial ELST model).
 pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
-    let opt = |x: Option<f64>| x.map(|v| v.to_string()).unwrap_or_default();
-    let mut f: Vec<String> = vec![
-        r.index.to_string(),
-        text(&r.plan),
-        r.schedule.name().to_string(),
-    ];
-    f.extend(limit_fields(&r.setting, &r.defaults));
-    f.push(r.status.name().to_string());
-    match &r.outcome {
-        Some(o) => {
-            let c = &o.limiter_counts;
-            f.extend([
-                o.total_s.to_string(),
-                o.breakdown.beam_on_s.to_string(),
-                o.breakdown.spot_irradiation_s.to_string(),
-                o.breakdown.scanning_s.to_string(),
-                o.breakdown.energy_switching_s.to_string(),
-                o.breakdown.lost_s.to_string(),
-                opt(o.speedup),
-            ]);
-            f.extend(
-                [c.elst, c.speed, c.accel, c.jerk, c.none, o.violations].map(|n| n.to_string()),
-            );
-            match &o.margins {
-                Some(m) => f.extend(
-                    [
-                        m.speed_use,
-                        m.accel_use,
-                        m.jerk_use,
-                        m.window_slack_deg,
-                        m.elst_slack_s,
-                    ]
-                    .map(|x| x.value.to_string()),
-                ),
-                None => f.extend(std::iter::repeat_n(String::new(), 5)),
-            }
-        }
-        None => f.extend(std::iter::repeat_n(String::new(), 18)),
-    }
-    f.push(text(&r.message));
-    writeln!(out, "{}", f.join(","))
+    let fields: Vec<String> = COLUMNS.iter().map(|c| field_text(c.field, r)).collect();
+    write_records(out, [fields.iter().map(String::as_str)])
 }
 
-/// The limit columns of a setting, in the order of [`Axis::ALL`], each the value used.
-fn limit_fields(s: &Setting, defaults: &Defaults) -> [String; Axis::ALL.len()] {
-    Axis::ALL.map(|a| {
-        s.get_or(a, defaults)
-            .map(|v| v.to_string())
-            .unwrap_or_default()
-    })
-}
-
-/// A text field on one line, quoted when it holds a comma or a quote.
-fn text(s: &str) -> String {
-    let one_line: String = s
-        .chars()
-        .map(|c| if c == '\n' || c == '\r' { ' ' } else { c })
-        .collect();
-    if one_line.contains([',', '"']) {
-        format!("\"{}\"", one_line.replace('"', "\"\""))
-    } else {
-        one_line
-    }
+/// The text of one field of `r`.
+fn field_text(field: Field, r: &Row) -> String {
+    let outcome = |f: &dyn Fn(&Outcome) -> Option<String>| r.outcome.as_ref().and_then(f);
+    let text = match field {
+        Field::Index => Some(r.index.to_string()),
+        Field::Name(get) => Some(one_line(&get(r))),
+        Field::Limit(axis) => r.setting.get_or(axis, &r.defaults).map(|v| v.to_string()),
+        Field::Status => Some(r.status.name().to_string()),
+        Field::Number(get, _) => outcome(&|o| Some(get(o).to_string())),
+        Field::Optional(get, _) => outcome(&|o| get(o).map(|v| v.to_string())),
+        Field::Count(get, _) => outcome(&|o| Some(get(o).to_string())),
+        Field::Margin(get) => outcome(&|o| o.margins.as_ref().map(|m| get(m).to_string())),
+        Field::Message => Some(one_line(&r.message)),
+    };
+    text.unwrap_or_default()
 }
 
 /// Joins shard outputs (`(name, text)` pairs, in any order) into the table a single run writes.
 /// Every input must have the sweep header, all the same one ([`CSV_HEADER`], or all an older
-/// arcsim's [`CSV_HEADER_V1`], which the merged table then keeps); indices must not repeat and
-/// must cover `0..n` without gaps, and be exactly `0..expected` when `expected` is given (the
-/// sweep's combination count).
+/// arcsim's [`CSV_HEADER_V1`], which the merged table then keeps; the columns of an input may be
+/// in any order, the merged table has them in the header's); indices must not repeat and must
+/// cover `0..n` without gaps, and be exactly `0..expected` when `expected` is given (the sweep's
+/// combination count).
 pub fn merge_csv(
     inputs: &[(String, String)],
     expected: Option<usize>,
 ) -> Result<String, EvalError> {
-    let mut rows: Vec<(usize, &str, &str)> = Vec::new();
-    // The header of the first input, and its name.
-    let mut header: Option<(&str, &str)> = None;
+    // (index, fields in the layout's order, input name)
+    let mut rows: Vec<(usize, Vec<String>, &str)> = Vec::new();
+    // The layout of the first input, and its name.
+    let mut first: Option<(Layout, &str)> = None;
     for (name, text) in inputs {
         let merr = |message: String| EvalError::Merge {
             file: name.clone(),
             message,
         };
-        let mut lines = text.lines();
-        match lines.next() {
-            Some(h) if HEADERS.contains(&h) => match header {
-                None => header = Some((h, name)),
-                Some((first, first_name)) if first != h => {
-                    let which = |h: &str| {
-                        if h == CSV_HEADER {
-                            "the current arcsim sweep CSV header"
-                        } else {
-                            "an older arcsim's header (without the scan_speed_mm_per_s, dose_rate_scale, spot_irradiation_s and scanning_s columns)"
-                        }
-                    };
-                    return Err(merr(format!(
-                        "line 1: {}, but {first_name} has {}; expected the tables of one run",
-                        which(h),
-                        which(first)
-                    )));
-                }
-                Some(_) => {}
-            },
-            Some(_) => return Err(merr("line 1: expected the arcsim sweep CSV header".into())),
-            None => {
-                return Err(merr(
-                    "empty file; expected the arcsim sweep CSV header".into(),
-                ))
+        let (header, records) = records(text).map_err(merr)?;
+        match first {
+            None => first = Some((header.layout, name)),
+            Some((layout, first_name)) if layout != header.layout => {
+                return Err(merr(format!(
+                    "line 1: {}, but {first_name} has {}; expected the tables of one run",
+                    header.layout.describe(),
+                    layout.describe()
+                )));
             }
+            Some(_) => {}
         }
         if !text.ends_with('\n') {
             return Err(merr(
@@ -164,15 +394,20 @@ pub fn merge_csv(
                     .into(),
             ));
         }
-        for (n, line) in lines.enumerate() {
-            let index = line.split(',').next().and_then(|i| i.parse::<usize>().ok());
-            let index = index.ok_or_else(|| {
+        let index_column = column_index("index");
+        for (line, record) in records {
+            let field = header.get(&record, index_column).unwrap_or_default();
+            let index = field.trim().parse::<usize>().map_err(|_| {
                 merr(format!(
-                    "line {}: expected a row starting with its index",
-                    n + 2
+                    "line {line}: column index: expected a row index (a count), found {field:?}"
                 ))
             })?;
-            rows.push((index, line, name));
+            let fields = header
+                .order
+                .iter()
+                .map(|&i| record[i].to_string())
+                .collect();
+            rows.push((index, fields, name));
         }
     }
     rows.sort_by_key(|r| r.0);
@@ -202,35 +437,78 @@ pub fn merge_csv(
             });
         }
     }
-    let mut out = String::with_capacity(inputs.iter().map(|(_, t)| t.len()).sum());
-    out.push_str(header.map_or(CSV_HEADER, |h| h.0));
-    out.push('\n');
-    for (_, line, _) in rows {
-        out.push_str(line);
-        out.push('\n');
-    }
-    Ok(out)
+    let layout = first.map_or(Layout::Current, |f| f.0);
+    let header: Vec<&str> = layout.columns().map(|c| c.name).collect();
+    let lines = rows
+        .iter()
+        .map(|r| r.1.iter().map(String::as_str).collect::<Vec<_>>());
+    let mut out = Vec::with_capacity(inputs.iter().map(|(_, t)| t.len()).sum());
+    write_records(&mut out, std::iter::once(header).chain(lines))?;
+    String::from_utf8(out).map_err(|e| EvalError::Merge {
+        file: "merged shards".into(),
+        message: format!("not UTF-8 text ({e})"),
+    })
 }
 
-/// The fields of one CSV line as [`write_csv_row`] writes them (quoted text fields unquoted).
-fn split_line(line: &str) -> Vec<String> {
-    let mut fields = vec![String::new()];
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        let field = fields.last_mut().expect("one field at least");
-        match (c, quoted) {
-            ('"', true) if chars.peek() == Some(&'"') => {
-                chars.next();
-                field.push('"');
-            }
-            ('"', true) => quoted = false,
-            ('"', false) if field.is_empty() => quoted = true,
-            (',', false) => fields.push(String::new()),
-            (c, _) => field.push(c),
+/// An outcome to fill from a table row: the numbers unknown (NaN) until read.
+fn unknown_outcome() -> Outcome {
+    Outcome {
+        total_s: f64::NAN,
+        breakdown: Breakdown {
+            beam_on_s: f64::NAN,
+            spot_irradiation_s: f64::NAN,
+            scanning_s: f64::NAN,
+            energy_switching_s: f64::NAN,
+            lost_s: f64::NAN,
+        },
+        speedup: None,
+        limiter_counts: LimiterCounts::default(),
+        violations: 0,
+        margins: None,
+    }
+}
+
+/// One data row of a table being read: its fields by column name, and where it is.
+struct Fields<'a> {
+    header: &'a Header,
+    record: &'a StringRecord,
+    line: usize,
+}
+
+impl Fields<'_> {
+    /// The field of `COLUMNS[k]`; `None` when the table has no such column.
+    fn get(&self, k: usize) -> Option<&str> {
+        self.header.get(self.record, k)
+    }
+
+    /// A located error about this row.
+    fn error(&self, message: String) -> String {
+        format!("line {}: {message}", self.line)
+    }
+
+    fn expected(&self, column: &str, what: &str, found: &str) -> String {
+        self.error(format!("column {column}: expected {what}, found {found:?}"))
+    }
+
+    fn number(&self, column: &str, text: &str) -> Result<f64, String> {
+        text.trim()
+            .parse::<f64>()
+            .map_err(|_| self.expected(column, "a number", text))
+    }
+
+    fn optional(&self, column: &str, text: &str) -> Result<Option<f64>, String> {
+        if text.trim().is_empty() {
+            Ok(None)
+        } else {
+            self.number(column, text).map(Some)
         }
     }
-    fields
+
+    fn count(&self, column: &str, text: &str) -> Result<usize, String> {
+        text.trim()
+            .parse::<usize>()
+            .map_err(|_| self.expected(column, "a count", text))
+    }
 }
 
 impl Evaluator {
@@ -239,169 +517,173 @@ impl Evaluator {
     /// columns as [`write_csv_row`] writes them); margins are not read back (summaries do not use
     /// them).
     ///
-    /// Columns are found by their name in the header, which must be [`CSV_HEADER`] or an older
-    /// arcsim's [`CSV_HEADER_V1`]. Such an older table has no beam axes (its rows must be
-    /// combinations that do not sweep them) and no split of the beam-on time: its rows read back
-    /// with `spot_irradiation_s` and `scanning_s` NaN (unknown).
+    /// Columns are found by their name in the header, which must have the columns of
+    /// [`CSV_HEADER`] or an older arcsim's [`CSV_HEADER_V1`], in any order. Such an older table
+    /// has no beam axes (its rows must be combinations that do not sweep them) and no split of
+    /// the beam-on time: its rows read back with `spot_irradiation_s` and `scanning_s` NaN
+    /// (unknown). Quoted fields, a UTF-8 byte-order mark and CRLF line ends read as well.
     pub fn rows_from_csv(&self, name: &str, text: &str) -> Result<Vec<Row>, EvalError> {
-        let merr = |line: usize, message: String| EvalError::Merge {
+        let merr = |message: String| EvalError::Merge {
             file: name.to_string(),
-            message: format!("line {line}: {message}"),
+            message,
         };
-        let mut lines = text.lines();
-        let header = match lines.next() {
-            Some(h) if HEADERS.contains(&h) => h,
-            _ => return Err(merr(1, "expected the arcsim sweep CSV header".into())),
-        };
-        let names: Vec<&str> = header.split(',').collect();
-        let columns = names.len();
-        let column = |name: &str| names.iter().position(|n| *n == name);
-        // Every header in HEADERS has these.
-        let at = |name: &str| column(name).unwrap_or_else(|| panic!("column {name}"));
-        let defaults = self.sweep().defaults();
-        let mut rows = Vec::new();
-        for (n, line) in lines.enumerate() {
-            let ln = n + 2;
-            let f = split_line(line);
-            if f.len() != columns {
-                return Err(merr(ln, format!("{} fields; expected {columns}", f.len())));
-            }
-            let num = |i: usize| -> Result<f64, EvalError> {
-                f[i].parse::<f64>().map_err(|_| {
-                    merr(
-                        ln,
-                        format!(
-                            "column {} ({}): expected a number, found {:?}",
-                            i + 1,
-                            names[i],
-                            f[i]
-                        ),
-                    )
-                })
-            };
-            let opt = |i: usize| -> Result<Option<f64>, EvalError> {
-                if f[i].is_empty() {
-                    Ok(None)
-                } else {
-                    num(i).map(Some)
-                }
-            };
-            let count = |i: usize| -> Result<usize, EvalError> {
-                f[i].parse::<usize>().map_err(|_| {
-                    merr(
-                        ln,
-                        format!(
-                            "column {} ({}): expected a count, found {:?}",
-                            i + 1,
-                            names[i],
-                            f[i]
-                        ),
-                    )
-                })
-            };
-            let index = count(at("index"))?;
-            if index >= self.len() {
-                return Err(merr(
-                    ln,
-                    format!("row {index}: the sweep has {} combinations", self.len()),
-                ));
-            }
-            let (plan, run, setting) = self.combination(index);
-            let schedule = self.sweep().runs[run].schedule;
-            let label = &self.sweep().plans[plan].label;
-            let mut same = f[at("plan")] == *label && f[at("schedule")] == schedule.name();
-            for axis in Axis::ALL {
-                same &= match column(axis.field()) {
-                    Some(i) => opt(i)? == setting.get_or(axis, &defaults),
-                    // An older table's combinations leave the axis to the base machine.
-                    None => setting.get(axis).is_none(),
+        let (header, records) = records(text).map_err(merr)?;
+        records
+            .iter()
+            .map(|(line, record)| {
+                let fields = Fields {
+                    header: &header,
+                    record,
+                    line: *line,
                 };
-            }
-            if !same {
-                let limits: Vec<String> = Axis::ALL
-                    .into_iter()
-                    .zip(limit_fields(&setting, &defaults))
-                    .filter(|(_, v)| !v.is_empty())
-                    .map(|(a, v)| format!("{} {v}", a.symbol().0))
-                    .collect();
-                return Err(merr(
-                    ln,
-                    format!(
-                        "row {index} is {label} {} {} in this sweep; the file has another \
-                         combination (a different sweep file, or an older arcsim's table, which \
-                         left the ELST and window columns empty when they were not swept?)",
-                        schedule.name(),
-                        limits.join(" ")
-                    ),
-                ));
-            }
-            let status = [
-                Status::Ok,
-                Status::Infeasible,
-                Status::Invalid,
-                Status::Error,
-            ]
-            .into_iter()
-            .find(|s| s.name() == f[at("status")])
-            .ok_or_else(|| merr(ln, format!("unknown status {:?}", f[at("status")])))?;
-            let unknown = |name: &str| column(name).map_or(Ok(f64::NAN), num);
-            let outcome = if status == Status::Ok {
-                Some(Outcome {
-                    total_s: num(at("total_s"))?,
-                    breakdown: Breakdown {
-                        beam_on_s: num(at("beam_on_s"))?,
-                        spot_irradiation_s: unknown("spot_irradiation_s")?,
-                        scanning_s: unknown("scanning_s")?,
-                        energy_switching_s: num(at("energy_switching_s"))?,
-                        lost_s: num(at("lost_s"))?,
-                    },
-                    speedup: opt(at("speedup"))?,
-                    limiter_counts: LimiterCounts {
-                        elst: count(at("limited_elst"))?,
-                        speed: count(at("limited_speed"))?,
-                        accel: count(at("limited_accel"))?,
-                        jerk: count(at("limited_jerk"))?,
-                        none: count(at("limited_none"))?,
-                    },
-                    violations: count(at("violations"))?,
-                    margins: None,
-                })
-            } else {
-                None
-            };
-            rows.push(Row {
-                index,
-                plan: label.clone(),
-                schedule,
-                setting,
-                defaults,
-                status,
-                outcome,
-                message: f[at("message")].clone(),
-            });
-        }
-        Ok(rows)
+                self.row_from_fields(&fields).map_err(merr)
+            })
+            .collect()
     }
+
+    /// The row of one table line, checked against the sweep's combination of its index.
+    fn row_from_fields(&self, f: &Fields) -> Result<Row, String> {
+        let index_column = column_index("index");
+        let index = f.count("index", f.get(index_column).unwrap_or_default())?;
+        if index >= self.len() {
+            return Err(f.error(format!(
+                "row {index}: the sweep has {} combinations",
+                self.len()
+            )));
+        }
+        let (plan, run, setting) = self.combination(index);
+        let mut row = Row {
+            index,
+            plan: self.sweep().plans[plan].label.clone(),
+            schedule: self.sweep().schedule_grids[run].schedule,
+            setting,
+            defaults: self.sweep().defaults(),
+            status: Status::Ok,
+            outcome: None,
+            message: String::new(),
+        };
+        // The columns naming the combination: as the sweep's row of that index writes them.
+        let mut same = true;
+        for (k, c) in COLUMNS.iter().enumerate() {
+            match (c.field, f.get(k)) {
+                (Field::Name(get), Some(t)) => same &= t == one_line(&get(&row)),
+                (Field::Limit(axis), Some(t)) => {
+                    same &= f.optional(c.name, t)? == setting.get_or(axis, &row.defaults);
+                }
+                // An older table's combinations leave the axis to the base machine.
+                (Field::Limit(axis), None) => same &= setting.get(axis).is_none(),
+                _ => {}
+            }
+        }
+        if !same {
+            return Err(f.error(other_combination(&row)));
+        }
+        // The results.
+        let mut outcome = unknown_outcome();
+        for (k, c) in COLUMNS.iter().enumerate() {
+            let Some(t) = f.get(k) else { continue };
+            match c.field {
+                Field::Status => {
+                    row.status = STATUSES
+                        .into_iter()
+                        .find(|s| s.name() == t.trim())
+                        .ok_or_else(|| f.expected(c.name, "ok, infeasible, invalid or error", t))?;
+                }
+                Field::Message => row.message = t.to_string(),
+                _ => {}
+            }
+        }
+        if row.status == Status::Ok {
+            for (k, c) in COLUMNS.iter().enumerate() {
+                let Some(t) = f.get(k) else { continue };
+                match c.field {
+                    Field::Number(_, set) => *set(&mut outcome) = f.number(c.name, t)?,
+                    Field::Optional(_, set) => *set(&mut outcome) = f.optional(c.name, t)?,
+                    Field::Count(_, set) => *set(&mut outcome) = f.count(c.name, t)?,
+                    _ => {}
+                }
+            }
+            row.outcome = Some(outcome);
+        }
+        Ok(row)
+    }
+}
+
+/// Every status, as a table names them.
+const STATUSES: [Status; 4] = [
+    Status::Ok,
+    Status::Infeasible,
+    Status::Invalid,
+    Status::Error,
+];
+
+/// The error for a table row that is not the sweep's combination `row` (of the same index).
+fn other_combination(row: &Row) -> String {
+    let limits: Vec<String> = Axis::ALL
+        .into_iter()
+        .filter_map(|a| {
+            let v = field_text(Field::Limit(a), row);
+            (!v.is_empty()).then(|| format!("{} {v}", a.symbol().0))
+        })
+        .collect();
+    format!(
+        "row {} is {} {} {} in this sweep; the file has another combination (a different sweep \
+         file, or an older arcsim's table, which left the ELST and window columns empty when \
+         they were not swept?)",
+        row.index,
+        row.plan,
+        row.schedule.name(),
+        limits.join(" ")
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn file(rows: &[usize]) -> String {
-        let mut s = format!("{CSV_HEADER}\n");
+    /// A table of rows `rows` (index, plan and schedule filled, the other fields empty).
+    fn file(rows: &[usize], end: &str) -> String {
+        let mut s = format!("{CSV_HEADER}{end}");
+        let empty = ",".repeat(COLUMNS.len() - 3);
         for r in rows {
-            s.push_str(&format!("{r},p,scan\n"));
+            s.push_str(&format!("{r},p,scan{empty}{end}"));
         }
         s
     }
 
     #[test]
+    fn the_headers_are_the_column_list() {
+        let names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
+        assert_eq!(CSV_HEADER, names.join(","));
+        let old: Vec<&str> = Layout::V1.columns().map(|c| c.name).collect();
+        assert_eq!(CSV_HEADER_V1, old.join(","));
+        assert_eq!(old.len(), COLUMNS.len() - 4);
+        // One limit column per axis, named as the axis.
+        let limits: Vec<Axis> = COLUMNS
+            .iter()
+            .filter_map(|c| match c.field {
+                Field::Limit(a) => {
+                    assert_eq!(c.name, a.field());
+                    Some(a)
+                }
+                _ => None,
+            })
+            .collect();
+        assert_eq!(limits, Axis::ALL);
+    }
+
+    #[test]
     fn merge_sorts_and_checks() {
-        let a = ("a".to_string(), file(&[0, 2, 4]));
-        let b = ("b".to_string(), file(&[1, 3]));
+        let a = ("a".to_string(), file(&[0, 2, 4], "\n"));
+        let b = ("b".to_string(), file(&[1, 3], "\n"));
         let merged = merge_csv(&[b.clone(), a.clone()], Some(5)).expect("merge");
-        assert_eq!(merged, file(&[0, 1, 2, 3, 4]));
+        assert_eq!(merged, file(&[0, 1, 2, 3, 4], "\n"));
+        // CRLF and a byte-order mark: the merged table is the one a run writes.
+        let c = (
+            "c".to_string(),
+            format!("\u{feff}{}", file(&[1, 3], "\r\n")),
+        );
+        assert_eq!(merge_csv(&[a.clone(), c], Some(5)).expect("merge"), merged);
         assert!(merge_csv(&[a.clone(), b.clone()], Some(6)).is_err());
         assert!(merge_csv(std::slice::from_ref(&a), None)
             .expect_err("gap")
@@ -415,11 +697,69 @@ mod tests {
             .expect_err("header")
             .to_string()
             .contains("header"));
+        assert_eq!(
+            merge_csv(&[("e".into(), String::new())], None)
+                .expect_err("empty")
+                .to_string(),
+            "e: empty file; expected the arcsim sweep CSV header"
+        );
+        let e = merge_csv(
+            &[("d".into(), file(&[0], "\n").replacen("0,p", "zero,p", 1))],
+            None,
+        )
+        .expect_err("index")
+        .to_string();
+        assert_eq!(
+            e,
+            "d: line 2: column index: expected a row index (a count), found \"zero\""
+        );
+        let cut = file(&[0, 1], "\n");
+        let e = merge_csv(&[("k".into(), cut[..cut.len() - 1].to_string())], None)
+            .expect_err("cut")
+            .to_string();
+        assert!(e.contains("the last line is incomplete"), "{e}");
+    }
+
+    #[test]
+    fn a_header_names_each_column_once() {
+        let parse = |h: &str| {
+            let mut rd = reader(h);
+            Header::parse(rd.headers().expect("header")).map(|h| h.layout)
+        };
+        assert_eq!(parse(CSV_HEADER), Ok(Layout::Current));
+        assert_eq!(parse(CSV_HEADER_V1), Ok(Layout::V1));
+        let twice = CSV_HEADER.replacen("plan,", "plan,plan,", 1);
+        assert_eq!(
+            parse(&twice),
+            Err("line 1: column plan appears twice; expected the arcsim sweep CSV header".into())
+        );
+        // Half new, half old: the first missing column of the current header.
+        let half = CSV_HEADER.replacen("scanning_s,", "", 1);
+        assert_eq!(
+            parse(&half),
+            Err("line 1: no column scanning_s; expected the arcsim sweep CSV header".into())
+        );
     }
 
     #[test]
     fn text_fields_stay_on_one_line() {
-        assert_eq!(text("a,b \"c\"\nd"), "\"a,b \"\"c\"\" d\"");
-        assert_eq!(text("plain"), "plain");
+        assert_eq!(one_line("a,b \"c\"\nd\r\n"), "a,b \"c\" d  ");
+        let mut out = Vec::new();
+        write_records(&mut out, [["a,b \"c\" d", "plain", ""]]).expect("write");
+        assert_eq!(out, b"\"a,b \"\"c\"\" d\",plain,\n");
+    }
+
+    #[test]
+    fn records_are_numbered_by_line() {
+        for end in ["\n", "\r\n"] {
+            let text = format!("\u{feff}a,b{end}1,2{end}{end}3,\"x{end}y\"{end}4,5{end}");
+            let mut rd = reader(&text);
+            let mut lines = Lines::new(&text);
+            let numbers: Vec<usize> = rd
+                .records()
+                .map(|r| lines.at(r.expect("record").position().expect("position").byte()))
+                .collect();
+            assert_eq!(numbers, [2, 4, 6], "{end:?}");
+        }
     }
 }
