@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use arcsim_evaluator::{
-    merge_csv, write_csv_header, write_csv_row, EvalError, Evaluator, Results, Row, Shard, Sweep,
-    RESULTS_FORMAT,
+    merge_csv, write_csv_header, write_csv_row, EvalError, Evaluator, Results, Row, Shard,
+    ShardIndices, Sweep, RESULTS_FORMAT,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -91,13 +91,64 @@ fn write_err(path: &Path) -> impl Fn(std::io::Error) -> EvalError + '_ {
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
-    let shard = match &args.shard {
+    let shard = parse_shard(args.shard.as_deref())?;
+    check_threads(args.threads)?;
+    check_paths(&args)?;
+    let sweep = load(&args.sweep)?;
+    let pool = worker_pool(args.threads, sweep.combinations())?;
+    let ev = pool.install(|| Evaluator::new(sweep)).map_err(failed)?;
+    let indices = shard.indices(ev.len());
+    announce(&ev, shard, indices.len(), pool.current_num_threads());
+    save_partial_results_on_ctrl_c();
+
+    let bar = progress_bar(indices.len())?;
+    let csv = args.out.as_deref().map(start_csv).transpose()?;
+    let rows = evaluate(&pool, &ev, &indices, csv, &bar)?;
+    let complete = rows.len() == indices.len();
+
+    let summary = complete.then(|| pool.install(|| ev.summarize(&rows)));
+    if let Some(path) = &args.json {
+        let results = Results {
+            format: RESULTS_FORMAT,
+            sweep: ev.sweep().name.clone(),
+            combinations: ev.len(),
+            shard: (shard != Shard::ALL).then(|| shard.to_string()),
+            complete,
+            rows: &rows,
+            summary: summary.as_ref(),
+        };
+        write_json(path, &results)?;
+    }
+    if let Some(path) = &args.rrd {
+        let title = match shard {
+            Shard::ALL => format!("sweep {}", ev.sweep().name),
+            _ => format!("sweep {} (shard {shard})", ev.sweep().name),
+        };
+        write_rrd(path, &title, &rows, summary.as_ref())?;
+    }
+    match summary {
+        Some(s) => {
+            crate::report::write(&ev, &rows, &s, args.report.as_deref(), args.plot.as_deref())?;
+            crate::output::print(&s.to_table());
+            Ok(())
+        }
+        None => Err(interrupted(&args, rows.len(), indices.len())),
+    }
+}
+
+/// `--shard K/N`, or every combination without it.
+fn parse_shard(shard: Option<&str>) -> Result<Shard, CliError> {
+    match shard {
         Some(s) => s
             .parse::<Shard>()
-            .map_err(|e| CliError::usage(format!("--shard: {e}")))?,
-        None => Shard::ALL,
-    };
-    if let Some(n) = args.threads {
+            .map_err(|e| CliError::usage(format!("--shard: {e}"))),
+        None => Ok(Shard::ALL),
+    }
+}
+
+/// `--threads` is 1 to [`MAX_THREADS`].
+fn check_threads(threads: Option<usize>) -> Result<(), CliError> {
+    if let Some(n) = threads {
         if !(1..=MAX_THREADS).contains(&n) {
             return Err(CliError::usage(format!(
                 "--threads {n}: expected 1 to {MAX_THREADS} (this machine has {})",
@@ -105,6 +156,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
             )));
         }
     }
+    Ok(())
+}
+
+/// Refuses outputs that would overwrite the sweep file or each other, and a `--plot` that is not a
+/// directory, before anything runs.
+fn check_paths(args: &Args) -> Result<(), CliError> {
     crate::output::check_outputs(
         &[&args.sweep],
         &[
@@ -114,33 +171,38 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ("--report", args.report.as_deref()),
         ],
     )?;
-    crate::output::check_output_dir("--plot", args.plot.as_deref())?;
+    crate::output::check_output_dir("--plot", args.plot.as_deref())
+}
 
-    let sweep = load(&args.sweep)?;
-    // No more threads than combinations: each would only wait.
-    let threads = args
-        .threads
-        .unwrap_or_else(cores)
-        .min(sweep.combinations().max(1));
-    let pool = rayon::ThreadPoolBuilder::new()
+/// The worker threads: `--threads` or one per core, but no more than combinations (each extra
+/// thread would only wait).
+fn worker_pool(threads: Option<usize>, combinations: usize) -> Result<rayon::ThreadPool, CliError> {
+    let threads = threads.unwrap_or_else(cores).min(combinations.max(1));
+    rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| CliError::failed(format!("cannot start worker threads: {e}")))?;
-    let ev = pool.install(|| Evaluator::new(sweep)).map_err(failed)?;
-    let indices = shard.indices(ev.len());
+        .map_err(|e| CliError::failed(format!("cannot start worker threads: {e}")))
+}
+
+/// Says what is about to run: the sweep, its plans and combinations (of this shard) and threads.
+fn announce(ev: &Evaluator, shard: Shard, to_run: usize, threads: usize) {
     let part = if shard == Shard::ALL {
         String::new()
     } else {
-        format!(", shard {shard}: {} of them", indices.len())
+        format!(", shard {shard}: {to_run} of them")
     };
     eprintln!(
         "sweep \"{}\": {}, {}{part}, {}",
         crate::output::printable(&ev.sweep().name),
         crate::count(ev.sweep().plans.len(), "plan"),
         crate::count(ev.len(), "combination"),
-        crate::count(pool.current_num_threads(), "thread")
+        crate::count(threads, "thread")
     );
+}
 
+/// The first Ctrl-C (or SIGTERM, SIGHUP) sets [`CANCEL`]: the run stops after the rows in progress
+/// and writes what it has. A second one aborts.
+fn save_partial_results_on_ctrl_c() {
     if let Err(e) = ctrlc::set_handler(|| {
         if CANCEL.swap(true, Ordering::SeqCst) {
             eprintln!("\naborted");
@@ -150,40 +212,51 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }) {
         eprintln!("warning: Ctrl-C, SIGTERM and SIGHUP will not save partial results: {e}");
     }
+}
 
-    let bar = if std::io::stderr().is_terminal() {
-        let style = ProgressStyle::with_template(
-            "{elapsed_precise} [{wide_bar}] {human_pos}/{human_len} {rate} ETA {eta}",
-        )
-        .map_err(|e| CliError::failed(format!("progress bar: {e}")))?
-        .with_key(
-            "rate",
-            |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
-                let _ = write!(w, "{:.0}/s", s.per_sec());
-            },
-        );
-        ProgressBar::new(indices.len() as u64).with_style(style)
-    } else {
-        ProgressBar::hidden()
-    };
+/// A progress bar over `len` combinations on a terminal; hidden otherwise.
+fn progress_bar(len: usize) -> Result<ProgressBar, CliError> {
+    if !std::io::stderr().is_terminal() {
+        return Ok(ProgressBar::hidden());
+    }
+    let style = ProgressStyle::with_template(
+        "{elapsed_precise} [{wide_bar}] {human_pos}/{human_len} {rate} ETA {eta}",
+    )
+    .map_err(|e| CliError::failed(format!("progress bar: {e}")))?
+    .with_key(
+        "rate",
+        |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+            let _ = write!(w, "{:.0}/s", s.per_sec());
+        },
+    );
+    Ok(ProgressBar::new(len as u64).with_style(style))
+}
 
-    // Rows go to OUT.partial as they complete (watch it grow); renamed to OUT at the end, also
-    // after an interrupt, and removed if the run fails.
-    let mut csv = match &args.out {
-        Some(path) => {
-            let mut f = AtomicFile::create(path)?;
-            let w = f.writer();
-            let header = write_csv_header(w).and_then(|()| w.flush());
-            header.map_err(|e| f.error(e))?;
-            Some(f)
-        }
-        None => None,
-    };
+/// Opens `--out` with its header written. Rows go to OUT.partial as they complete (watch it grow);
+/// it is renamed to OUT at the end, also after an interrupt, and removed if the run fails.
+fn start_csv(path: &Path) -> Result<AtomicFile, CliError> {
+    let mut f = AtomicFile::create(path)?;
+    let w = f.writer();
+    let header = write_csv_header(w).and_then(|()| w.flush());
+    header.map_err(|e| f.error(e))?;
+    Ok(f)
+}
+
+/// Evaluates `indices` on `pool`, appending each finished chunk of rows to `csv` (committed at the
+/// end) and advancing `bar`; stops early after Ctrl-C. Returns the rows done, in order, and says
+/// how long they took.
+fn evaluate(
+    pool: &rayon::ThreadPool,
+    ev: &Evaluator,
+    indices: &ShardIndices,
+    mut csv: Option<AtomicFile>,
+    bar: &ProgressBar,
+) -> Result<Vec<Row>, CliError> {
     let mut rows: Vec<Row> = Vec::new();
     let started = Instant::now();
     let done = pool
         .install(|| {
-            ev.run(&indices, &CANCEL, |chunk| {
+            ev.run(indices, &CANCEL, |chunk| {
                 if let Some(f) = csv.as_mut() {
                     let path = f.path().to_path_buf();
                     let w = f.writer();
@@ -204,66 +277,46 @@ pub fn run(args: Args) -> Result<(), CliError> {
         f.commit()?;
     }
     let seconds = started.elapsed().as_secs_f64();
-    let complete = done == indices.len();
     eprintln!(
         "evaluated {} in {seconds:.2} s ({:.0} per second)",
         crate::count(done, "combination"),
         done as f64 / seconds.max(1e-9)
     );
+    Ok(rows)
+}
 
-    let summary = complete.then(|| pool.install(|| ev.summarize(&rows)));
-    if let Some(path) = &args.json {
-        let results = Results {
-            format: RESULTS_FORMAT,
-            sweep: ev.sweep().name.clone(),
-            combinations: ev.len(),
-            shard: (shard != Shard::ALL).then(|| shard.to_string()),
-            complete,
-            rows: &rows,
-            summary: summary.as_ref(),
-        };
-        let mut f = AtomicFile::create(path)?;
-        let w = f.writer();
-        let written = serde_json::to_writer_pretty(&mut *w, &results)
-            .map_err(std::io::Error::from)
-            .and_then(|()| w.write_all(b"\n"));
-        written.map_err(|e| f.error(e))?;
-        f.commit()?;
+/// Writes the `--json` results document.
+fn write_json(path: &Path, results: &Results) -> Result<(), CliError> {
+    let mut f = AtomicFile::create(path)?;
+    let w = f.writer();
+    let written = serde_json::to_writer_pretty(&mut *w, results)
+        .map_err(std::io::Error::from)
+        .and_then(|()| w.write_all(b"\n"));
+    written.map_err(|e| f.error(e))?;
+    f.commit()
+}
+
+/// The error of a run stopped after `done` of `total` combinations, naming the files that hold
+/// the rows done.
+fn interrupted(args: &Args, done: usize, total: usize) -> CliError {
+    let saved: Vec<String> = [&args.out, &args.json, &args.rrd]
+        .into_iter()
+        .flatten()
+        .map(|p| p.display().to_string())
+        .collect();
+    if args.report.is_some() || args.plot.is_some() {
+        eprintln!("report: not written (the run did not complete)");
     }
-    if let Some(path) = &args.rrd {
-        let title = match shard {
-            Shard::ALL => format!("sweep {}", ev.sweep().name),
-            _ => format!("sweep {} (shard {shard})", ev.sweep().name),
-        };
-        write_rrd(path, &title, &rows, summary.as_ref())?;
-    }
-    match summary {
-        Some(s) => {
-            crate::report::write(&ev, &rows, &s, args.report.as_deref(), args.plot.as_deref())?;
-            crate::output::print(&s.to_table());
-            Ok(())
-        }
-        None => {
-            let saved: Vec<String> = [&args.out, &args.json, &args.rrd]
-                .into_iter()
-                .flatten()
-                .map(|p| p.display().to_string())
-                .collect();
-            if args.report.is_some() || args.plot.is_some() {
-                eprintln!("report: not written (the run did not complete)");
-            }
-            let saved = if saved.is_empty() {
-                String::new()
-            } else {
-                let verb = if saved.len() == 1 { "holds" } else { "hold" };
-                format!("; {} {verb} them", saved.join(" and "))
-            };
-            Err(CliError::interrupted(format!(
-                "interrupted after {done} of {}{saved}",
-                crate::count(indices.len(), "combination")
-            )))
-        }
-    }
+    let saved = if saved.is_empty() {
+        String::new()
+    } else {
+        let verb = if saved.len() == 1 { "holds" } else { "hold" };
+        format!("; {} {verb} them", saved.join(" and "))
+    };
+    CliError::interrupted(format!(
+        "interrupted after {done} of {}{saved}",
+        crate::count(total, "combination")
+    ))
 }
 
 /// The sweep's Rerun recording, with the summary tables in its Summary tab when there is one.

@@ -29,6 +29,19 @@ pub enum EvalError {
     Io(#[from] std::io::Error),
 }
 
+/// Why a (plan × window/ELST/beam) variant does not resolve. Its combinations become `invalid`
+/// rows whose message is this error's text, so one bad variant does not stop the sweep.
+#[derive(Debug, Error)]
+pub(crate) enum VariantError {
+    /// A scanning-speed setting on a machine whose beam model has none (a loaded sweep refuses
+    /// that axis on such a machine, so this is a guard).
+    #[error("machine \"{machine}\": its beam model has no scanning speed (kind {kind})")]
+    NoScanSpeed { machine: String, kind: &'static str },
+    /// The plan does not resolve on the varied machine (e.g. a window wider than the spacing).
+    #[error(transparent)]
+    Plan(#[from] arcsim_plan::PlanError),
+}
+
 fn located(field: &str) -> String {
     if field.is_empty() {
         String::new()

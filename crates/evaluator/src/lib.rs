@@ -32,11 +32,12 @@ pub use mode::RunMode;
 pub use run::{Evaluator, Outcome, Row, Status};
 pub use shard::{IndexList, Shard, ShardIndices};
 pub use summary::{
-    describe_setting, describe_steps, short, table, Change, Entry, Point, Profile, ProfilePoint,
+    describe_setting, describe_steps, short, table, AxisTotal, AxisTotals, Change, Entry, Point,
     Sensitivity, Step, Summary, PROFILE_MAX_POINTS, TIE_TOLERANCE,
 };
 pub use sweep::{
-    Axis, Defaults, Grid, Run, Setting, Sweep, SweepPlan, DOSE_RATE_SCALE_RANGE, MAX_COMBINATIONS,
+    Axis, Defaults, Grid, ScheduleGrid, Setting, Sweep, SweepPlan, DOSE_RATE_SCALE_RANGE,
+    MAX_COMBINATIONS,
 };
 pub use sweep_file::{parse_sweep_file, AxisSpec, Scale, Target, SWEEP_FORMAT};
 

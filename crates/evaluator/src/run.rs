@@ -18,6 +18,7 @@ use arcsim_sequencer::{
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::error::VariantError;
 use crate::shard::IndexList;
 use crate::sweep::{check_combinations, Defaults, Setting, Sweep};
 use crate::{EvalError, RunMode};
@@ -90,7 +91,8 @@ struct Block {
     base_total_s: Option<f64>,
 }
 
-type Resolved = Result<Vec<ResolvedArc>, String>;
+/// A variant's resolved arcs, or why it does not resolve (its rows are then `invalid`).
+type Resolved = Result<Vec<ResolvedArc>, VariantError>;
 /// Plan, then the bits of the window, ELST up, ELST down, scanning speed and dose-rate scale.
 type VariantKey = (
     usize,
@@ -134,13 +136,13 @@ fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
     let mut m = machine.clone();
     if let Some(v) = s.scan_speed_mm_per_s {
         // A sweep refuses a scanning-speed axis on a `per_mu` machine when it is loaded.
-        m.beam = m.beam.with_scan_speed(v).ok_or_else(|| {
-            format!(
-                "machine \"{}\": its beam model has no scanning speed (kind {})",
-                machine.name,
-                machine.beam.kind()
-            )
-        })?;
+        m.beam = m
+            .beam
+            .with_scan_speed(v)
+            .ok_or_else(|| VariantError::NoScanSpeed {
+                machine: machine.name.clone(),
+                kind: machine.beam.kind(),
+            })?;
     }
     if let Some(k) = s.dose_rate_scale {
         m.beam = m.beam.with_dose_rate_scale(k);
@@ -163,7 +165,7 @@ fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
             arcsim_plan::resolve(&p, &m)
         }
     };
-    resolved.map_err(|e| e.to_string())
+    resolved.map_err(VariantError::Plan)
 }
 
 impl Evaluator {
@@ -179,13 +181,13 @@ impl Evaluator {
         check_combinations(
             &sweep.source,
             Some(sweep.plans.len()),
-            sweep.runs.iter().map(|r| &r.grid),
+            sweep.schedule_grids.iter().map(|r| &r.grid),
         )?;
         let base = sweep.base_setting();
         let mut blocks = Vec::new();
         let mut offset = 0;
         for plan in 0..sweep.plans.len() {
-            for (run, r) in sweep.runs.iter().enumerate() {
+            for (run, r) in sweep.schedule_grids.iter().enumerate() {
                 let len = r.grid.len();
                 blocks.push(Block {
                     plan,
@@ -210,7 +212,7 @@ impl Evaluator {
             .blocks
             .par_iter()
             .map(|b| {
-                let schedule = ev.sweep.runs[b.run].schedule;
+                let schedule = ev.sweep.schedule_grids[b.run].schedule;
                 let (_, outcome, _) = ev.simulate(b.plan, schedule, &base, None);
                 outcome.map(|o| o.total_s)
             })
@@ -296,7 +298,9 @@ impl Evaluator {
         (
             b.plan,
             b.run,
-            self.sweep.runs[b.run].grid.setting(index - b.offset),
+            self.sweep.schedule_grids[b.run]
+                .grid
+                .setting(index - b.offset),
         )
     }
 
@@ -330,7 +334,7 @@ impl Evaluator {
     /// Evaluates combination `index` with its variant among `variants`.
     fn evaluate_with(&self, index: usize, variants: &Variants) -> Row {
         let b = self.block(index);
-        let run = &self.sweep.runs[b.run];
+        let run = &self.sweep.schedule_grids[b.run];
         let setting = run.grid.setting(index - b.offset);
         let arcs = &variants[&key(b.plan, &setting)];
         let (status, outcome, message) =
@@ -368,7 +372,7 @@ impl Evaluator {
     ) -> (Status, Option<Outcome>, String) {
         let arcs = match arcs {
             Ok(a) => a,
-            Err(e) => return (Status::Invalid, None, e.clone()),
+            Err(e) => return (Status::Invalid, None, e.to_string()),
         };
         let opts = Options {
             schedule: schedule.schedule,

@@ -89,9 +89,10 @@ pub struct Grid {
     pub dose_rate_scale: Option<AxisSpec>,
 }
 
-/// One schedule entry: a schedule and its grid.
+/// One schedule entry of a sweep: how it moves (schedule, motion, arc ends) and the grid of
+/// settings it is evaluated at.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Run {
+pub struct ScheduleGrid {
     pub schedule: RunMode,
     pub grid: Grid,
 }
@@ -105,7 +106,8 @@ pub struct Sweep {
     pub source: String,
     pub plans: Vec<SweepPlan>,
     pub machine: Machine,
-    pub runs: Vec<Run>,
+    /// The schedule entries, in the sweep file's order (a plan's combinations follow it).
+    pub schedule_grids: Vec<ScheduleGrid>,
     /// Build timelines so rows carry kinematic margins.
     pub margins: bool,
     pub target: Target,
@@ -359,7 +361,7 @@ impl Sweep {
             source: file.to_string(),
             plans,
             machine,
-            runs,
+            schedule_grids: runs,
             margins: spec.margins,
             target: spec.target.unwrap_or_default(),
         })
@@ -416,7 +418,7 @@ impl Sweep {
     /// Number of combinations per plan (the sum of the schedule entries' grid sizes; saturates at
     /// `usize::MAX`, a loaded sweep has at most [`MAX_COMBINATIONS`]).
     pub fn combinations_per_plan(&self) -> usize {
-        self.runs
+        self.schedule_grids
             .iter()
             .fold(0usize, |n, r| n.saturating_add(r.grid.len()))
     }
@@ -478,7 +480,11 @@ pub(crate) fn check_combinations<'a>(
     ))
 }
 
-fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Run>, EvalError> {
+fn expand_runs(
+    spec: &SweepFile,
+    machine: &Machine,
+    file: &str,
+) -> Result<Vec<ScheduleGrid>, EvalError> {
     if spec.schedules.is_empty() {
         return Err(EvalError::sweep(
             file,
@@ -550,7 +556,7 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
                 scan_speed,
                 dose_rate_scale,
             };
-            Ok(Run {
+            Ok(ScheduleGrid {
                 schedule: RunMode {
                     schedule: entry.schedule,
                     motion: entry.motion,
@@ -559,7 +565,7 @@ fn expand_runs(spec: &SweepFile, machine: &Machine, file: &str) -> Result<Vec<Ru
                 grid,
             })
         })
-        .collect::<Result<Vec<Run>, EvalError>>()?;
+        .collect::<Result<Vec<ScheduleGrid>, EvalError>>()?;
     // At least one plan: refuse an absurd grid before walking its ranges or loading any plan.
     check_combinations(file, None, runs.iter().map(|r| &r.grid))?;
     for (field, range) in &ranges {

@@ -190,7 +190,7 @@ fn same_setting(a: &Setting, b: &Setting) -> bool {
 /// simulated with `ev`.
 pub fn build(ev: &Evaluator, rows: &[Row], summary: &Summary) -> Result<Report, ReportError> {
     let sweep = ev.sweep();
-    let runs = sweep.runs.len();
+    let runs = sweep.schedule_grids.len();
     let mut sections = Vec::with_capacity(summary.entries.len());
     let mut stems: Vec<String> = Vec::new();
     for (i, entry) in summary.entries.iter().enumerate() {
