@@ -1,28 +1,21 @@
-//! Sequencer benchmarks on the 180-layer ATOM article cases (read from ../shared/reference):
+//! Sequencer benchmarks on the 180-layer ATOM article cases (the bundled `plans/atom/*.json`):
 //! `scan` and `optimal` schedules, totals only (as sweeps run them) and with the full verified
 //! timeline; free motion (seeded by `optimal`) with both arc-end options.
 //! `cargo bench --bench sequencer`
 
 use std::hint::black_box;
 
-use arcsim_plan::{atom_case_plan, parse_machine, resolve};
+use arcsim_plan::{load_plan, parse_machine, resolve};
 use arcsim_sequencer::{machine_limits, simulate_resolved, ArcEnds, Motion, Options, Schedule};
 use criterion::{criterion_group, criterion_main, Criterion};
 
 fn bench(c: &mut Criterion) {
-    let Some(path) = arcsim_suite::atom_cases_path() else {
-        eprintln!(
-            "NOTICE: ../shared/reference/atom-article-cases.json not found; nothing to benchmark"
-        );
-        return;
-    };
-    let text = std::fs::read_to_string(path).expect("reference file");
     let m_text =
         std::fs::read_to_string(arcsim_suite::repo_root().join("scenarios/machine-atom.json"))
             .expect("machine");
     let machine = parse_machine(&m_text, "machine-atom.json").expect("machine");
     let limits = machine_limits(&machine).expect("limits");
-    let plan = atom_case_plan(&text, "prostate").expect("case");
+    let plan = load_plan(arcsim_suite::repo_root().join("plans/atom/prostate.json")).expect("plan");
     let arcs = resolve(&plan, &machine).expect("resolve");
     for (schedule, timeline) in [
         (Schedule::Scan, false),

@@ -1,4 +1,5 @@
-//! The ATOM article cases from ../shared/reference, converted to plans (skipped when absent).
+//! The ATOM article cases from ../shared/reference, converted to plans (skipped when absent,
+//! except under CI, which must have the file).
 
 use arcsim_plan::{atom_case_plan, load_machine, resolve, PlanError};
 use serde_json::Value;
@@ -12,6 +13,10 @@ fn reference() -> Option<String> {
     match std::fs::read_to_string(REFERENCE) {
         Ok(text) => Some(text),
         Err(e) => {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI: reference data {REFERENCE} not readable ({e})"
+            );
             println!("skipping: reference data {REFERENCE} not readable ({e})");
             None
         }
