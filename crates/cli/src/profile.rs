@@ -3,6 +3,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use arcsim_evaluator::CsvLineNumbers;
 use arcsim_planner::{Limits, Move, PlannerError, Profile, Reversal, State};
 use serde::Serialize;
 
@@ -570,7 +571,7 @@ fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Res
         .map_err(|e| CliError::failed(format!("{file}: {e}")))?;
     let at = input_header(header, &file)?;
     let columns = header.len();
-    let mut lines = LineNumbers::new(&text);
+    let mut lines = CsvLineNumbers::new(&text);
     let mut results = Vec::new();
     for record in reader.records() {
         let record = record.map_err(|e| CliError::failed(format!("{file}: {e}")))?;
@@ -595,44 +596,4 @@ fn run_batch(input: &Path, out: Option<&Path>, default_reverse: Reversal) -> Res
         crate::count(ok + infeasible + errors, "row")
     );
     Ok(())
-}
-
-/// Line numbers (from 1) of the records of a text, in order. (The `csv` reader's own count
-/// lags a line behind after a CRLF line end.)
-struct LineNumbers<'a> {
-    text: &'a [u8],
-    /// Bytes counted so far, and the line they end on.
-    byte: usize,
-    line: usize,
-}
-
-impl<'a> LineNumbers<'a> {
-    fn new(text: &'a str) -> Self {
-        LineNumbers {
-            text: text.as_bytes(),
-            byte: 0,
-            line: 1,
-        }
-    }
-
-    /// The line of the record the reader places at `byte`: the first line with content from
-    /// there (the position may be at the line end before it). Positions must not decrease.
-    fn at(&mut self, byte: u64) -> usize {
-        let mut end = usize::try_from(byte).map_or(self.text.len(), |b| b.min(self.text.len()));
-        while self
-            .text
-            .get(end)
-            .is_some_and(|b| matches!(b, b'\r' | b'\n'))
-        {
-            end += 1;
-        }
-        if end > self.byte {
-            self.line += self.text[self.byte..end]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count();
-            self.byte = end;
-        }
-        self.line
-    }
 }

@@ -317,9 +317,9 @@ fn rotation_none_takes_the_shortest_way() {
 
 #[test]
 fn paintings_are_kept_as_a_count_and_each_spot_has_its_total_mu() {
-    // Since issue 12 the spot list is no longer repeated once per painting (it used to give 3 x the
-    // spots, each with MU / 3): the layer keeps one spot per DICOM spot with its total MU and
-    // `paintings` says how many passes the beam model makes over them.
+    // The spot list is not repeated once per painting (that would give 3 x the spots, each with
+    // MU / 3): the layer keeps one spot per DICOM spot with its total MU and `paintings` says how
+    // many passes the beam model makes over them.
     let layers = dicom::dynamic_arc_layers(0.0, 2.0, 2);
     let mut beam = BeamSpec::from_layers(1, "DYNAMIC", "CW", 80.0, &layers);
     beam.cps[0].paintings = Some(3);
@@ -615,7 +615,7 @@ fn inconsistent_control_point_count() {
 
 #[test]
 fn deeply_nested_sequences_are_refused_before_parsing() {
-    // dicom-object parses nested sequences recursively: 8,000 levels used to overflow the stack and
+    // dicom-object parses nested sequences recursively: 8,000 levels would overflow the stack and
     // abort the process. The nesting pre-scan is iterative, so this runs on a test thread's stack.
     for explicit_vr in [true, false] {
         let bytes = dicom::deeply_nested_file(8_000, explicit_vr);
@@ -688,7 +688,7 @@ fn number_of_paintings_is_bounded() {
     }
     let plan = read_rt_ion_plan_from_bytes(&paint(i64::from(MAX_PAINTINGS)).to_bytes())
         .expect("1000 paintings are accepted");
-    // The spot list is not repeated per painting (issue 12): the count stays the file's.
+    // The spot list is not repeated per painting: the count stays the file's.
     let spots = spots_of(&plan, 0, 1, 0);
     assert_eq!(spots.count as usize, dicom::weights_of(1).len());
     assert_eq!(spots.paintings, Some(MAX_PAINTINGS));
@@ -728,8 +728,8 @@ fn spots_after_repainting_are_bounded_plan_wide() {
     );
     let plan = read_rt_ion_plan_from_bytes(&PlanSpec::ion("SPOTS", vec![beam(1)]).to_bytes())
         .expect("2.7 million spot deliveries are accepted");
-    // 900 spots painted 1,000 times (inherited by the later layers); the list used to be repeated
-    // into 900,000 spots, now the paintings are a count (issue 12).
+    // 900 spots painted 1,000 times (inherited by the later layers): the paintings are a count,
+    // not the list repeated into 900,000 spots.
     let spots = spots_of(&plan, 0, 0, 2);
     assert_eq!((spots.count, spots.paintings), (900, Some(MAX_PAINTINGS)));
     assert_eq!(layer_mu(&plan, 0, 0, 2).len(), 900);
@@ -737,7 +737,7 @@ fn spots_after_repainting_are_bounded_plan_wide() {
 
 #[test]
 fn two_beams_with_one_beam_number_are_refused() {
-    // Beam 2 used to take beam 1's BeamMeterset silently.
+    // Otherwise beam 2 would silently take beam 1's BeamMeterset.
     let mut spec = dicom::two_arc_plan();
     spec.beams[1].number = 1;
     let e = import_err(&spec);
@@ -822,7 +822,7 @@ fn several_values_where_one_is_expected_are_refused() {
     );
 }
 
-// ---- spot positions and paintings (issue 12) -----------------------------------------------------------
+// ---- spot positions and paintings -----------------------------------------------------------------------
 
 /// Every coordinate of `got` (imported, mm) is the file's single-precision value to the 1e-6 mm of
 /// POSITION_RESOLUTION_MM, in the same order.
@@ -1072,8 +1072,8 @@ fn a_plan_without_position_maps_imports_without_positions() {
 
 #[test]
 fn paintings_time_as_the_repeated_spot_list_did_under_per_mu() {
-    // Before issue 12 the importer repeated the spot list once per painting, each spot with
-    // MU / paintings (rounded to 1e-9 MU); the per_mu beam model must time the paintings count the same.
+    // A paintings count must time under per_mu as the spot list repeated once per painting, each
+    // spot with MU / paintings (rounded to 1e-9 MU), does.
     let machine = arcsim_plan::parse_machine(
         r#"{
             "format": "arcsim-machine/1",
@@ -1160,7 +1160,7 @@ fn spots_per_layer_are_bounded_not_spots_times_paintings() {
         "{e}"
     );
     // 1,000,000 spots painted 5 times: 5,000,000 deliveries, exactly MAX_SPOTS. Repeated into one
-    // list, as before issue 12, they were 5 times the spots one layer may hold.
+    // list they would be 5 times the spots one layer may hold.
     let plan = rt_ion_plan_from_dataset(&layer(MAX_SPOTS_PER_LAYER as usize).dataset())
         .expect("a million spots painted 5 times");
     let spots = spots_of(&plan, 0, 0, 0);

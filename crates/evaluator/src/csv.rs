@@ -240,7 +240,7 @@ fn reader(text: &str) -> csv::Reader<&[u8]> {
 fn records(text: &str) -> Result<(Header, Vec<(usize, StringRecord)>), String> {
     let mut rd = reader(text);
     let header = Header::parse(rd.headers().map_err(|e| e.to_string())?)?;
-    let mut lines = Lines::new(text);
+    let mut lines = CsvLineNumbers::new(text);
     let mut out = Vec::new();
     for record in rd.records() {
         let record = record.map_err(|e| e.to_string())?;
@@ -257,18 +257,20 @@ fn records(text: &str) -> Result<(Header, Vec<(usize, StringRecord)>), String> {
     Ok((header, out))
 }
 
-/// Line numbers (from 1) of the records of a text, in order. (The `csv` reader's own count
-/// lags a line behind after a CRLF line end.)
-struct Lines<'a> {
+/// Line numbers (from 1) of the records of a CSV text, in order, for errors that name the line.
+/// (The `csv` reader's own count lags a line behind after a CRLF line end.) Also used by the
+/// CLI's batch input.
+pub struct CsvLineNumbers<'a> {
     text: &'a [u8],
     /// Bytes counted so far, and the line they end on.
     byte: usize,
     line: usize,
 }
 
-impl<'a> Lines<'a> {
-    fn new(text: &'a str) -> Self {
-        Lines {
+impl<'a> CsvLineNumbers<'a> {
+    /// Line numbers of the records of `text`.
+    pub fn new(text: &'a str) -> Self {
+        CsvLineNumbers {
             text: text.as_bytes(),
             byte: 0,
             line: 1,
@@ -277,7 +279,7 @@ impl<'a> Lines<'a> {
 
     /// The line of the record the reader places at `byte`: the first line with content from
     /// there (the position may be at the line end before it). Positions must not decrease.
-    fn at(&mut self, byte: u64) -> usize {
+    pub fn at(&mut self, byte: u64) -> usize {
         let mut end = usize::try_from(byte).map_or(self.text.len(), |b| b.min(self.text.len()));
         while self
             .text
@@ -754,7 +756,7 @@ mod tests {
         for end in ["\n", "\r\n"] {
             let text = format!("\u{feff}a,b{end}1,2{end}{end}3,\"x{end}y\"{end}4,5{end}");
             let mut rd = reader(&text);
-            let mut lines = Lines::new(&text);
+            let mut lines = CsvLineNumbers::new(&text);
             let numbers: Vec<usize> = rd
                 .records()
                 .map(|r| lines.at(r.expect("record").position().expect("position").byte()))

@@ -26,7 +26,9 @@ mod summary;
 mod sweep;
 pub mod sweep_file;
 
-pub use csv::{merge_csv, write_csv_header, write_csv_row, CSV_HEADER, CSV_HEADER_V1};
+pub use csv::{
+    merge_csv, write_csv_header, write_csv_row, CsvLineNumbers, CSV_HEADER, CSV_HEADER_V1,
+};
 pub use error::EvalError;
 pub use mode::RunMode;
 pub use run::{Evaluator, Outcome, Row, Status};

@@ -419,7 +419,7 @@ fn with_axes(axes: &str) -> String {
 }
 
 /// An absurd sweep is refused when it is loaded, with its size and the limit, before anything
-/// the size of the sweep is allocated (a trillion steps used to abort on allocation).
+/// the size of the sweep is allocated (a trillion steps would abort on allocation).
 #[test]
 fn absurd_sweeps_are_refused_up_front_with_their_size() {
     let started = Instant::now();
