@@ -3,36 +3,16 @@
 //! ATOM article cases),
 //! on 1 and on 2 threads; the ratio of the two throughputs is the parallel speed-up.
 //! `cargo bench --bench sweep` (Criterion reports "thrpt" in evaluations/s).
-//! Without ../shared/reference, the bundled 180-layer plans/prostate.json stands in.
 
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Instant;
 
 use arcsim_evaluator::{Evaluator, Sweep};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
-const FALLBACK: &str = r#"{
-  "format": "arcsim-sweep/1", "name": "prostate-1000",
-  "plans": ["../plans/prostate.json"], "machine": "machine-atom.json",
-  "axes": {
-    "jerk_deg_per_s3": { "from": 0.125, "to": 4, "steps": 10, "scale": "log" },
-    "accel_deg_per_s2": { "from": 0.125, "to": 2, "steps": 10, "scale": "log" },
-    "speed_deg_per_s": { "from": 2, "to": 8, "steps": 10, "scale": "log" }
-  },
-  "schedules": ["scan"]
-}"#;
-
 fn sweep() -> Sweep {
     let scenarios = arcsim_suite::repo_root().join("scenarios");
-    if arcsim_suite::atom_cases_path().is_some() {
-        return Sweep::load(&scenarios.join("sweep-atom-1000.json")).expect("sweep-atom-1000.json");
-    }
-    eprintln!("NOTICE: ../shared/reference/atom-article-cases.json not found; benchmarking plans/prostate.json");
-    Sweep::from_text(FALLBACK, "fallback sweep", &scenarios, &|p: &Path| {
-        arcsim_plan::load_plan(p).map_err(|e| e.to_string())
-    })
-    .expect("fallback sweep")
+    Sweep::load(&scenarios.join("sweep-atom-1000.json")).expect("sweep-atom-1000.json")
 }
 
 fn bench(c: &mut Criterion) {

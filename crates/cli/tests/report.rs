@@ -5,7 +5,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{arcsim, path_str, repo, sweep_file, text};
+use common::{arcsim, path_str, sweep_file, text};
 use serde_json::Value;
 
 fn temp(name: &str) -> PathBuf {
@@ -183,14 +183,6 @@ fn check_report(html: &str, results: &Value, base: (f64, f64, f64)) -> usize {
 /// The bundled ATOM sweep: 7 plans, three schedule entries, V swept by `scan` only.
 #[test]
 fn atom_sweep_report_has_a_heatmap_per_plan_and_speed_with_the_base_marked() {
-    let reference = repo().join("../shared/reference/atom-article-cases.json");
-    if !reference.exists() {
-        if std::env::var_os("CI").is_some() {
-            panic!("CI: {} is missing", reference.display());
-        }
-        eprintln!("NOTICE: {} not found; skipped", reference.display());
-        return;
-    }
     let dir = temp("atom");
     let (html, json, plots) = (dir.join("report.html"), dir.join("r.json"), dir.join("svg"));
     let o = arcsim(&[

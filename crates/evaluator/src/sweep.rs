@@ -28,7 +28,7 @@ pub const MAX_COMBINATIONS: usize = 100_000_000;
 /// One plan of the sweep.
 #[derive(Debug, Clone)]
 pub struct SweepPlan {
-    /// How rows name it: the path relative to the sweep file, or `atom:CASE`.
+    /// How rows name it: the path relative to the sweep file, `atom:CASE`, or the entry's `name`.
     pub label: String,
     pub plan: ArcPlan,
 }
@@ -841,6 +841,27 @@ fn load_plans(
                         .replace('\\', "/");
                     plans.push(SweepPlan { label, plan });
                 }
+            }
+            PlanSource::Named { path, name } => {
+                if name.trim().is_empty() || plans.iter().any(|p: &SweepPlan| &p.label == name) {
+                    return Err(EvalError::sweep(
+                        file,
+                        format!("{field}.name"),
+                        format!(
+                            "\"{name}\": expected a name for the plan's rows that no earlier plan has"
+                        ),
+                    ));
+                }
+                let full = base_dir.join(path);
+                let plan = load_plan(&full).map_err(|message| EvalError::Input {
+                    file: file.to_string(),
+                    field: format!("{field}.path"),
+                    message,
+                })?;
+                plans.push(SweepPlan {
+                    label: name.clone(),
+                    plan,
+                });
             }
             PlanSource::AtomCase {
                 atom_case,

@@ -50,6 +50,9 @@ pub enum PlanSource {
         atom_case: String,
         reference: String,
     },
+    /// One plan file under a name of the sweep's choosing: `{"path": PATH, "name": NAME}`
+    /// (e.g. a bundled ATOM plan keeping the `atom:CASE` label of its reference-file entry).
+    Named { path: String, name: String },
 }
 
 /// The swept axes; each is absent (the base machine's value), one number, a list of numbers,
@@ -279,11 +282,15 @@ fn wrong_format(text: &str, file: &str) -> Option<EvalError> {
 
 // ---- serde for the entries that take several shapes ----
 
+/// The object form of a plan entry: an ATOM case (`atom_case`, `reference`) or a named plan
+/// file (`path`, `name`).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct AtomRef {
-    atom_case: String,
-    reference: String,
+struct PlanObject {
+    atom_case: Option<String>,
+    reference: Option<String>,
+    path: Option<String>,
+    name: Option<String>,
 }
 
 impl<'de> Deserialize<'de> for PlanSource {
@@ -292,17 +299,35 @@ impl<'de> Deserialize<'de> for PlanSource {
         impl<'de> Visitor<'de> for V {
             type Value = PlanSource;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a plan path or glob, or {\"atom_case\": NAME, \"reference\": PATH}")
+                f.write_str(
+                    "a plan path or glob, {\"path\": PATH, \"name\": NAME} or {\"atom_case\": NAME, \"reference\": PATH}",
+                )
             }
             fn visit_str<E: de::Error>(self, s: &str) -> Result<PlanSource, E> {
                 Ok(PlanSource::Path(s.to_string()))
             }
             fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<PlanSource, M::Error> {
-                let r = AtomRef::deserialize(MapAccessDeserializer::new(map))?;
-                Ok(PlanSource::AtomCase {
-                    atom_case: r.atom_case,
-                    reference: r.reference,
-                })
+                let o = PlanObject::deserialize(MapAccessDeserializer::new(map))?;
+                match o {
+                    PlanObject {
+                        atom_case: Some(atom_case),
+                        reference: Some(reference),
+                        path: None,
+                        name: None,
+                    } => Ok(PlanSource::AtomCase {
+                        atom_case,
+                        reference,
+                    }),
+                    PlanObject {
+                        atom_case: None,
+                        reference: None,
+                        path: Some(path),
+                        name: Some(name),
+                    } => Ok(PlanSource::Named { path, name }),
+                    _ => Err(de::Error::custom(
+                        "expected {\"path\": PATH, \"name\": NAME} or {\"atom_case\": NAME, \"reference\": PATH}, with both fields and nothing else",
+                    )),
+                }
             }
         }
         d.deserialize_any(V)
@@ -495,6 +520,39 @@ mod tests {
         assert!((j[1] - 1.0).abs() < 1e-12 && j[2] == 10.0);
         assert_eq!(s.schedules[1].schedule, Schedule::Optimal);
         assert_eq!(s.target, None);
+    }
+
+    #[test]
+    fn a_named_plan_needs_a_path_and_a_name_and_nothing_else() {
+        let named = OK.replace(
+            r#"{"atom_case": "liver", "reference": "r.json"}"#,
+            r#"{"path": "p.json", "name": "atom:liver"}"#,
+        );
+        let s = parse_sweep_file(&named, "s.json").expect("valid");
+        assert_eq!(
+            s.plans[1],
+            PlanSource::Named {
+                path: "p.json".into(),
+                name: "atom:liver".into()
+            }
+        );
+        for bad in [
+            r#"{"path": "p.json"}"#,
+            r#"{"name": "x"}"#,
+            r#"{"path": "p.json", "name": "x", "reference": "r.json"}"#,
+            r#"{"atom_case": "liver"}"#,
+        ] {
+            let e = err(&OK.replace(r#"{"atom_case": "liver", "reference": "r.json"}"#, bad));
+            assert!(
+                e.starts_with("s.json: plans[1]: expected {\"path\": PATH, \"name\": NAME} or"),
+                "{bad}: {e}"
+            );
+        }
+        let e = err(&OK.replace(
+            r#"{"atom_case": "liver", "reference": "r.json"}"#,
+            r#"{"path": "p.json", "name": "x", "colour": 1}"#,
+        ));
+        assert!(e.contains("colour"), "{e}");
     }
 
     #[test]

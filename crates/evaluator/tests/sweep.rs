@@ -59,9 +59,6 @@ fn from_text(text: &str) -> Result<Sweep, EvalError> {
 
 #[test]
 fn atom_1000_settings_same_with_1_and_2_threads_and_shards_merge_byte_identical() {
-    if !have_atom_reference() {
-        return;
-    }
     let sweep = Sweep::load(&scenarios().join("sweep-atom-1000.json")).expect("sweep loads");
     assert_eq!(sweep.combinations(), 3000);
     let ev = pool(2).install(|| Evaluator::new(sweep)).expect("prepare");
@@ -113,9 +110,6 @@ fn atom_1000_settings_same_with_1_and_2_threads_and_shards_merge_byte_identical(
 
 #[test]
 fn run_stops_on_cancel_after_whole_rows() {
-    if !have_atom_reference() {
-        return;
-    }
     let sweep = Sweep::load(&scenarios().join("sweep-atom-1000.json")).expect("sweep loads");
     let ev = Evaluator::new(sweep).expect("prepare");
     let cancel = std::sync::atomic::AtomicBool::new(false);
@@ -153,6 +147,30 @@ fn error_of(text: &str) -> String {
         Ok(_) => panic!("expected an error for {text}"),
         Err(e) => e.to_string(),
     }
+}
+
+/// A `{"path", "name"}` entry loads one file under the given name; a name already taken or a
+/// missing file is a located error.
+#[test]
+fn named_plans_keep_their_name_and_names_are_unique() {
+    let named =
+        r#"["../plans/prostate.json", {"path": "../plans/atom/liver.json", "name": "atom:liver"}]"#;
+    let sweep = from_text(&GOOD.replace(r#"["../plans/prostate.json"]"#, named)).expect("valid");
+    let labels: Vec<&str> = sweep.plans.iter().map(|p| p.label.as_str()).collect();
+    assert_eq!(labels, ["../plans/prostate.json", "atom:liver"]);
+    assert_eq!(sweep.plans[1].plan.name, "ATOM article case liver");
+    let taken = r#"["../plans/prostate.json", {"path": "../plans/lung.json", "name": "../plans/prostate.json"}]"#;
+    let e = error_of(&GOOD.replace(r#"["../plans/prostate.json"]"#, taken));
+    assert!(
+        e.starts_with("test-sweep.json: plans[1].name:") && e.contains("no earlier plan has"),
+        "{e}"
+    );
+    let missing = r#"[{"path": "../plans/nope.json", "name": "x"}]"#;
+    let e = error_of(&GOOD.replace(r#"["../plans/prostate.json"]"#, missing));
+    assert!(
+        e.starts_with("test-sweep.json: plans[0].path:") && e.contains("nope.json"),
+        "{e}"
+    );
 }
 
 #[test]
