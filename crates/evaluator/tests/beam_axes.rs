@@ -3,23 +3,15 @@
 //! them and the split of the beam-on time (CSV and JSON), the CSV reads back, and an older
 //! arcsim's table without those columns still merges and reads back.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 
 use arcsim_evaluator::{
-    merge_csv, write_csv_header, write_csv_row, Axis, EvalError, Evaluator, Outcome, Row, Shard,
-    Status, Sweep, CSV_HEADER, CSV_HEADER_V1,
+    merge_csv, Axis, Evaluator, Outcome, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1,
 };
 use arcsim_plan::{BeamModel, PlanKind, ScanningBeam};
-
-fn scenarios() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios")
-}
-
-fn from_text_in(text: &str, dir: &Path) -> Result<Sweep, EvalError> {
-    Sweep::from_text(text, "test-sweep.json", dir, &|p: &Path| {
-        arcsim_plan::load_plan(p).map_err(|e| e.to_string())
-    })
-}
+use common::{csv, from_text_in, scenarios};
 
 /// Prostate under `scan` on the ATOM machine (`per_mu` beam: 0.005 s/MU, 2 ms between spots)
 /// over `axes`.
@@ -35,15 +27,6 @@ fn error_of(text: &str, dir: &Path) -> String {
         Ok(_) => panic!("expected an error for {text}"),
         Err(e) => e.to_string(),
     }
-}
-
-fn csv(rows: &[Row]) -> String {
-    let mut out = Vec::new();
-    write_csv_header(&mut out).expect("write");
-    for r in rows {
-        write_csv_row(&mut out, r).expect("write");
-    }
-    String::from_utf8(out).expect("utf-8")
 }
 
 fn all_rows(ev: &Evaluator) -> Vec<Row> {

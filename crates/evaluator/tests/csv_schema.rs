@@ -3,22 +3,10 @@
 //! CRLF line ends, columns in another order), an older arcsim's table still reads, and bad input
 //! is an error that names the file, the line and the column.
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use arcsim_evaluator::{
-    merge_csv, write_csv_header, write_csv_row, EvalError, Evaluator, Row, Shard, Status, Sweep,
-    CSV_HEADER, CSV_HEADER_V1,
-};
-
-fn scenarios() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios")
-}
-
-fn from_text(text: &str) -> Result<Sweep, EvalError> {
-    Sweep::from_text(text, "test-sweep.json", &scenarios(), &|p: &Path| {
-        arcsim_plan::load_plan(p).map_err(|e| e.to_string())
-    })
-}
+use arcsim_evaluator::{merge_csv, Evaluator, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1};
+use common::{csv, from_text};
 
 /// Prostate on the ATOM machine, two jerks, two schedules: four rows.
 const SWEEP: &str = r#"{
@@ -31,15 +19,6 @@ const SWEEP: &str = r#"{
 
 fn evaluator() -> Evaluator {
     Evaluator::new(from_text(SWEEP).expect("sweep")).expect("prepare")
-}
-
-fn csv(rows: &[Row]) -> String {
-    let mut out = Vec::new();
-    write_csv_header(&mut out).expect("write");
-    for r in rows {
-        write_csv_row(&mut out, r).expect("write");
-    }
-    String::from_utf8(out).expect("utf-8")
 }
 
 /// The rows of `ev`, the last one an error whose message needs quoting (a comma, quotes and a

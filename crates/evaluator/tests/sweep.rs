@@ -3,18 +3,17 @@
 //! infeasible combinations reported as rows, absurd sweeps refused up front and huge ones run
 //! lazily, every number of a sweep file checked.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use arcsim_evaluator::{
-    merge_csv, parse_sweep_file, write_csv_header, write_csv_row, Axis, EvalError, Evaluator, Row,
-    Shard, Status, Sweep, Target, MAX_COMBINATIONS, PROFILE_MAX_POINTS,
+    merge_csv, parse_sweep_file, Axis, Evaluator, Row, Shard, Status, Sweep, Target,
+    MAX_COMBINATIONS, PROFILE_MAX_POINTS,
 };
-
-fn scenarios() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios")
-}
+use common::{csv, from_text, scenarios};
 
 /// Whether `../shared/reference/atom-article-cases.json` is beside the repository (the
 /// `atom_case` plan source reads it); CI must have it.
@@ -40,21 +39,6 @@ fn pool(threads: usize) -> rayon::ThreadPool {
         .num_threads(threads)
         .build()
         .expect("thread pool")
-}
-
-fn csv(rows: &[Row]) -> String {
-    let mut out = Vec::new();
-    write_csv_header(&mut out).expect("write");
-    for r in rows {
-        write_csv_row(&mut out, r).expect("write");
-    }
-    String::from_utf8(out).expect("utf-8")
-}
-
-fn from_text(text: &str) -> Result<Sweep, EvalError> {
-    Sweep::from_text(text, "test-sweep.json", &scenarios(), &|p: &Path| {
-        arcsim_plan::load_plan(p).map_err(|e| e.to_string())
-    })
 }
 
 #[test]
