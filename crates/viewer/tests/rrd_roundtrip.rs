@@ -1,16 +1,15 @@
 //! Writes deliveries to .rrd files, reads them back with Rerun's own decoder (the `rrd` feature)
 //! and checks entity paths, timelines and values against the simulated timeline.
 
-use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufReader;
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use arcsim_sequencer::{simulate, Delivery, Options, Schedule};
-use arcsim_viewer::rerun::external::re_log_encoding::DecoderApp;
-use arcsim_viewer::rerun::log::{Chunk, LogMsg};
-use arcsim_viewer::rerun::{self, StoreKind, TimelineName};
+use arcsim_viewer::rerun::log::Chunk;
+use arcsim_viewer::rerun::{self, TimelineName};
 use arcsim_viewer::{paths, save_delivery, timelines, ViewerError, ViewerOptions};
+use common::{out_path, read_rrd, Rrd};
 
 fn repo_file(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -25,14 +24,6 @@ fn simulated(plan: &str, schedule: Schedule) -> Delivery {
     simulate(&plan, &machine, &Options::new(schedule)).expect("simulation")
 }
 
-fn out_path(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-viewer");
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join(name);
-    let _ = std::fs::remove_file(&path);
-    path
-}
-
 /// One logged row: its `time` (s), its `angle_cdeg`, and the row's values of one component.
 #[derive(Debug)]
 struct Row<T> {
@@ -41,66 +32,7 @@ struct Row<T> {
     values: Vec<T>,
 }
 
-/// What an .rrd file holds: recording chunks by entity path, and the blueprint part.
-struct Rrd {
-    entities: BTreeMap<String, Vec<Chunk>>,
-    static_entities: Vec<String>,
-    blueprint_chunks: usize,
-    blueprint_activated: bool,
-    /// Display names of the blueprint's views and containers (plot titles, tab names).
-    blueprint_names: Vec<String>,
-}
-
-fn read_rrd(path: &Path) -> Rrd {
-    let file = File::open(path).expect("open rrd");
-    let mut rrd = Rrd {
-        entities: BTreeMap::new(),
-        static_entities: vec![],
-        blueprint_chunks: 0,
-        blueprint_activated: false,
-        blueprint_names: vec![],
-    };
-    use rerun::external::re_sdk_types::blueprint::archetypes::{ContainerBlueprint, ViewBlueprint};
-    let names = [
-        ViewBlueprint::descriptor_display_name().component,
-        ContainerBlueprint::descriptor_display_name().component,
-    ];
-    for msg in DecoderApp::decode_eager(BufReader::new(file)).expect("rrd header") {
-        match msg.expect("rrd message") {
-            LogMsg::ArrowMsg(store, arrow) => {
-                let chunk = Chunk::from_arrow_msg(&arrow).expect("chunk");
-                if store.kind() == StoreKind::Blueprint {
-                    rrd.blueprint_chunks += 1;
-                    for name in names {
-                        for batch in chunk.iter_slices::<String>(name) {
-                            rrd.blueprint_names
-                                .extend(batch.into_iter().map(|s| s.to_string()));
-                        }
-                    }
-                } else {
-                    let path = chunk.entity_path().to_string();
-                    if chunk.is_static() {
-                        rrd.static_entities.push(path.clone());
-                    }
-                    rrd.entities.entry(path).or_default().push(chunk);
-                }
-            }
-            LogMsg::BlueprintActivationCommand(cmd) => rrd.blueprint_activated |= cmd.make_active,
-            LogMsg::SetStoreInfo(_) => {}
-        }
-    }
-    rrd
-}
-
 impl Rrd {
-    fn chunks(&self, path: &str) -> &[Chunk] {
-        let key = format!("/{path}");
-        self.entities
-            .get(&key)
-            .map(Vec::as_slice)
-            .unwrap_or_else(|| panic!("no entity {key}; have {:?}", self.entities.keys()))
-    }
-
     /// Temporal rows of `path`, in time order (stable, so rows logged at one instant keep their order).
     fn rows<T: Clone>(
         &self,

@@ -1,69 +1,21 @@
 //! The beam's-eye view of the spots: written to .rrd files and read back with Rerun's decoder.
 
-use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufReader;
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use arcsim_sequencer::SpotRow;
-use arcsim_viewer::rerun::external::re_log_encoding::DecoderApp;
-use arcsim_viewer::rerun::log::{Chunk, LogMsg, RowId};
+use arcsim_viewer::rerun::log::{Chunk, RowId};
 use arcsim_viewer::rerun::time::TimeInt;
 use arcsim_viewer::rerun::TimelineName;
-use arcsim_viewer::rerun::{self, ComponentIdentifier, RecordingStreamBuilder, StoreKind};
+use arcsim_viewer::rerun::{self, ComponentIdentifier, RecordingStreamBuilder};
 use arcsim_viewer::{paths, timelines, MAX_SPOT_UPDATES_PER_LAYER};
-
-fn out_path(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-viewer");
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join(name);
-    let _ = std::fs::remove_file(&path);
-    path
-}
-
-/// Recording chunks by entity path, and the display names of the blueprint's views.
-struct Rrd {
-    entities: BTreeMap<String, Vec<Chunk>>,
-    blueprint_names: Vec<String>,
-}
-
-fn read_rrd(path: &Path) -> Rrd {
-    use rerun::external::re_sdk_types::blueprint::archetypes::ViewBlueprint;
-    let name = ViewBlueprint::descriptor_display_name().component;
-    let mut rrd = Rrd {
-        entities: BTreeMap::new(),
-        blueprint_names: vec![],
-    };
-    let file = File::open(path).expect("open rrd");
-    for msg in DecoderApp::decode_eager(BufReader::new(file)).expect("rrd header") {
-        if let LogMsg::ArrowMsg(store, arrow) = msg.expect("rrd message") {
-            let chunk = Chunk::from_arrow_msg(&arrow).expect("chunk");
-            if store.kind() == StoreKind::Blueprint {
-                for batch in chunk.iter_slices::<String>(name) {
-                    rrd.blueprint_names
-                        .extend(batch.into_iter().map(|s| s.to_string()));
-                }
-            } else {
-                let path = chunk.entity_path().to_string();
-                rrd.entities.entry(path).or_default().push(chunk);
-            }
-        }
-    }
-    rrd
-}
+use common::{out_path, read_rrd, Rrd};
 
 /// One temporal row of one component: time (ns), row id (order at equal times), values.
 type Row<T> = (TimeInt, RowId, Vec<T>);
 
 impl Rrd {
-    fn chunks(&self, path: &str) -> &[Chunk] {
-        let key = format!("/{path}");
-        self.entities
-            .get(&key)
-            .map(Vec::as_slice)
-            .unwrap_or_else(|| panic!("no entity {key}; have {:?}", self.entities.keys()))
-    }
-
     /// Temporal rows of `component` at `path` on the `time` timeline, in logging order;
     /// `slices` reads the component's values of every (non-null) row of a chunk.
     fn rows<T>(
