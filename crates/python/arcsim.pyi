@@ -203,8 +203,9 @@ def profile(
     period_s: Optional[float] = None,
     reverse: str = "forbid",
 ) -> Profile:
-    """`arcsim profile`: the minimum-time move (exactly min_duration long when given, phases on
-    the servo period when given). Raises ProfileError."""
+    """`arcsim profile`: the minimum-time move (lasting at least min_duration when given: exactly
+    that when the move can, else the shortest longer duration; phases on the servo period when
+    given). Raises ProfileError."""
 
 def profile_batch(
     distance: _Floats,

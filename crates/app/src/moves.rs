@@ -16,10 +16,9 @@ pub struct MoveRequest {
     pub decel_deg_per_s2: Option<f64>,
     /// Maximum speed (deg/s).
     pub speed_deg_per_s: f64,
-    /// Last at least this long (s); `None` or 0: the minimum time. With [`Reversal::Forbid`] the
-    /// move lasts exactly this long or is infeasible (a duration between the move's feasible
-    /// intervals is reported, not lengthened); with [`Reversal::Allow`] it lasts the shortest
-    /// feasible duration of at least this long.
+    /// Last at least this long (s); `None` or 0: the minimum time. The move lasts exactly this
+    /// long when it can, else the shortest feasible duration above it (with [`Reversal::Allow`]
+    /// backing up if need be); it is infeasible only when it cannot last this long or longer.
     pub min_duration_s: Option<f64>,
     /// Put every phase on this servo period (s).
     pub period_s: Option<f64>,

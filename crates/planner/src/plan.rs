@@ -67,17 +67,13 @@ pub struct MoveOptions {
 /// [`PlannerError::PeriodTooCoarse`]); never a silently wrong profile.
 pub fn plan(mv: &Move, limits: &Limits, options: &MoveOptions) -> Result<Profile, PlannerError> {
     // The minimum time needs no duration analysis.
-    let min_time = options.min_duration_s == 0.0;
+    let profile = if options.min_duration_s == 0.0 {
+        min_time_profile(mv, limits, options.reversal)?
+    } else {
+        MoveAnalysis::new(mv, limits, options.reversal)?.profile(options.min_duration_s)?
+    };
     match options.servo_period_s {
-        None if min_time => min_time_profile(mv, limits, options.reversal),
-        None => MoveAnalysis::new(mv, limits, options.reversal)?.profile(options.min_duration_s),
-        Some(period) => {
-            let profile = if min_time {
-                min_time_profile(mv, limits, options.reversal)?
-            } else {
-                MoveAnalysis::new(mv, limits, options.reversal)?.profile(options.min_duration_s)?
-            };
-            discretize(&profile, period, limits)
-        }
+        None => Ok(profile),
+        Some(period) => discretize(&profile, period, limits),
     }
 }

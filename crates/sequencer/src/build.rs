@@ -499,17 +499,13 @@ fn solve_move(
     let analysis = MoveAnalysis::new(&mv, lim, Reversal::Forbid).map_err(planner)?;
     let shape = analysis.min_time_phases();
     let min_time = shape.duration();
-    let limiter = if elst > min_time {
-        Limiter::Elst
-    } else {
-        limiter_of(&shape, lim)
-    };
-    let duration = if elst > min_time {
-        analysis
+    let (limiter, duration) = if elst > min_time {
+        let at_least = analysis
             .shortest_duration_at_least(elst)
-            .ok_or_else(|| infeasible(Infeasibility::CannotLastElst { elst_s: elst }))?
+            .ok_or_else(|| infeasible(Infeasibility::CannotLastElst { elst_s: elst }))?;
+        (Limiter::Elst, at_least)
     } else {
-        min_time
+        (limiter_of(&shape, lim), min_time)
     };
     let duration = match at.period {
         Some(ts) => grid_duration(mv, lim, duration, ts)
