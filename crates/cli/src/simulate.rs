@@ -16,7 +16,8 @@ use crate::CliError;
 pub enum ScheduleArg {
     /// Bidirectional scan (fast, near-optimal).
     Scan,
-    /// Minimum total time (dynamic programming over refined speed grids).
+    /// Least total time found (dynamic programming over refined speed grids; never worse than
+    /// scan, not certified).
     Optimal,
     /// The plan's required speeds, checked; violations reported and minimally corrected.
     Prescribed,

@@ -5,7 +5,7 @@ use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal, SevenPhases}
 
 use crate::free;
 use crate::optimal::optimal;
-use crate::scan::{scan, scan_converged, ArcProblem};
+use crate::scan::{moving_time, scan, scan_converged, stop_avoiding_scan, ArcProblem};
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
@@ -135,7 +135,18 @@ fn scan_speeds(
     limits: &Limits,
     period: Option<f64>,
 ) -> (Vec<f64>, Vec<SpeedBound>) {
-    let cont = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
+    let settled = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
+    on_period(p, limits, stop_avoiding_scan(p, limits, settled), period)
+}
+
+/// Continuous-time scan speeds `cont` on a servo period: kept where their transitions fit the
+/// grid, lowered where not (the scan from the caps if that does not settle).
+fn on_period(
+    p: &ArcProblem,
+    limits: &Limits,
+    cont: (Vec<f64>, Vec<SpeedBound>),
+    period: Option<f64>,
+) -> (Vec<f64>, Vec<SpeedBound>) {
     match period {
         Some(_) => scan_converged(p, limits, &cont.0, &cont.1, true, period)
             .unwrap_or_else(|| scan(p, limits, &p.speed_cap, &p.cap_bound, true, period)),
@@ -151,8 +162,8 @@ fn optimal_speeds(
 ) -> (Vec<f64>, Vec<SpeedBound>) {
     let (upper, _) = scan(p, limits, &p.speed_cap, &p.cap_bound, false, None);
     let (seed, seed_bounds) = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
-    let (best, _tol) = optimal(p, limits, &upper, &seed);
-    let b = best
+    let (found, _tol) = optimal(p, limits, &upper, &seed);
+    let labels = found
         .iter()
         .zip(&seed_bounds)
         .enumerate()
@@ -166,19 +177,29 @@ fn optimal_speeds(
             }
         })
         .collect::<Vec<_>>();
+    // The search is local: the `scan` schedule (which avoids stops at ELSTs) can sit in a better
+    // basin, and `optimal` is never worse than it.
+    let fast = stop_avoiding_scan(p, limits, (seed.clone(), seed_bounds.clone()));
+    let (best, b) = if moving_time(p, limits, &fast.0) < moving_time(p, limits, &found) {
+        fast.clone()
+    } else {
+        (found, labels)
+    };
     let Some(ts) = period else {
         return (best, b);
     };
     // The optimum is found in continuous time; the scan then lowers any speeds whose transitions
-    // cannot be put on the servo grid. Two other candidates can do better, and the shortest of
-    // the three is kept: the servo-aware scan from the caps, and `scan` on the same period (the
-    // continuous scan repaired on the grid), so `optimal` is never worse than `scan`.
+    // cannot be put on the servo grid. Other candidates can do better, and the shortest is
+    // kept: the servo-aware scan from the caps, the search's seed repaired on the grid, and
+    // `scan` on the same period, so `optimal` is never worse than `scan`.
     let repaired = scan(p, limits, &best, &b, true, period);
     let direct = scan(p, limits, &p.speed_cap, &p.cap_bound, true, period);
-    let scanned = scan_converged(p, limits, &seed, &seed_bounds, true, period);
+    let seeded = scan_converged(p, limits, &seed, &seed_bounds, true, period);
+    let scanned = on_period(p, limits, fast, period);
     let time = |v: &[f64]| arc_time_on_grid(p, v, limits, ts);
-    std::iter::once(direct)
-        .chain(scanned)
+    [Some(direct), seeded, Some(scanned)]
+        .into_iter()
+        .flatten()
         .fold(repaired, |a, c| if time(&c.0) < time(&a.0) { c } else { a })
 }
 

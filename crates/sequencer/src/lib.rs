@@ -6,7 +6,9 @@
 //! (ELST). Arcs start and end at rest; a change of arc (rotation direction) is a stop.
 //!
 //! Choosing the layer speeds is the velocity-scheduling problem ([`Schedule`]): prescribed by the
-//! plan, a bidirectional scan, a global optimum by dynamic programming, or step-and-shoot.
+//! plan, a bidirectional scan that also avoids stops at ELSTs, the shortest found by dynamic
+//! programming over refined speed grids (a local search, never worse than the scan), or
+//! step-and-shoot.
 //! Every timeline is verified by integrating its segments before it is returned.
 
 mod build;

@@ -12,9 +12,11 @@ use arcsim_plan::ResolvedArc;
 pub enum Schedule {
     /// The plan's required speeds, checked; infeasible ones are reported and corrected minimally.
     Prescribed,
-    /// Bidirectional scan: window/V caps, then backward and forward passes until feasible.
+    /// Bidirectional scan: window/V caps, then backward and forward passes until feasible, then
+    /// lower speeds where a transition would stop and dwell to last its ELST.
     Scan,
-    /// Minimum total delivery time over all feasible layer speeds (to `optimal_tolerance_s`).
+    /// The least total delivery time found over the layer speeds (dynamic programming over
+    /// refined speed grids; a local search, never worse than `Scan`).
     Optimal,
     /// The gantry stops at every layer (the classic baseline).
     StepAndShoot,
