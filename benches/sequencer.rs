@@ -1,6 +1,7 @@
 //! Sequencer benchmarks on the 180-layer ATOM article cases (the bundled `plans/atom/*.json`):
 //! `scan` and `optimal` schedules, totals only (as sweeps run them) and with the full verified
-//! timeline; free motion (seeded by `optimal`) with both arc-end options.
+//! timeline; `optimal` on head-and-neck; free motion (seeded by `optimal`) with both arc-end
+//! options.
 //! `cargo bench --bench sequencer`
 
 use std::hint::black_box;
@@ -15,8 +16,27 @@ fn bench(c: &mut Criterion) {
             .expect("machine");
     let machine = parse_machine(&m_text, "machine-atom.json").expect("machine");
     let limits = machine_limits(&machine).expect("limits");
-    let plan = load_plan(arcsim_suite::repo_root().join("plans/atom/prostate.json")).expect("plan");
-    let arcs = resolve(&plan, &machine).expect("resolve");
+    let load = |name: &str| {
+        let path = arcsim_suite::repo_root().join(format!("plans/atom/{name}.json"));
+        resolve(&load_plan(path).expect("plan"), &machine).expect("resolve")
+    };
+    let arcs = load("prostate");
+    // The 180-layer ATOM head-and-neck case: `optimal` on another plan (totals, as sweeps run it).
+    let hn = load("head-and-neck");
+    c.bench_function("optimal head-and-neck 180 layers (totals)", |b| {
+        let opts = Options {
+            schedule: Schedule::Optimal,
+            build_timeline: false,
+            ..Options::default()
+        };
+        b.iter(|| {
+            black_box(
+                simulate_resolved(black_box(&hn), &limits, &opts)
+                    .expect("simulate")
+                    .total_s,
+            )
+        })
+    });
     for (schedule, timeline) in [
         (Schedule::Scan, false),
         (Schedule::Scan, true),
