@@ -162,7 +162,7 @@ fn optimal_speeds(
 ) -> (Vec<f64>, Vec<SpeedBound>) {
     let (upper, _) = scan(p, limits, &p.speed_cap, &p.cap_bound, false, None);
     let (seed, seed_bounds) = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
-    let (found, _tol) = optimal(p, limits, &upper, &seed);
+    let (found, found_time) = optimal(p, limits, &upper, &seed);
     let labels = found
         .iter()
         .zip(&seed_bounds)
@@ -180,7 +180,7 @@ fn optimal_speeds(
     // The search is local: the `scan` schedule (which avoids stops at ELSTs) can sit in a better
     // basin, and `optimal` is never worse than it.
     let fast = stop_avoiding_scan(p, limits, (seed.clone(), seed_bounds.clone()));
-    let (best, b) = if moving_time(p, limits, &fast.0) < moving_time(p, limits, &found) {
+    let (best, b) = if moving_time(p, limits, &fast.0) < found_time {
         fast.clone()
     } else {
         (found, labels)

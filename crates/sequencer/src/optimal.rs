@@ -13,7 +13,7 @@
 
 use arcsim_planner::{Limits, LinearGap};
 
-use crate::scan::ArcProblem;
+use crate::scan::{moving_time, ArcProblem};
 
 /// Points per layer in each refinement's grid.
 const GRID: usize = 13;
@@ -145,7 +145,7 @@ fn speed_bound(p: &ArcProblem, lim: &Limits, k: usize) -> f64 {
 
 /// Minimum-time speeds of an arc. `upper`: the scan without ELST (where the optimum most often
 /// sits); `seed`: a feasible schedule (the scan) that the result never does worse than. Returns
-/// the speeds and the speed tolerance of the last grid (deg/s).
+/// the speeds and their moving time (Σ transition durations, s).
 ///
 /// Two searches, the shorter kept: grids spanning each layer's provable speed bound, and finer
 /// grids spanning [0, upper] (the scan's ELST-free speeds are not a bound: a slower neighbour
@@ -158,7 +158,7 @@ pub(crate) fn optimal(
 ) -> (Vec<f64>, f64) {
     let n = p.len();
     if n <= 2 {
-        return (seed.to_vec(), 0.0);
+        return (seed.to_vec(), moving_time(p, lim, seed));
     }
     let hi: Vec<f64> = (0..n).map(|k| speed_bound(p, lim, k)).collect();
     let narrow: Vec<f64> = upper.iter().zip(&hi).map(|(u, h)| u.min(*h)).collect();
@@ -169,7 +169,10 @@ pub(crate) fn optimal(
     .into_iter()
     .flatten()
     .min_by(|a, b| a.0.total_cmp(&b.0))
-    .map_or((seed.to_vec(), f64::INFINITY), |(_, path, tol)| (path, tol))
+    .map_or_else(
+        || (seed.to_vec(), moving_time(p, lim, seed)),
+        |(total, path)| (path, total),
+    )
 }
 
 /// Points per layer of the wide search's first grid on an arc of `n` layers.
@@ -179,7 +182,7 @@ fn first_grid_points(n: usize) -> usize {
 
 /// One grid search: first grids uniform over [0, span_k] with rest, the seed and `upper`,
 /// then refinements around the best path; every speed within [0, hi_k]. Returns the moving
-/// time, the speeds and the last grid's spacing; `None` if no path is feasible.
+/// time and the speeds; `None` if no path is feasible.
 fn search(
     p: &ArcProblem,
     lim: &Limits,
@@ -188,7 +191,7 @@ fn search(
     upper: &[f64],
     seed: &[f64],
     first: usize,
-) -> Option<(f64, Vec<f64>, f64)> {
+) -> Option<(f64, Vec<f64>)> {
     let n = p.len();
     let mut grids: Vec<Vec<f64>> = (0..n)
         .map(|k| {
@@ -209,6 +212,5 @@ fn search(
             *h *= 2.0 / (GRID - 1) as f64;
         }
     }
-    let tol = half.iter().copied().fold(0.0, f64::max);
-    Some((total, path, tol))
+    Some((total, path))
 }

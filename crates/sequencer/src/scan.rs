@@ -101,14 +101,20 @@ impl ArcProblem {
         self.gap(k).at(vs, ve) >= -1e-12 * (1.0 + self.travel_deg[k + 1])
     }
 
-    /// Duration of transition `k` at speeds `vs`, `ve`: the shortest feasible duration of at least
-    /// max(minimum time, ELST), or `None` when no forward move fits the gap or none lasts the ELST.
-    pub fn cost(&self, k: usize, vs: f64, ve: f64, lim: &Limits) -> Option<f64> {
+    /// The planner's analysis of transition `k`'s forward move at speeds `vs`, `ve`; `None` when
+    /// the two layers' sweeps overlap or no forward move fits the gap.
+    fn analysis(&self, k: usize, vs: f64, ve: f64, lim: &Limits) -> Option<MoveAnalysis> {
         if !self.gap_open(k, vs, ve) {
             return None;
         }
         let mv = self.transition_move(k, vs, ve);
-        let analysis = MoveAnalysis::new(&mv, lim, Reversal::Forbid).ok()?;
+        MoveAnalysis::new(&mv, lim, Reversal::Forbid).ok()
+    }
+
+    /// Duration of transition `k` at speeds `vs`, `ve`: the shortest feasible duration of at least
+    /// max(minimum time, ELST), or `None` when no forward move fits the gap or none lasts the ELST.
+    pub fn cost(&self, k: usize, vs: f64, ve: f64, lim: &Limits) -> Option<f64> {
+        let analysis = self.analysis(k, vs, ve, lim)?;
         let t_opt = analysis.min_time();
         let e = self.elst[k + 1];
         if e <= t_opt {
@@ -176,6 +182,22 @@ pub(crate) fn moving_time(p: &ArcProblem, lim: &Limits, v: &[f64]) -> f64 {
         .sum()
 }
 
+/// The highest start speed of transition `k` that still reaches `ve` within its gap (the
+/// braking pass's bound); `ve` itself when the planner finds none.
+fn highest_start(p: &ArcProblem, k: usize, ve: f64, lim: &Limits) -> f64 {
+    p.gap(k)
+        .max_start_speed(ve, lim)
+        .ok()
+        .flatten()
+        .unwrap_or(ve)
+}
+
+/// The highest end speed of transition `k` reachable from `vs` within its gap (the speed-up
+/// pass's bound); `vs` itself when the planner finds none.
+fn highest_end(p: &ArcProblem, k: usize, vs: f64, lim: &Limits) -> f64 {
+    p.gap(k).max_end_speed(vs, lim).ok().flatten().unwrap_or(vs)
+}
+
 /// Rounds of passes after which [`scan_converged`] gives up.
 const MAX_ROUNDS: usize = 200;
 
@@ -205,12 +227,7 @@ pub(crate) fn scan_converged(
         for k in (0..n - 1).rev() {
             // Braking branch (v_k >= v_k+1): the highest start speed that still reaches v_k+1.
             if v[k] > v[k + 1] && braked_ok[k] != Some((v[k], v[k + 1])) {
-                let b = p
-                    .gap(k)
-                    .max_start_speed(v[k + 1], lim)
-                    .ok()
-                    .flatten()
-                    .unwrap_or(v[k + 1]);
+                let b = highest_start(p, k, v[k + 1], lim);
                 if v[k] > b {
                     v[k] = b;
                     bound[k] = SpeedBound::Gap;
@@ -222,12 +239,7 @@ pub(crate) fn scan_converged(
         for k in 1..n {
             // Speed-up branch (v_k > v_k-1): the highest end speed reachable from v_k-1.
             if v[k] > v[k - 1] && sped_ok[k - 1] != Some((v[k - 1], v[k])) {
-                let b = p
-                    .gap(k - 1)
-                    .max_end_speed(v[k - 1], lim)
-                    .ok()
-                    .flatten()
-                    .unwrap_or(v[k - 1]);
+                let b = highest_end(p, k - 1, v[k - 1], lim);
                 if v[k] > b {
                     v[k] = b;
                     bound[k] = SpeedBound::Gap;
@@ -309,11 +321,7 @@ pub(crate) fn scan_converged(
 /// Whether transition `k` at `vs`, `ve` lasts its ELST without stopping (the ELST is in the
 /// first interval of its feasible durations), so it costs no more than the ELST.
 fn lasts_elst_without_stop(p: &ArcProblem, k: usize, vs: f64, ve: f64, lim: &Limits) -> bool {
-    if !p.gap_open(k, vs, ve) {
-        return false;
-    }
-    let mv = p.transition_move(k, vs, ve);
-    MoveAnalysis::new(&mv, lim, Reversal::Forbid).is_ok_and(|a| {
+    p.analysis(k, vs, ve, lim).is_some_and(|a| {
         let e = p.elst[k + 1];
         e <= a.min_time() || a.durations().intervals()[0].1 * (1.0 + 1e-9) >= e
     })
@@ -391,12 +399,7 @@ fn lowered(
     (w[k], w[k + 1]) = pair;
     let mut first = k;
     while first > 0 && w[first - 1] > w[first] {
-        let b = p
-            .gap(first - 1)
-            .max_start_speed(w[first], lim)
-            .ok()
-            .flatten()
-            .unwrap_or(w[first]);
+        let b = highest_start(p, first - 1, w[first], lim);
         if w[first - 1] <= b {
             break;
         }
@@ -405,12 +408,7 @@ fn lowered(
     }
     let mut last = k;
     while last + 2 < w.len() && w[last + 2] > w[last + 1] {
-        let b = p
-            .gap(last + 1)
-            .max_end_speed(w[last + 1], lim)
-            .ok()
-            .flatten()
-            .unwrap_or(w[last + 1]);
+        let b = highest_end(p, last + 1, w[last + 1], lim);
         if w[last + 2] <= b {
             break;
         }
