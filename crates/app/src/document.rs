@@ -1,7 +1,7 @@
 //! The result document of a simulation (`arcsim-result/1`, `simulate --json`).
 
 use arcsim_plan::{ArcPlan, Machine, Warning};
-use arcsim_sequencer::{Delivery, SpotRow};
+use arcsim_sequencer::{Certificate, Delivery, SpotRow};
 use serde::Serialize;
 
 /// Format tag of [`ResultDocument`].
@@ -46,6 +46,10 @@ pub struct ResultDocument<'a> {
     /// Every spot delivery with its time and gantry angle (`simulate --spots`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spots: Option<&'a [SpotRow]>,
+    /// A proven lower bound of every constant-speed schedule and the gap to it
+    /// (`simulate --certify`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub certificate: Option<&'a Certificate>,
 }
 
 /// Where a plan or machine came from: its name in messages (a path) and the SHA-256 of its bytes.
@@ -92,12 +96,19 @@ impl<'a> ResultDocument<'a> {
             notes: from.notes,
             delivery,
             spots: None,
+            certificate: None,
         }
     }
 
     /// The document with the per-spot timeline.
     pub fn with_spots(mut self, spots: &'a [SpotRow]) -> Self {
         self.spots = Some(spots);
+        self
+    }
+
+    /// The document with the delivery's certificate.
+    pub fn with_certificate(mut self, certificate: &'a Certificate) -> Self {
+        self.certificate = Some(certificate);
         self
     }
 

@@ -5,7 +5,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use arcsim_sequencer::{
-    simulate, spot_timeline, ArcEnds, Delivery, GantryState, Limiter, Motion, Schedule, SpotRow,
+    certify, machine_limits, simulate, spot_timeline, ArcEnds, Certificate, Delivery, GantryState,
+    Limiter, Motion, Schedule, SpotRow, CERTIFY_ROUNDS,
 };
 
 use crate::input::{load_machine_hashed, load_plan_hashed};
@@ -91,6 +92,11 @@ pub struct Args {
     /// machine's `servo_period_s`).
     #[arg(long, value_name = "TS", allow_hyphen_values = true)]
     period: Option<f64>,
+    /// Prove how close the delivery is to the fastest constant-speed schedule: print (and write
+    /// with --json) a lower bound of every constant-speed schedule and the gap to it (constant
+    /// motion only; takes seconds on a 180-layer plan).
+    #[arg(long)]
+    certify: bool,
     /// Write the full result (summary, per-layer and per-transition rows, margins) as JSON.
     #[arg(long, value_name = "OUT")]
     json: Option<PathBuf>,
@@ -487,6 +493,38 @@ fn write_csv(path: &Path, d: &Delivery, dt: f64) -> Result<(), CliError> {
     crate::output::write_file(path, &csv_table(&SAMPLE_COLUMNS, samples))
 }
 
+/// The certificate of a constant-speed delivery (`--certify`).
+fn certificate(
+    plan: &arcsim_plan::ArcPlan,
+    machine: &arcsim_plan::Machine,
+    delivery: &Delivery,
+    path: &Path,
+) -> Result<Certificate, CliError> {
+    if delivery.motion != Motion::Constant {
+        return Err(CliError::usage(
+            "--certify bounds constant-speed schedules: add --motion constant".to_string(),
+        ));
+    }
+    let failed = |e: String| CliError::failed(format!("{}: {e}", crate::input::input_name(path)));
+    let arcs = arcsim_plan::resolve(plan, machine).map_err(|e| failed(e.to_string()))?;
+    let limits = machine_limits(machine).map_err(|e| failed(e.to_string()))?;
+    certify(&arcs, &limits, delivery, CERTIFY_ROUNDS).map_err(|e| failed(e.to_string()))
+}
+
+/// The certificate's lines of the summary.
+fn certificate_lines(c: &Certificate, total_s: f64) -> String {
+    let pct = if total_s > 0.0 {
+        100.0 * c.gap_s / total_s
+    } else {
+        0.0
+    };
+    format!(
+        "lower bound          {:9.2} s  (no constant-speed schedule is faster)\n\
+         gap                  {:9.3} s  {:6.3} %\n",
+        c.lower_bound_s, c.gap_s, pct
+    )
+}
+
 pub fn run(args: Args) -> Result<(), CliError> {
     if !(args.dt.is_finite() && args.dt > 0.0) {
         return Err(CliError::usage(format!(
@@ -537,7 +575,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
             )));
         }
     }
-    crate::output::print(&summary(&delivery, &plan.name, &machine.name));
+    let certificate = match args.certify {
+        true => Some(certificate(&plan, &machine, &delivery, &args.plan)?),
+        false => None,
+    };
+    let mut text = summary(&delivery, &plan.name, &machine.name);
+    if let Some(c) = &certificate {
+        text.push_str(&certificate_lines(c, delivery.total_s));
+    }
+    crate::output::print(&text);
     // The spot timeline for --spots, and for the beam's-eye view of the Rerun outputs.
     let viewer = args.rrd.is_some() || args.spawn || args.connect.is_some();
     let spots = match args.spots.is_some() || viewer {
@@ -568,6 +614,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         let mut doc = arcsim_app::ResultDocument::new(&plan, &from, &delivery);
         if let Some(spots) = spots.as_ref().filter(|_| args.spots.is_some()) {
             doc = doc.with_spots(spots);
+        }
+        if let Some(c) = &certificate {
+            doc = doc.with_certificate(c);
         }
         let text = doc.to_json().map_err(|e| CliError::failed(e.to_string()))?;
         crate::output::write_file(path, text.as_bytes())?;

@@ -458,3 +458,57 @@ fn one_plan_sweep_banner_is_singular() {
         assert!(!err.contains(plural), "{err}");
     }
 }
+
+/// `--certify` prints a lower bound of every constant-speed schedule and the gap to it, writes
+/// both with --json, holds on a servo period too, and is refused with free motion.
+#[test]
+fn simulate_certify_prints_and_writes_the_bound() {
+    let dir = temp_dir();
+    let json = dir.join("c.json");
+    let value = |out: &str, label: &str| -> f64 {
+        let line = out
+            .lines()
+            .find(|l| l.starts_with(label))
+            .unwrap_or_else(|| panic!("no '{label}' line in:\n{out}"));
+        line.split_whitespace()
+            .nth(label.split_whitespace().count())
+            .expect("value")
+            .parse()
+            .expect("number")
+    };
+    for period in [None, Some("0.004")] {
+        let mut args = vec![
+            "simulate",
+            "plans/lung.json",
+            "--motion",
+            "constant",
+            "--certify",
+            "--json",
+            json.to_str().unwrap(),
+        ];
+        args.extend(period.iter().flat_map(|p| ["--period", *p]));
+        let o = arcsim(&args);
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        let (total, bound, gap) = (
+            total_of(&out),
+            value(&out, "lower bound"),
+            value(&out, "gap"),
+        );
+        assert!(bound <= total && bound > 0.9 * total, "{out}");
+        assert!((total - bound - gap).abs() < 0.011, "{out}");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
+        let c = &v["certificate"];
+        let (lb, g) = (
+            c["lower_bound_s"].as_f64().expect("lower_bound_s"),
+            c["gap_s"].as_f64().expect("gap_s"),
+        );
+        let t = v["total_s"].as_f64().expect("total_s");
+        assert!(g >= 0.0 && (t - lb - g).abs() < 1e-9, "{c}");
+    }
+    let o = arcsim(&["simulate", "plans/lung.json", "--certify"]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--motion constant"), "{err}");
+}

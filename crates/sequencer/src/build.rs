@@ -44,7 +44,7 @@ pub fn simulate(
 
 /// Time of one arc at layer speeds `v` with every transition on the servo period (infinite when
 /// a transition has no such duration).
-fn arc_time_on_grid(p: &ArcProblem, v: &[f64], lim: &Limits, period: f64) -> f64 {
+pub(crate) fn arc_time_on_grid(p: &ArcProblem, v: &[f64], lim: &Limits, period: f64) -> f64 {
     let moving: Option<f64> = (0..p.len().saturating_sub(1))
         .map(|k| {
             let d = p.cost(k, v[k], v[k + 1], lim)?;

@@ -9,8 +9,11 @@
 //! plan, a bidirectional scan that also avoids stops at ELSTs, the shortest found by dynamic
 //! programming over refined speed grids (a local search, never worse than the scan), or
 //! step-and-shoot.
+//! [`certify`] proves a lower bound of every constant-speed schedule (a branch-and-bound over
+//! boxes of layer speeds), so a delivery's distance from the best is known.
 //! Every timeline is verified by integrating its segments before it is returned.
 
+mod bound;
 mod build;
 mod error;
 mod free;
@@ -29,4 +32,5 @@ pub use spots::{spot_timeline, SpotRow};
 pub use timeline::{GantryState, Piece, PieceKind, Timeline};
 pub use types::*;
 
+pub use bound::{certify, Certificate, CERTIFY_ROUNDS};
 pub use build::{machine_limits, simulate, simulate_resolved, simulate_with_speeds};

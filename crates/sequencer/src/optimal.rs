@@ -124,7 +124,7 @@ fn grid_around(centre: f64, half_width: f64, upper: f64, extra: &[f64], points: 
 /// can still brake to rest by the last layer. A speed change split over several transitions, with
 /// zero acceleration between them and constant-speed sweeps in between, covers at least the
 /// distance of the direct change (eq. 4), so these hold whatever the other layers' speeds are.
-fn speed_bound(p: &ArcProblem, lim: &Limits, k: usize) -> f64 {
+pub(crate) fn speed_bound(p: &ArcProblem, lim: &Limits, k: usize) -> f64 {
     let n = p.len();
     let cap = p.speed_cap[k];
     if cap <= 0.0 {

@@ -28,6 +28,6 @@ pub(crate) fn grid_duration_in(set: &DurationSet, duration: f64, period: f64) ->
 }
 
 /// `t` rounded up to a whole number of periods (an exact multiple, to 1e-9, stays).
-fn ticks(t: f64, period: f64) -> f64 {
+pub(crate) fn ticks(t: f64, period: f64) -> f64 {
     (t / period - 1e-9).ceil().max(0.0) * period
 }

@@ -2,11 +2,12 @@
 //! windows and irradiation times): dynamic programming over 201 speeds per layer, each
 //! transition costed here from the delivery model with the planner's step 2 (the shortest
 //! duration of at least the ELST), never beats `optimal` by more than a small tolerance; and
-//! `optimal` <= `scan` <= `step-and-shoot` on every case.
+//! `optimal` <= `scan` <= `step-and-shoot` on every case. The certificate's lower bound is never
+//! above the exhaustive search's best, nor above a random schedule that is feasible.
 
 use arcsim_plan::{ResolvedArc, ResolvedLayer, RotationDirection};
 use arcsim_planner::{Limits, Move, MoveAnalysis, Reversal};
-use arcsim_sequencer::{simulate_resolved, Options, Schedule};
+use arcsim_sequencer::{certify, simulate_resolved, Options, Schedule, CERTIFY_ROUNDS};
 use arcsim_test_support::Rng;
 
 /// Speeds per layer in the exhaustive search.
@@ -107,6 +108,7 @@ fn exhaustive(arc: &ResolvedArc, lim: &Limits) -> f64 {
 fn no_speed_grid_beats_optimal_on_small_arcs() {
     let mut rng = Rng::new(0x5eed_0008);
     let cases = 300;
+    let mut worst_gap = 0.0f64;
     for case in 0..cases {
         let arc = random_arc(&mut rng);
         let lim = Limits::new(
@@ -126,6 +128,22 @@ fn no_speed_grid_beats_optimal_on_small_arcs() {
             total(Schedule::Scan),
             total(Schedule::StepAndShoot),
         );
+        let delivery = simulate_resolved(&arcs, &lim, &Options::new(Schedule::Optimal))
+            .unwrap_or_else(|e| panic!("case {case}: {e}"));
+        let cert = certify(&arcs, &lim, &delivery, CERTIFY_ROUNDS)
+            .unwrap_or_else(|e| panic!("case {case}: certify: {e}"));
+        assert!(
+            cert.gap_s >= 0.0 && cert.lower_bound_s <= opt,
+            "case {case}: bound {} above optimal {opt}",
+            cert.lower_bound_s
+        );
+        worst_gap = worst_gap.max(cert.gap_s / opt);
+        let random = random_schedule(&arcs[0], &lim, &mut rng);
+        assert!(
+            cert.lower_bound_s <= random * (1.0 + 1e-12),
+            "case {case}: bound {} above a random schedule's {random}",
+            cert.lower_bound_s
+        );
         assert!(
             opt <= scan * (1.0 + 1e-12),
             "case {case}: optimal {opt} > scan {scan}"
@@ -143,5 +161,46 @@ fn no_speed_grid_beats_optimal_on_small_arcs() {
             (opt - grid) / grid <= TOLERANCE,
             "case {case}: the {SPEEDS}-speed grid finds {grid} s, optimal {opt} s"
         );
+        assert!(
+            cert.lower_bound_s <= grid * (1.0 + 1e-12),
+            "case {case}: bound {} above the grid's best {grid}",
+            cert.lower_bound_s
+        );
+    }
+    println!(
+        "largest certified gap: {:.4} % of optimal",
+        100.0 * worst_gap
+    );
+}
+
+/// The best of 200 random feasible schedules (each layer's speed uniform below its cap,
+/// infeasible draws skipped); step-and-shoot when none is feasible.
+fn random_schedule(arc: &ResolvedArc, lim: &Limits, rng: &mut Rng) -> f64 {
+    let n = arc.layers.len();
+    let beam: f64 = arc.layers.iter().map(|l| l.irradiation_s).sum();
+    let mut best = f64::INFINITY;
+    for _ in 0..200 {
+        let v: Vec<f64> = (0..n)
+            .map(|k| {
+                let l = &arc.layers[k];
+                if k == 0 || k + 1 == n {
+                    0.0
+                } else {
+                    rng.range(0.0, lim.max_vel.min(l.window_deg / l.irradiation_s))
+                }
+            })
+            .collect();
+        let moving: Option<f64> = (0..n - 1)
+            .map(|k| transition(arc, lim, k, v[k], v[k + 1]))
+            .sum();
+        if let Some(m) = moving {
+            best = best.min(beam + m);
+        }
+    }
+    if best.is_finite() {
+        best
+    } else {
+        let rest: Option<f64> = (0..n - 1).map(|k| transition(arc, lim, k, 0.0, 0.0)).sum();
+        beam + rest.unwrap_or(f64::INFINITY)
     }
 }
