@@ -14,8 +14,10 @@
 //! `c` over `[0, V]` with these interval bounds gives a lower bound of `T_min` over the box, and
 //! with the ELST one of the transition's duration.
 //!
-//! Where no point of the box has a move that lasts the ELST (none stops, and every candidate is
-//! shorter: `G` is greatest at the bottom corner), the box has no transition at all.
+//! The box is first cut down to the speeds that can have a move at all ([`clip_to_moves`]), so
+//! its top corner is not far beyond reach. Where no point of the box has a move that lasts the
+//! ELST (none stops, and every candidate is shorter: `G` is greatest at the bottom corner), the
+//! box has no transition at all.
 //!
 //! **The arc.** Each layer's speed lies in `[0, speed_bound]`; the ranges are cut into cells,
 //! finest around a feasible schedule's speeds, and dynamic programming over cell pairs, each
@@ -33,7 +35,7 @@
 use std::collections::HashMap;
 
 use arcsim_plan::ResolvedArc;
-use arcsim_planner::Limits;
+use arcsim_planner::{Limits, LinearGap};
 use serde::{Deserialize, Serialize};
 
 use crate::build::arc_time_on_grid;
@@ -194,10 +196,59 @@ impl TransitionBox {
     }
 }
 
+/// The box cut down to the speeds that can have a move at all; `None` when none can. A forward
+/// move fits iff the gap is at least the shorter of the direct speed change and stopping and
+/// starting again (planner, `reach`). For start speeds above every end speed (braking) that
+/// needs, at the least, the gap at the lowest end speed to cover the least of those distances
+/// over the end speeds (the direct change is quasi-concave in the end speed, the stop rises with
+/// it); this condition only tightens as the start speed rises, so bisection finds the highest
+/// start speed that can pass it. Likewise for end speeds above every start speed.
+fn clip_to_moves(gap: &LinearGap, s: Span, e: Span, lim: &Limits) -> Option<(Span, Span)> {
+    let tol = 1e-9 * (1.0 + gap.distance);
+    let dist = |a: f64, b: f64| lim.speed_change_distance(a, b);
+    let stop = |a: f64, b: f64| dist(a, 0.0) + dist(0.0, b);
+    let braking = |vs: f64| {
+        let need = dist(vs, e.lo).min(dist(vs, e.hi)).min(stop(vs, e.lo));
+        gap.at(vs, e.lo) + tol >= need
+    };
+    let s = highest_passing(s, e.hi, braking)?;
+    let speeding = |ve: f64| {
+        let need = dist(s.lo, ve).min(dist(s.hi, ve)).min(stop(s.lo, ve));
+        gap.at(s.lo, ve) + tol >= need
+    };
+    let e = highest_passing(e, s.hi, speeding)?;
+    Some((s, e))
+}
+
+/// `span` without its speeds above `floor` that fail `passes` (monotone: true up to some speed,
+/// false above); `None` when none is left.
+fn highest_passing(span: Span, floor: f64, passes: impl Fn(f64) -> bool) -> Option<Span> {
+    if span.hi <= floor || passes(span.hi) {
+        return Some(span);
+    }
+    let lo = span.lo.max(floor);
+    if !passes(lo) {
+        return (span.lo < floor).then_some(Span { hi: floor, ..span });
+    }
+    let (mut ok, mut bad) = (lo, span.hi);
+    for _ in 0..40 {
+        let m = 0.5 * (ok + bad);
+        if passes(m) {
+            ok = m;
+        } else {
+            bad = m;
+        }
+    }
+    Some(Span { hi: bad, ..span })
+}
+
 /// A lower bound of transition `k`'s duration over start speeds `s` and end speeds `e`;
 /// infinite when no speeds of the box have a move.
 pub(crate) fn transition_bound(p: &ArcProblem, k: usize, s: Span, e: Span, lim: &Limits) -> f64 {
     let gap = p.gap(k);
+    let Some((s, e)) = clip_to_moves(&gap, s, e, lim) else {
+        return f64::INFINITY;
+    };
     let b = TransitionBox {
         s,
         e,
