@@ -234,7 +234,8 @@ class SweepResult:
     def rows(self) -> Dict[str, Any]:
         """The rows as columns: index, plan, schedule, status, the limits (jerk_deg_per_s3 to
         window_deg, scan_speed_mm_per_s, dose_rate_scale; NaN where the base machine's),
-        total_s, speedup, breakdown.* (beam_on_s = spot_irradiation_s + scanning_s,
+        total_s, speedup, lower_bound_s and gap_s (the certificate, with "certify": true;
+        None or NaN otherwise), breakdown.* (beam_on_s = spot_irradiation_s + scanning_s,
         energy_switching_s, lost_s), limiter_counts.*, message."""
     def to_pandas(self) -> Any: ...
     @property

@@ -130,10 +130,37 @@ pub fn run(args: Args) -> Result<(), CliError> {
         Some(s) => {
             crate::report::write(&ev, &rows, &s, args.report.as_deref(), args.plot.as_deref())?;
             crate::output::print(&s.to_table());
+            if let Some(line) = certificate_line(&rows) {
+                crate::output::print(&line);
+            }
             Ok(())
         }
         None => Err(interrupted(&args, rows.len(), indices.len())),
     }
+}
+
+/// With `"certify": true`: how many rows are certified and the largest gap (relative), named.
+fn certificate_line(rows: &[arcsim_evaluator::Row]) -> Option<String> {
+    let gaps: Vec<(f64, &arcsim_evaluator::Row)> = rows
+        .iter()
+        .filter_map(|r| {
+            let o = r.outcome?;
+            Some((o.gap_s? / o.total_s, r))
+        })
+        .collect();
+    let (worst, r) = gaps.iter().copied().max_by(|a, b| a.0.total_cmp(&b.0))?;
+    let s = &r.setting;
+    Some(format!(
+        "certificate: {} constant-speed rows bounded; largest gap {:.3} % (row {}: {}, {}, J {} A {} V {})\n",
+        gaps.len(),
+        100.0 * worst,
+        r.index,
+        r.plan,
+        r.schedule.name(),
+        s.jerk_deg_per_s3,
+        s.accel_deg_per_s2,
+        s.speed_deg_per_s
+    ))
 }
 
 /// `--shard K/N`, or every combination without it.

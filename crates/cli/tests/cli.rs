@@ -459,6 +459,49 @@ fn one_plan_sweep_banner_is_singular() {
     }
 }
 
+/// A sweep with `"certify": true` writes the certificate's columns and names its largest gap.
+#[test]
+fn certified_sweep_writes_the_columns_and_the_largest_gap() {
+    let dir = temp_dir();
+    let sweep = common::sweep_file(
+        &dir,
+        "certified",
+        "plans/lung.json",
+        serde_json::json!({ "jerk_deg_per_s3": [1] }),
+    );
+    let mut file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&sweep).expect("read")).expect("json");
+    file["certify"] = serde_json::Value::Bool(true);
+    std::fs::write(&sweep, file.to_string()).expect("write");
+    let out_csv = dir.join("certified.csv");
+    let o = arcsim(&[
+        "sweep",
+        sweep.to_str().unwrap(),
+        "--out",
+        out_csv.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("certificate: 1 constant-speed rows bounded; largest gap "),
+        "{out}"
+    );
+    let table = std::fs::read_to_string(&out_csv).expect("csv");
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let row: Vec<&str> = lines.next().expect("row").split(',').collect();
+    let col = |name: &str| -> f64 {
+        let i = header.iter().position(|h| *h == name).expect(name);
+        row[i].parse().expect(name)
+    };
+    let (total, bound, gap) = (col("total_s"), col("lower_bound_s"), col("gap_s"));
+    assert!(
+        bound > 0.0 && bound <= total && gap >= 0.0,
+        "{total} {bound} {gap}"
+    );
+    assert!((total - bound - gap).abs() <= 1e-9 * total);
+}
+
 /// `--certify` prints a lower bound of every constant-speed schedule and the gap to it, writes
 /// both with --json, holds on a servo period too, and is refused with free motion.
 #[test]

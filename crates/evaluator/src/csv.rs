@@ -12,8 +12,9 @@
 //! single value: `elst_up_s` for a polynomial ELST model, `scan_speed_mm_per_s` for a `per_mu`
 //! beam model (no scanning speed) or a `scanning` one with separate x and y speeds.
 //!
-//! Tables of an older arcsim ([`CSV_HEADER_V1`]: without the two beam axes and the split of the
-//! beam-on time) still merge (with each other) and read back.
+//! Tables of an older arcsim ([`CSV_HEADER_V2`]: without the certificate's `lower_bound_s` and
+//! `gap_s`; [`CSV_HEADER_V1`]: also without the two beam axes and the split of the beam-on time)
+//! still merge (with tables of the same header) and read back.
 //!
 //! Every column is defined once, in `COLUMNS`: its name and how a row writes it and reads back
 //! into one. The writer, the reader and the merge all go through that list and the `csv` crate,
@@ -105,6 +106,8 @@ sweep_columns! {
     "energy_switching_s" => outcome!(Number, breakdown.energy_switching_s),
     "lost_s" => outcome!(Number, breakdown.lost_s),
     "speedup" => outcome!(Optional, speedup),
+    "lower_bound_s" => outcome!(Optional, lower_bound_s),
+    "gap_s" => outcome!(Optional, gap_s),
     "limited_elst" => outcome!(Count, limiter_counts.elst),
     "limited_speed" => outcome!(Count, limiter_counts.speed),
     "limited_accel" => outcome!(Count, limiter_counts.accel),
@@ -119,6 +122,13 @@ sweep_columns! {
     "message" => Field::Message,
 }
 
+/// The header of the tables of arcsim before the certificate: [`CSV_HEADER`] without the
+/// `lower_bound_s` and `gap_s` columns. Such tables merge and read back (no certificate).
+pub const CSV_HEADER_V2: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
+scan_speed_mm_per_s,dose_rate_scale,status,total_s,beam_on_s,spot_irradiation_s,scanning_s,energy_switching_s,lost_s,speedup,\
+limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,violations,speed_use,accel_use,jerk_use,window_slack_deg,\
+elst_slack_s,message";
+
 /// The header of an older arcsim's tables: no `scan_speed_mm_per_s`, `dose_rate_scale`,
 /// `spot_irradiation_s` or `scanning_s` columns, the others in the order of [`CSV_HEADER`]. Such
 /// tables merge (with tables of the same header; the merged table keeps it) and read back
@@ -127,20 +137,29 @@ pub const CSV_HEADER_V1: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_p
 status,total_s,beam_on_s,energy_switching_s,lost_s,speedup,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,\
 violations,speed_use,accel_use,jerk_use,window_slack_deg,elst_slack_s,message";
 
+/// The certificate's columns, which [`CSV_HEADER_V2`]'s tables do not have.
+const CERTIFICATE_COLUMNS: [&str; 2] = ["lower_bound_s", "gap_s"];
+
 /// Which header a table has.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Layout {
     /// [`CSV_HEADER`]'s columns.
     Current,
+    /// [`CSV_HEADER_V2`]'s columns.
+    V2,
     /// [`CSV_HEADER_V1`]'s columns.
     V1,
 }
 
 impl Layout {
+    /// Newest first: a header is read as the first layout that has all of its columns.
+    const ALL: [Layout; 3] = [Layout::Current, Layout::V2, Layout::V1];
+
     /// Whether tables of this layout have `column`.
     fn has(self, column: &Column) -> bool {
         match self {
             Layout::Current => true,
+            Layout::V2 => !CERTIFICATE_COLUMNS.contains(&column.name),
             Layout::V1 => CSV_HEADER_V1.split(',').any(|n| n == column.name),
         }
     }
@@ -153,6 +172,7 @@ impl Layout {
     fn describe(self) -> &'static str {
         match self {
             Layout::Current => "the current arcsim sweep CSV header",
+            Layout::V2 => "an older arcsim's header (without the lower_bound_s and gap_s columns)",
             Layout::V1 => "an older arcsim's header (without the scan_speed_mm_per_s, dose_rate_scale, spot_irradiation_s and scanning_s columns)",
         }
     }
@@ -169,7 +189,7 @@ struct Header {
 
 impl Header {
     /// Finds the columns by name; every name must be a column of the table, once, and the names
-    /// must be those of [`CSV_HEADER`] or [`CSV_HEADER_V1`] (in any order).
+    /// must be those of [`CSV_HEADER`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`] (in any order).
     fn parse(names: &StringRecord) -> Result<Header, String> {
         const EXPECTED: &str = "expected the arcsim sweep CSV header";
         if names.iter().all(str::is_empty) {
@@ -186,20 +206,15 @@ impl Header {
             }
         }
         let present = |c: &Column| at[column_index(c.name)].is_some();
-        let layout = if COLUMNS.iter().all(present) {
-            Layout::Current
-        } else if COLUMNS.iter().all(|c| present(c) == Layout::V1.has(c)) {
-            Layout::V1
-        } else {
-            // Name the first missing column of the layout the table is closer to.
-            let newer = COLUMNS.iter().any(|c| present(c) && !Layout::V1.has(c));
-            let layout = if newer { Layout::Current } else { Layout::V1 };
-            let missing = layout
-                .columns()
-                .find(|c| !present(c))
-                .map_or("?", |c| c.name);
-            return Err(format!("line 1: no column {missing}; {EXPECTED}"));
-        };
+        // The oldest layout with every column the table has: the table must have all of its.
+        let layout = Layout::ALL
+            .into_iter()
+            .rev()
+            .find(|l| COLUMNS.iter().all(|c| !present(c) || l.has(c)))
+            .unwrap_or(Layout::Current);
+        if let Some(missing) = layout.columns().find(|c| !present(c)) {
+            return Err(format!("line 1: no column {}; {EXPECTED}", missing.name));
+        }
         let order = COLUMNS
             .iter()
             .zip(&at)
@@ -361,7 +376,7 @@ fn field_text(field: Field, r: &Row) -> String {
 
 /// Joins shard outputs (`(name, text)` pairs, in any order) into the table a single run writes.
 /// Every input must have the sweep header, all the same one ([`CSV_HEADER`], or all an older
-/// arcsim's [`CSV_HEADER_V1`], which the merged table then keeps; the columns of an input may be
+/// arcsim's [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`], which the merged table then keeps; the columns of an input may be
 /// in any order, the merged table has them in the header's); indices must not repeat and must
 /// cover `0..n` without gaps, and be exactly `0..expected` when `expected` is given (the sweep's
 /// combination count).
@@ -464,6 +479,8 @@ fn unknown_outcome() -> Outcome {
             lost_s: f64::NAN,
         },
         speedup: None,
+        lower_bound_s: None,
+        gap_s: None,
         limiter_counts: LimiterCounts::default(),
         violations: 0,
         margins: None,
@@ -520,7 +537,8 @@ impl Evaluator {
     /// them).
     ///
     /// Columns are found by their name in the header, which must have the columns of
-    /// [`CSV_HEADER`] or an older arcsim's [`CSV_HEADER_V1`], in any order. Such an older table
+    /// [`CSV_HEADER`] or an older arcsim's [`CSV_HEADER_V2`] (its rows read back without a
+    /// certificate) or [`CSV_HEADER_V1`], in any order. A V1 table
     /// has no beam axes (its rows must be combinations that do not sweep them) and no split of
     /// the beam-on time: its rows read back with `spot_irradiation_s` and `scanning_s` NaN
     /// (unknown). Quoted fields, a UTF-8 byte-order mark and CRLF line ends read as well.
@@ -659,7 +677,10 @@ mod tests {
         assert_eq!(CSV_HEADER, names.join(","));
         let old: Vec<&str> = Layout::V1.columns().map(|c| c.name).collect();
         assert_eq!(CSV_HEADER_V1, old.join(","));
-        assert_eq!(old.len(), COLUMNS.len() - 4);
+        let v2: Vec<&str> = Layout::V2.columns().map(|c| c.name).collect();
+        assert_eq!(CSV_HEADER_V2, v2.join(","));
+        assert_eq!(v2.len(), COLUMNS.len() - 2);
+        assert_eq!(old.len(), COLUMNS.len() - 6);
         // One limit column per axis, named as the axis.
         let limits: Vec<Axis> = COLUMNS
             .iter()
@@ -730,6 +751,11 @@ mod tests {
         };
         assert_eq!(parse(CSV_HEADER), Ok(Layout::Current));
         assert_eq!(parse(CSV_HEADER_V1), Ok(Layout::V1));
+        assert_eq!(parse(CSV_HEADER_V2), Ok(Layout::V2));
+        assert_eq!(
+            parse(&CSV_HEADER_V2.replacen("speedup,", "speedup,gap_s,", 1)),
+            Err("line 1: no column lower_bound_s; expected the arcsim sweep CSV header".into())
+        );
         let twice = CSV_HEADER.replacen("plan,", "plan,plan,", 1);
         assert_eq!(
             parse(&twice),

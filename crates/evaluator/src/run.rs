@@ -13,7 +13,8 @@ use std::time::{Duration, Instant};
 use arcsim_plan::{ArcPlan, ElstModel, Machine, ResolvedArc};
 use arcsim_planner::Limits;
 use arcsim_sequencer::{
-    machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options, SequenceError,
+    certify, machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Motion, Options,
+    SequenceError, CERTIFY_ROUNDS,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -55,6 +56,11 @@ pub struct Outcome {
     pub breakdown: Breakdown,
     /// Base machine's total / this total (same plan and schedule); `None` when the base is infeasible.
     pub speedup: Option<f64>,
+    /// The certificate's lower bound of every constant-speed schedule (s), when the sweep asks
+    /// for it (`"certify": true`) and the row has constant motion.
+    pub lower_bound_s: Option<f64>,
+    /// `total_s` minus `lower_bound_s`: at most this much is left to gain (s).
+    pub gap_s: Option<f64>,
     pub limiter_counts: LimiterCounts,
     /// Prescribed schedule: number of prescribed speeds that could not be delivered.
     pub violations: usize,
@@ -337,8 +343,13 @@ impl Evaluator {
         let run = &self.sweep.schedule_grids[b.run];
         let setting = run.grid.setting(index - b.offset);
         let arcs = &variants[&key(b.plan, &setting)];
-        let (status, outcome, message) =
-            self.simulate_variant(arcs, run.schedule, &setting, b.base_total_s);
+        let (status, outcome, message) = self.simulate_variant(
+            arcs,
+            run.schedule,
+            &setting,
+            b.base_total_s,
+            self.sweep.certify,
+        );
         Row {
             index,
             plan: self.sweep.plans[b.plan].label.clone(),
@@ -351,7 +362,8 @@ impl Evaluator {
         }
     }
 
-    /// Simulates any setting of a plan (resolving its variant if it is not cached).
+    /// Simulates any setting of a plan (resolving its variant if it is not cached); totals only,
+    /// never the certificate.
     pub fn simulate(
         &self,
         plan: usize,
@@ -360,15 +372,18 @@ impl Evaluator {
         base_total_s: Option<f64>,
     ) -> (Status, Option<Outcome>, String) {
         let variants = self.resolve(&[(plan, *s)]);
-        self.simulate_variant(&variants[&key(plan, s)], schedule, s, base_total_s)
+        self.simulate_variant(&variants[&key(plan, s)], schedule, s, base_total_s, false)
     }
 
+    /// `certify`: also the certificate of a constant-speed row (the sweep's rows; not the base
+    /// totals and the summary's extra settings, which need only totals).
     fn simulate_variant(
         &self,
         arcs: &Resolved,
         schedule: RunMode,
         s: &Setting,
         base_total_s: Option<f64>,
+        certify_row: bool,
     ) -> (Status, Option<Outcome>, String) {
         let arcs = match arcs {
             Ok(a) => a,
@@ -382,13 +397,24 @@ impl Evaluator {
             arc_ends: schedule.arc_ends,
         };
         let limits = self.limits(s);
-        let result = catch_unwind(AssertUnwindSafe(|| simulate_resolved(arcs, &limits, &opts)));
+        let certifies = certify_row && opts.motion == Motion::Constant;
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            let d = simulate_resolved(arcs, &limits, &opts)?;
+            let certificate = if certifies {
+                Some(certify(arcs, &limits, &d, CERTIFY_ROUNDS)?)
+            } else {
+                None
+            };
+            Ok((d, certificate))
+        }));
         match result {
-            Ok(Ok(d)) => {
+            Ok(Ok((d, certificate))) => {
                 let outcome = Outcome {
                     total_s: d.total_s,
                     breakdown: d.breakdown,
                     speedup: base_total_s.map(|b| b / d.total_s),
+                    lower_bound_s: certificate.map(|c| c.lower_bound_s),
+                    gap_s: certificate.map(|c| c.gap_s),
                     limiter_counts: d.limiter_counts,
                     violations: d.violations.len(),
                     margins: d.margins,

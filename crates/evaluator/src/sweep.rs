@@ -110,6 +110,8 @@ pub struct Sweep {
     pub schedule_grids: Vec<ScheduleGrid>,
     /// Build timelines so rows carry kinematic margins.
     pub margins: bool,
+    /// Certify every constant-speed row (lower bound and gap).
+    pub certify: bool,
     pub target: Target,
 }
 
@@ -363,6 +365,7 @@ impl Sweep {
             machine,
             schedule_grids: runs,
             margins: spec.margins,
+            certify: spec.certify,
             target: spec.target.unwrap_or_default(),
         })
     }

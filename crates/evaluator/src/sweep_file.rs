@@ -35,6 +35,10 @@ pub struct SweepFile {
     /// Build each timeline to report kinematic margins (slower); default false.
     #[serde(default)]
     pub margins: bool,
+    /// Give every constant-speed row the certificate: a proven lower bound of every
+    /// constant-speed schedule and the gap to it (seconds per row); default false.
+    #[serde(default)]
+    pub certify: bool,
     /// The time the summary's "cheapest change" must reach; default `{"saving_percent": 10}`.
     #[serde(default)]
     pub target: Option<Target>,

@@ -75,11 +75,15 @@ fn drop_columns(table: &str, names: &[&str]) -> String {
     out
 }
 
-const NEW_COLUMNS: [&str; 4] = [
+/// The columns a V1 table does not have: the beam axes, the split of the beam-on time and
+/// (newer still) the certificate.
+const NEW_COLUMNS: [&str; 6] = [
     "scan_speed_mm_per_s",
     "dose_rate_scale",
     "spot_irradiation_s",
     "scanning_s",
+    "lower_bound_s",
+    "gap_s",
 ];
 
 /// Twice the dose rate halves the spots' irradiation and leaves the spot switching (and the

@@ -5,7 +5,9 @@
 
 mod common;
 
-use arcsim_evaluator::{merge_csv, Evaluator, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1};
+use arcsim_evaluator::{
+    merge_csv, Evaluator, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2,
+};
 use common::{csv, from_text};
 
 /// Prostate on the ATOM machine, two jerks, two schedules: four rows.
@@ -225,7 +227,7 @@ fn a_bad_number_names_line_and_column() {
     // A line with a field too many.
     let e = error(&ev, &table.replacen(",ok,", ",ok,,", 1));
     assert!(
-        e.starts_with("t.csv: line 2: 32 fields; expected 31"),
+        e.starts_with("t.csv: line 2: 34 fields; expected 33"),
         "{e}"
     );
     // An unknown status.
@@ -234,6 +236,26 @@ fn a_bad_number_names_line_and_column() {
         e.starts_with("t.csv: line 2: column status: expected ok, infeasible, invalid or error"),
         "{e}"
     );
+}
+
+/// A table of arcsim before the certificate (no lower_bound_s, gap_s) reads back, uncertified.
+#[test]
+fn a_table_without_the_certificate_reads_back() {
+    let ev = evaluator();
+    let rows = rows(&ev);
+    let old = without(&csv(&rows), &["lower_bound_s", "gap_s"]);
+    assert!(old.starts_with(&format!("{CSV_HEADER_V2}\n")), "{old}");
+    let back = ev
+        .rows_from_csv("v2.csv", &old)
+        .expect("a table without the certificate");
+    assert_same_rows(&back, &rows);
+    // Half a certificate is an error that names the missing column.
+    let half = without(&csv(&rows), &["gap_s"]);
+    let e = ev
+        .rows_from_csv("half.csv", &half)
+        .expect_err("half")
+        .to_string();
+    assert!(e.contains("no column gap_s"), "{e}");
 }
 
 #[test]
@@ -245,6 +267,8 @@ fn an_older_table_reads_back() {
         "dose_rate_scale",
         "spot_irradiation_s",
         "scanning_s",
+        "lower_bound_s",
+        "gap_s",
     ];
     let old = without(&csv(&rows), &new);
     assert!(old.starts_with(&format!("{CSV_HEADER_V1}\n")), "{old}");

@@ -413,6 +413,63 @@ fn free_motion_entries_run_and_merge() {
     assert!(e.contains("schedules[0]") && e.contains("motion"), "{e}");
 }
 
+/// `"certify": true` gives every constant-speed row its certificate: a bound at most every
+/// constant-speed total of the same setting (scan's and optimal's), the gap the row's total
+/// minus it; free-motion rows have none; the columns read back from the CSV.
+#[test]
+fn certified_sweeps_bound_every_constant_speed_row() {
+    let text = r#"{
+      "format": "arcsim-sweep/1", "name": "t",
+      "plans": ["../plans/lung.json"],
+      "machine": "machine-atom.json",
+      "axes": {"jerk_deg_per_s3": [0.5, 2]},
+      "schedules": ["scan", "optimal", {"schedule": "optimal", "motion": "free"}],
+      "certify": true
+    }"#;
+    let ev = Evaluator::new(from_text(text).expect("sweep")).expect("prepare");
+    let rows = ev.run_collect(&(0..ev.len()).collect::<Vec<_>>());
+    assert_eq!(rows.len(), 6);
+    for j in 0..2 {
+        let (scan, optimal, free) = (&rows[j], &rows[2 + j], &rows[4 + j]);
+        let o = |r: &Row| {
+            r.outcome
+                .unwrap_or_else(|| panic!("{}: {}", r.index, r.message))
+        };
+        let fastest_constant = o(scan).total_s.min(o(optimal).total_s);
+        for r in [scan, optimal] {
+            let (lb, gap) = (o(r).lower_bound_s.expect("bound"), o(r).gap_s.expect("gap"));
+            assert!(
+                lb > 0.0 && lb <= fastest_constant,
+                "{lb} > {fastest_constant}"
+            );
+            assert!((o(r).total_s - lb - gap).abs() <= 1e-9 * o(r).total_s);
+            // Far from zero: the bound is a useful one (within 2 % on lung).
+            assert!(gap <= 0.02 * o(r).total_s, "gap {gap}");
+        }
+        assert_eq!((o(free).lower_bound_s, o(free).gap_s), (None, None));
+    }
+    let table = csv(&rows);
+    assert!(table
+        .lines()
+        .next()
+        .expect("header")
+        .contains(",lower_bound_s,gap_s,"));
+    let back = ev
+        .rows_from_csv("certified.csv", &table)
+        .expect("read back");
+    for (a, r) in back.iter().zip(&rows) {
+        let pair = |r: &Row| r.outcome.map(|o| (o.lower_bound_s, o.gap_s));
+        assert_eq!(pair(a), pair(r));
+    }
+    // Without the flag, no row is certified.
+    let plain = Evaluator::new(
+        from_text(&text.replace("\"certify\": true", "\"certify\": false")).expect("sweep"),
+    )
+    .expect("prepare");
+    let row = plain.evaluate(2);
+    assert_eq!(row.outcome.expect("ok").lower_bound_s, None);
+}
+
 /// GOOD with its top-level axes replaced.
 fn with_axes(axes: &str) -> String {
     let text = GOOD.replacen("{\"jerk_deg_per_s3\": [0.5, 1]}", axes, 1);

@@ -66,7 +66,8 @@ impl SweepResult {
     }
 
     /// The rows as columns (dict of numpy arrays / lists): `index`, `plan`, `schedule`, `status`,
-    /// `message`, the setting's limits, `total_s`, `speedup`, `breakdown.*`, `limiter_counts.*`
+    /// `message`, the setting's limits, `total_s`, `speedup`, `lower_bound_s` and `gap_s` (with
+    /// `"certify": true`), `breakdown.*`, `limiter_counts.*`
     /// (margins as `margins.*` when the sweep asks for them). Limits the setting keeps from the
     /// base machine are NaN.
     #[getter]

@@ -364,6 +364,8 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
             lost_s: total_s - 160.0,
         },
         speedup: None,
+        lower_bound_s: None,
+        gap_s: None,
         limiter_counts: LimiterCounts::default(),
         violations: 0,
         margins: None,
