@@ -356,10 +356,30 @@ fn avoid_stops(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, us
             }
             (a > 0.0).then(|| pair(a))
         };
+        // Or lower them only as far as the stop-and-go fits in the ELST (a dwell then makes
+        // it last exactly the ELST): at low jerk that costs the neighbours much less.
+        let fits_with_stop =
+            |x: f64, y: f64| p.cost(k, x, y, lim).is_some_and(|c| c <= e * (1.0 + 1e-12));
+        let highest_stop = |pair: &dyn Fn(f64) -> (f64, f64)| {
+            let (mut a, mut b) = (0.0f64, 1.0f64);
+            while b - a > 1.0 / 4096.0 {
+                let mid = 0.5 * (a + b);
+                let (x, y) = pair(mid);
+                if fits_with_stop(x, y) {
+                    a = mid;
+                } else {
+                    b = mid;
+                }
+            }
+            (a > 0.0).then(|| pair(a))
+        };
         let candidates = [
             highest(&|s| (s * vs, ve)),
             highest(&|s| (vs, s * ve)),
             highest(&|s| (s * vs, s * ve)),
+            highest_stop(&|s| (s * vs, ve)),
+            highest_stop(&|s| (vs, s * ve)),
+            highest_stop(&|s| (s * vs, s * ve)),
         ];
         let mut best: Option<(f64, Vec<f64>, (usize, usize))> = None;
         // The current durations, each computed once for the three candidates.
