@@ -101,13 +101,21 @@ struct TransitionBox {
 }
 
 impl TransitionBox {
+    /// Whether some point of the box may have a candidate profile with cruise speed in
+    /// `[c0, c1]`: its cruise cannot be negative everywhere (least change distances against the
+    /// most gap).
+    fn may_cruise(&self, c0: f64, c1: f64, lim: &Limits) -> bool {
+        let room = self.d_max
+            - least_change_in(self.s, c0, c1, lim)
+            - least_change_out(self.e, c0, c1, lim);
+        room >= -1e-9 * (1.0 + self.d_max.abs())
+    }
+
     /// A lower bound of every candidate profile's duration with cruise speed in `[c0, c1]`
     /// over the box; infinite when no point of the box has such a candidate.
     fn over(&self, c0: f64, c1: f64, lim: &Limits) -> f64 {
         let (s, e) = (self.s, self.e);
-        let cruise_room =
-            self.d_max - least_change_in(s, c0, c1, lim) - least_change_out(e, c0, c1, lim);
-        if cruise_room < -1e-9 * (1.0 + self.d_max.abs()) {
+        if !self.may_cruise(c0, c1, lim) {
             return f64::INFINITY;
         }
         let t_in = if c0 > s.hi {
@@ -144,17 +152,13 @@ impl TransitionBox {
         };
         g.max(t_in + t_out)
     }
-}
 
-impl TransitionBox {
     /// An upper bound of every candidate profile's duration with cruise speed in `[c0, c1]` over
     /// the box (`G` is greatest at the bottom corner and its numerator rises with `c`);
     /// -inf when no point of the box has such a candidate, +inf when `c0` is rest.
     fn longest_over(&self, c0: f64, c1: f64, lim: &Limits) -> f64 {
         let (s, e) = (self.s, self.e);
-        let cruise_room =
-            self.d_max - least_change_in(s, c0, c1, lim) - least_change_out(e, c0, c1, lim);
-        if cruise_room < -1e-9 * (1.0 + self.d_max.abs()) {
+        if !self.may_cruise(c0, c1, lim) {
             return f64::NEG_INFINITY;
         }
         if c0 <= 0.0 {
@@ -306,7 +310,8 @@ pub(crate) fn transition_bound(p: &ArcProblem, k: usize, s: Span, e: Span, lim: 
     }
 }
 
-/// Cuts of the first cells around a feasible schedule's speed: at `v ± span·2^-i`, i = 1..FINEST.
+/// The finest first cells, around a feasible schedule's speed, are the layer's speed range
+/// times 2^-FINEST wide.
 const FINEST: i32 = 12;
 /// Cells with the best paths through them halved per layer and round.
 const SPLITS_PER_LAYER: usize = 4;

@@ -332,8 +332,10 @@ fn lasts_elst_without_stop(p: &ArcProblem, k: usize, vs: f64, ve: f64, lim: &Lim
 /// where its speeds lose most at low jerk: slower speeds that last the ELST without a stop cost
 /// the neighbours less than the stop costs. For each such transition, three lowerings are tried
 /// (the start speed, the end speed, both by one factor, each to where the ELST fits without a
-/// stop, neighbours lowered as the passes would) and the one that shortens the transitions it
-/// changes most is kept; the scan then settles the result again.
+/// stop, neighbours lowered as the passes would); where the stop-and-go itself is longer than the
+/// ELST, three more, each only to where it fits within the ELST (a dwell then makes the
+/// transition last exactly the ELST, for a much smaller lowering). The one that shortens the
+/// transitions it changes most is kept; the scan then settles the result again.
 /// Returns the ranges of transitions changed.
 fn avoid_stops(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, usize)> {
     let mut changed = Vec::new();
@@ -373,14 +375,19 @@ fn avoid_stops(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, us
             }
             (a > 0.0).then(|| pair(a))
         };
-        let candidates = [
+        let mut candidates = vec![
             highest(&|s| (s * vs, ve)),
             highest(&|s| (vs, s * ve)),
             highest(&|s| (s * vs, s * ve)),
-            highest_stop(&|s| (s * vs, ve)),
-            highest_stop(&|s| (vs, s * ve)),
-            highest_stop(&|s| (s * vs, s * ve)),
         ];
+        // Only where the stop-and-go does not fit the ELST already.
+        if !fits_with_stop(vs, ve) {
+            candidates.extend([
+                highest_stop(&|s| (s * vs, ve)),
+                highest_stop(&|s| (vs, s * ve)),
+                highest_stop(&|s| (s * vs, s * ve)),
+            ]);
+        }
         let mut best: Option<(f64, Vec<f64>, (usize, usize))> = None;
         // The current durations, each computed once for the three candidates.
         let mut now: Vec<Option<f64>> = vec![None; p.len() - 1];
