@@ -63,6 +63,17 @@ def test_simulate_equals_the_cli(tmp_path, plan, schedule, motion):
     assert d.options == (schedule, expected["options"]["motion"], "rest")
 
 
+def test_certify_equals_the_cli(tmp_path):
+    expected = cli_json(tmp_path, "simulate", "plans/lung.json", "--motion", "constant", "--certify")
+    d = arcsim.simulate(arcsim.load_plan("plans/lung.json"), motion="constant")
+    c = d.certify()
+    assert c == expected["certificate"]
+    assert 0 < c["lower_bound_s"] <= d.total_s
+    assert c["gap_s"] == pytest.approx(d.total_s - c["lower_bound_s"], rel=1e-12)
+    with pytest.raises(ValueError, match="constant"):
+        arcsim.simulate(arcsim.load_plan("plans/lung.json"), motion="free").certify()
+
+
 def test_spots_equal_the_cli_on_a_scanning_machine(tmp_path):
     machine = "scenarios/machine-opentps-pbs.json"
     spots_csv = tmp_path / "spots.csv"
