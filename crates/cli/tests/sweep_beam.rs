@@ -124,11 +124,14 @@ fn older_shard_tables_still_merge() {
         "plans/prostate.json",
         serde_json::json!({"jerk_deg_per_s3": [0.5, 1]}),
     );
+    // What a V1 table lacks: the beam axes, the beam-on split and (newer still) the certificate.
     let new_columns = [
         "scan_speed_mm_per_s",
         "dose_rate_scale",
         "spot_irradiation_s",
         "scanning_s",
+        "lower_bound_s",
+        "gap_s",
     ];
     let mut shards = Vec::new();
     for k in 1..=2 {
