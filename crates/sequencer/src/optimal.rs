@@ -10,6 +10,10 @@
 //! (not a bound: a slower neighbour widens a gap, so a layer can be faster). First grids contain
 //! the scan's speeds and rest, so the result is never worse than the seed scan or step-and-shoot;
 //! each refinement shrinks the spacing six-fold around the best path.
+//!
+//! Most speed pairs of a grid cannot improve their target: the closed-form test
+//! [`may_last_within`] (eq. 3–4, no root solve) skips every pair whose minimum time already
+//! exceeds what would improve it, so only a few pairs per target get the exact planner solve.
 
 use arcsim_planner::{Limits, LinearGap};
 
@@ -34,25 +38,6 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
     for k in 0..n - 1 {
         let (from, to) = (&grids[k], &grids[k + 1]);
         let gap = p.gap(k);
-        // Monotone-branch bounds (exact): a pair fits iff it is within them.
-        let max_end: Vec<f64> = from
-            .iter()
-            .map(|&vs| {
-                gap.max_end_speed(vs, lim)
-                    .ok()
-                    .flatten()
-                    .unwrap_or(f64::NEG_INFINITY)
-            })
-            .collect();
-        let max_start: Vec<f64> = to
-            .iter()
-            .map(|&ve| {
-                gap.max_start_speed(ve, lim)
-                    .ok()
-                    .flatten()
-                    .unwrap_or(f64::NEG_INFINITY)
-            })
-            .collect();
         let mut next = vec![f64::INFINITY; to.len()];
         let mut arg = vec![usize::MAX; to.len()];
         let elst = p.elst[k + 1];
@@ -66,20 +51,8 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
                 if best[j] + elst >= next[i] {
                     break;
                 }
-                // Every transition also lasts at least its speed change (eq. 3) and its gap at
-                // top speed: skip pairs that cannot improve.
-                let quick = lim
-                    .speed_change_duration(vs, ve)
-                    .max(gap.at(vs, ve) / lim.max_vel);
-                if best[j] + quick >= next[i] {
-                    continue;
-                }
-                let fits = if ve >= vs {
-                    ve <= max_end[j]
-                } else {
-                    vs <= max_start[i]
-                };
-                if !fits {
+                // Skip pairs with no forward move or none short enough to improve the target.
+                if !may_last_within(gap.at(vs, ve), vs, ve, next[i] - best[j], lim) {
                     continue;
                 }
                 if let Some(c) = p.cost(k, vs, ve, lim) {
@@ -106,6 +79,90 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
         }
     }
     Some((total, path))
+}
+
+/// Whether a forward move over `d` from `vs` to `ve` exists and may last at most `budget`
+/// seconds; false only when there is none or its minimum time exceeds the budget. Closed forms
+/// of eq. 3–4, no root solve:
+/// - a forward move exists iff `d` holds the direct change `vs → ve` or stopping and starting
+///   again (as [`LinearGap::fits`]);
+/// - every forward move lasts at least the direct change and `d / V`;
+/// - when the direct change fits in `d` (`d >= D(m)`, `m = max(vs, ve)`), the minimum-time move
+///   rises to the highest top speed `c` the distance allows and comes back (step 1): with
+///   `S(c)`, `D(c)` the duration and distance of `vs → c → ve`, both rising in `c`, it lasts
+///   `S(c_d)` where `D(c_d) = d`, or cruises at V (`S(V) + (d - D(V)) / V`). Bisecting `c_d`
+///   stops as soon as the bracket decides the comparison with the budget.
+fn may_last_within(d: f64, vs: f64, ve: f64, budget: f64, lim: &Limits) -> bool {
+    let budget = budget * (1.0 + 1e-9);
+    let d = d.max(0.0);
+    let sd = |c: f64| {
+        let (t1, t2) = (
+            lim.speed_change_duration(vs, c),
+            lim.speed_change_duration(c, ve),
+        );
+        (t1 + t2, 0.5 * (vs + c) * t1 + 0.5 * (c + ve) * t2)
+    };
+    let v = lim.max_vel;
+    let m = vs.max(ve);
+    let (s_m, d_m) = sd(m);
+    if s_m > budget || d > v * budget {
+        return false;
+    }
+    if d < d_m {
+        // Only a valley move can fit: it must hold the stop-and-go distance at least.
+        let stop = lim.speed_change_distance(vs, 0.0) + lim.speed_change_distance(0.0, ve);
+        return d >= stop;
+    }
+    if m >= v {
+        // A cruise at V: no cheap bound beyond the above.
+        return true;
+    }
+    let (s_v, d_v) = sd(v);
+    if d_v <= d {
+        return s_v + (d - d_v) / v <= budget;
+    }
+    // D(c_d) = d with c_d in (lo, hi); T_min = S(c_d) is in [S(lo), S(hi)]. Regula falsi
+    // (Illinois) on D keeps the bracket and decides most pairs in a few steps; undecided after
+    // the steps (T_min within rounding of the budget), the pair is kept.
+    if s_v <= budget {
+        return true;
+    }
+    let (mut lo, mut hi) = (m, v);
+    let (mut f_lo, mut f_hi) = (d_m - d, d_v - d);
+    let mut side = 0i8;
+    for step in 0..60 {
+        // Every third step bisects, so the bracket shrinks even when one end stalls.
+        let falsi = lo - f_lo * (hi - lo) / (f_hi - f_lo);
+        let mid = if step % 3 != 2 && falsi > lo && falsi < hi {
+            falsi
+        } else {
+            0.5 * (lo + hi)
+        };
+        if !(mid > lo && mid < hi) {
+            break;
+        }
+        let (s, dd) = sd(mid);
+        if dd <= d {
+            if s > budget {
+                return false;
+            }
+            (lo, f_lo) = (mid, dd - d);
+            if side == -1 {
+                f_hi *= 0.5;
+            }
+            side = -1;
+        } else {
+            if s <= budget {
+                return true;
+            }
+            (hi, f_hi) = (mid, dd - d);
+            if side == 1 {
+                f_lo *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    true
 }
 
 fn grid_around(centre: f64, half_width: f64, upper: f64, extra: &[f64], points: usize) -> Vec<f64> {
@@ -213,4 +270,73 @@ fn search(
         }
     }
     Some((total, path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use arcsim_planner::{Move, MoveAnalysis, Reversal};
+    use arcsim_test_support::Rng;
+
+    /// The closed-form test against the planner's exact minimum time on random moves: it never
+    /// rejects a move that fits the budget, and it decides every move whose direct speed change
+    /// fits the gap (the peak family) to within rounding.
+    #[test]
+    fn may_last_within_agrees_with_the_planner() {
+        let mut rng = Rng::new(0x5eed_0f_0b7);
+        let (mut decided, mut rejected) = (0, 0);
+        for _ in 0..20_000 {
+            let lim = Limits::with_decel(
+                rng.range(0.05, 5.0),
+                rng.range(0.05, 3.0),
+                rng.range(0.05, 3.0),
+                rng.range(0.5, 8.0),
+            )
+            .expect("limits");
+            let vs = if rng.below(8) == 0 {
+                0.0
+            } else {
+                rng.range(0.0, lim.max_vel)
+            };
+            let ve = if rng.below(8) == 0 {
+                vs
+            } else {
+                rng.range(0.0, lim.max_vel)
+            };
+            let d = rng.range(0.0, 1.0) * rng.range(0.0, 20.0);
+            let mv = Move {
+                distance: d,
+                v_start: vs,
+                v_end: ve,
+            };
+            let direct = lim.speed_change_distance(vs, ve);
+            match MoveAnalysis::new(&mv, &lim, Reversal::Forbid) {
+                Err(_) => {
+                    assert!(
+                        !may_last_within(d, vs, ve, f64::INFINITY, &lim),
+                        "no forward move, yet accepted: {mv:?} {lim:?}"
+                    );
+                    rejected += 1;
+                }
+                Ok(a) => {
+                    let t = a.min_time();
+                    assert!(
+                        may_last_within(d, vs, ve, t * (1.0 + 1e-12), &lim),
+                        "rejected at its own minimum time {t}: {mv:?} {lim:?}"
+                    );
+                    if d >= direct {
+                        assert!(
+                            !may_last_within(d, vs, ve, t * (1.0 - 1e-6), &lim),
+                            "peak-family move accepted below its minimum time {t}: {mv:?} {lim:?}"
+                        );
+                        decided += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            decided > 5_000 && rejected > 500,
+            "{decided} decided, {rejected} rejected"
+        );
+    }
 }
