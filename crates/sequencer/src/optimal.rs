@@ -14,10 +14,15 @@
 //! Most speed pairs of a grid cannot improve their target: the closed-form test
 //! [`may_last_within`] (eq. 3–4, no root solve) skips every pair whose minimum time already
 //! exceeds what would improve it, so only a few pairs per target get the exact planner solve.
+//!
+//! On a servo period the same search runs on the grid-timed problem: each pair costs the whole
+//! number of periods its move can last ([`ArcProblem::cost_on`]); the test above still applies,
+//! as a period only lengthens a transition.
 
 use arcsim_planner::{Limits, LinearGap};
 
-use crate::scan::{moving_time, ArcProblem};
+use crate::scan::ArcProblem;
+use crate::servo::ticks;
 
 /// Points per layer in each refinement's grid.
 const GRID: usize = 13;
@@ -30,7 +35,12 @@ const MAX_FIRST_GRID: usize = 257;
 const REFINEMENTS: usize = 3;
 
 /// Best path through per-layer speed grids; `None` if no path is feasible.
-fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, Vec<f64>)> {
+fn best_path(
+    p: &ArcProblem,
+    lim: &Limits,
+    grids: &[Vec<f64>],
+    period: Option<f64>,
+) -> Option<(f64, Vec<f64>)> {
     let n = grids.len();
     let mut best: Vec<f64> = vec![0.0; grids[0].len()];
     let mut back: Vec<Vec<usize>> = Vec::with_capacity(n);
@@ -40,7 +50,10 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
         let gap = p.gap(k);
         let mut next = vec![f64::INFINITY; to.len()];
         let mut arg = vec![usize::MAX; to.len()];
-        let elst = p.elst[k + 1];
+        let elst = match period {
+            Some(ts) => ticks(p.elst[k + 1], ts),
+            None => p.elst[k + 1],
+        };
         // Predecessors in order of their best time: once one plus the ELST cannot improve a
         // target, none after it can.
         let mut order: Vec<usize> = (0..from.len()).filter(|&j| best[j].is_finite()).collect();
@@ -55,7 +68,7 @@ fn best_path(p: &ArcProblem, lim: &Limits, grids: &[Vec<f64>]) -> Option<(f64, V
                 if !may_last_within(gap.at(vs, ve), vs, ve, next[i] - best[j], lim) {
                     continue;
                 }
-                if let Some(c) = p.cost(k, vs, ve, lim) {
+                if let Some(c) = p.cost_on(k, vs, ve, lim, period) {
                     let total = best[j] + c;
                     if total < next[i] {
                         next[i] = total;
@@ -166,6 +179,16 @@ fn may_last_within(d: f64, vs: f64, ve: f64, budget: f64, lim: &Limits) -> bool 
     true
 }
 
+/// Σ transition durations of speeds `v`, on `period` when given; infinite if one is infeasible.
+pub(crate) fn moving_time_on(p: &ArcProblem, lim: &Limits, v: &[f64], period: Option<f64>) -> f64 {
+    (0..p.len().saturating_sub(1))
+        .map(|k| {
+            p.cost_on(k, v[k], v[k + 1], lim, period)
+                .unwrap_or(f64::INFINITY)
+        })
+        .sum()
+}
+
 fn grid_around(centre: f64, half_width: f64, upper: f64, extra: &[f64], points: usize) -> Vec<f64> {
     let mut g: Vec<f64> = (0..points)
         .map(|i| centre - half_width + 2.0 * half_width * i as f64 / (points - 1) as f64)
@@ -202,8 +225,9 @@ pub(crate) fn speed_bound(p: &ArcProblem, lim: &Limits, k: usize) -> f64 {
 }
 
 /// Minimum-time speeds of an arc. `upper`: the scan without ELST (where the optimum most often
-/// sits); `seed`: a feasible schedule (the scan) that the result never does worse than. Returns
-/// the speeds and their moving time (Σ transition durations, s).
+/// sits); `seed`: a feasible schedule (the scan) that the result never does worse than;
+/// `period`: time every transition in whole servo periods. Returns the speeds and their moving
+/// time (Σ transition durations, s).
 ///
 /// Two searches, the shorter kept: grids spanning each layer's provable speed bound, and finer
 /// grids spanning [0, upper] (the scan's ELST-free speeds are not a bound: a slower neighbour
@@ -213,22 +237,31 @@ pub(crate) fn optimal(
     lim: &Limits,
     upper: &[f64],
     seed: &[f64],
+    period: Option<f64>,
 ) -> (Vec<f64>, f64) {
     let n = p.len();
     if n <= 2 {
-        return (seed.to_vec(), moving_time(p, lim, seed));
+        return (seed.to_vec(), moving_time_on(p, lim, seed, period));
     }
     let hi: Vec<f64> = (0..n).map(|k| speed_bound(p, lim, k)).collect();
     let narrow: Vec<f64> = upper.iter().zip(&hi).map(|(u, h)| u.min(*h)).collect();
     [
-        search(p, lim, &hi, &hi, upper, seed, first_grid_points(n)),
-        search(p, lim, &narrow, &hi, upper, seed, GRID),
+        search(
+            p,
+            lim,
+            &hi,
+            &hi,
+            [upper, seed],
+            first_grid_points(n),
+            period,
+        ),
+        search(p, lim, &narrow, &hi, [upper, seed], GRID, period),
     ]
     .into_iter()
     .flatten()
     .min_by(|a, b| a.0.total_cmp(&b.0))
     .map_or_else(
-        || (seed.to_vec(), moving_time(p, lim, seed)),
+        || (seed.to_vec(), moving_time_on(p, lim, seed, period)),
         |(total, path)| (path, total),
     )
 }
@@ -238,17 +271,18 @@ fn first_grid_points(n: usize) -> usize {
     (((FIRST_GRID_PAIRS / n) as f64).sqrt() as usize).clamp(GRID, MAX_FIRST_GRID)
 }
 
-/// One grid search: first grids uniform over [0, span_k] with rest, the seed and `upper`,
-/// then refinements around the best path; every speed within [0, hi_k]. Returns the moving
-/// time and the speeds; `None` if no path is feasible.
+/// One grid search: first grids uniform over [0, span_k] with rest and the speeds of `extra`
+/// (`upper` and the seed), then refinements around the best path; every speed within
+/// [0, hi_k]. Transitions are timed on `period` when given. Returns the moving time and the
+/// speeds; `None` if no path is feasible.
 fn search(
     p: &ArcProblem,
     lim: &Limits,
     span: &[f64],
     hi: &[f64],
-    upper: &[f64],
-    seed: &[f64],
+    [upper, seed]: [&[f64]; 2],
     first: usize,
+    period: Option<f64>,
 ) -> Option<(f64, Vec<f64>)> {
     let n = p.len();
     let mut grids: Vec<Vec<f64>> = (0..n)
@@ -257,13 +291,13 @@ fn search(
             grid_around(0.5 * span[k], 0.5 * span[k], hi[k], &extra, first)
         })
         .collect();
-    let (mut total, mut path) = best_path(p, lim, &grids)?;
+    let (mut total, mut path) = best_path(p, lim, &grids, period)?;
     let mut half: Vec<f64> = span.iter().map(|w| w / (first - 1) as f64).collect();
     for _ in 0..REFINEMENTS {
         for k in 0..n {
             grids[k] = grid_around(path[k], half[k], hi[k], &[path[k]], GRID);
         }
-        if let Some(better) = best_path(p, lim, &grids) {
+        if let Some(better) = best_path(p, lim, &grids, period) {
             (total, path) = better;
         }
         for h in half.iter_mut() {

@@ -123,6 +123,31 @@ impl ArcProblem {
             analysis.shortest_duration_at_least(e)
         }
     }
+
+    /// [`Self::cost`] on a servo period: the shortest whole number of periods, at least the
+    /// continuous cost, that the move can last ([`grid_duration_in`]); the continuous cost
+    /// without a period.
+    pub fn cost_on(
+        &self,
+        k: usize,
+        vs: f64,
+        ve: f64,
+        lim: &Limits,
+        period: Option<f64>,
+    ) -> Option<f64> {
+        let Some(ts) = period else {
+            return self.cost(k, vs, ve, lim);
+        };
+        let analysis = self.analysis(k, vs, ve, lim)?;
+        let e = self.elst[k + 1];
+        let t_opt = analysis.min_time();
+        let d = if e <= t_opt {
+            t_opt
+        } else {
+            analysis.shortest_duration_at_least(e)?
+        };
+        grid_duration_in(&analysis.durations(), d, ts)
+    }
 }
 
 /// Bidirectional scan: start from `caps`, then lower speeds that cannot be reached (forward
