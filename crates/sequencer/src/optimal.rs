@@ -9,7 +9,8 @@
 //! one with finer grids over [0, upper_k], the scan without ELST, where the optimum most often is
 //! (not a bound: a slower neighbour widens a gap, so a layer can be faster). First grids contain
 //! the scan's speeds and rest, so the result is never worse than the seed scan or step-and-shoot;
-//! each refinement shrinks the spacing six-fold around the best path.
+//! each refinement shrinks the spacing six-fold around the best path, and runs once more at the
+//! same spacing when the path improved and ended on a grid's edge (the optimum may lie beyond).
 //!
 //! Most speed pairs of a grid cannot improve their target: the closed-form test
 //! [`may_last_within`] (eq. 3–4, no root solve) skips every pair whose minimum time already
@@ -266,6 +267,15 @@ pub(crate) fn optimal(
     )
 }
 
+/// Whether `path` takes, at some layer, its grid's lowest or highest speed where the grid could
+/// reach further (above rest, below the layer's bound `hi`).
+fn on_an_edge(grids: &[Vec<f64>], path: &[f64], hi: &[f64]) -> bool {
+    grids.iter().zip(path).zip(hi).any(|((g, &v), &h)| {
+        let (lo, top) = (g[0], g[g.len() - 1]);
+        g.len() > 2 && (v == lo && lo > 0.0 || v == top && top < h)
+    })
+}
+
 /// Points per layer of the wide search's first grid on an arc of `n` layers.
 fn first_grid_points(n: usize) -> usize {
     (((FIRST_GRID_PAIRS / n) as f64).sqrt() as usize).clamp(GRID, MAX_FIRST_GRID)
@@ -294,11 +304,20 @@ fn search(
     let (mut total, mut path) = best_path(p, lim, &grids, period)?;
     let mut half: Vec<f64> = span.iter().map(|w| w / (first - 1) as f64).collect();
     for _ in 0..REFINEMENTS {
-        for k in 0..n {
-            grids[k] = grid_around(path[k], half[k], hi[k], &[path[k]], GRID);
-        }
-        if let Some(better) = best_path(p, lim, &grids, period) {
+        // Once more at the same spacing when the best path improved and ended on its grid's
+        // edge somewhere: the optimum may lie beyond it.
+        for _ in 0..2 {
+            for k in 0..n {
+                grids[k] = grid_around(path[k], half[k], hi[k], &[path[k]], GRID);
+            }
+            let Some(better) = best_path(p, lim, &grids, period) else {
+                break;
+            };
+            let again = better.0 < total * (1.0 - 1e-12) && on_an_edge(&grids, &better.1, hi);
             (total, path) = better;
+            if !again {
+                break;
+            }
         }
         for h in half.iter_mut() {
             *h *= 2.0 / (GRID - 1) as f64;
