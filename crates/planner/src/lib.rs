@@ -67,3 +67,4 @@ pub use min_duration::{DurationSet, MoveAnalysis};
 pub use plan::{plan, Move, MoveOptions, Reversal};
 pub use profile::{Extrema, Profile, Segment, SevenPhases, State};
 pub use reach::LinearGap;
+pub use travel::two_change;

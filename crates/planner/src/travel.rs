@@ -64,7 +64,7 @@ pub(crate) fn travel_frame(mv: &Move, lim: &Limits, forbid: bool) -> Result<Trav
 /// Duration and distance of `v_s → c → v_e` with no cruise, in the direction of travel (eq. 4
 /// for each speed change).
 #[inline]
-pub(crate) fn two_change(vs: f64, c: f64, ve: f64, lim: &Limits) -> (f64, f64) {
+pub fn two_change(vs: f64, c: f64, ve: f64, lim: &Limits) -> (f64, f64) {
     let t1 = lim.speed_change_duration(vs, c);
     let t2 = lim.speed_change_duration(c, ve);
     (t1 + t2, 0.5 * (vs + c) * t1 + 0.5 * (c + ve) * t2)

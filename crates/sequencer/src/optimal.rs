@@ -20,7 +20,7 @@
 //! number of periods its move can last ([`ArcProblem::cost_on`]); the test above still applies,
 //! as a period only lengthens a transition.
 
-use arcsim_planner::{Limits, LinearGap};
+use arcsim_planner::{two_change, Limits, LinearGap};
 
 use crate::scan::ArcProblem;
 use crate::servo::ticks;
@@ -110,13 +110,7 @@ fn best_path(
 fn may_last_within(d: f64, vs: f64, ve: f64, budget: f64, lim: &Limits) -> bool {
     let budget = budget * (1.0 + 1e-9);
     let d = d.max(0.0);
-    let sd = |c: f64| {
-        let (t1, t2) = (
-            lim.speed_change_duration(vs, c),
-            lim.speed_change_duration(c, ve),
-        );
-        (t1 + t2, 0.5 * (vs + c) * t1 + 0.5 * (c + ve) * t2)
-    };
+    let sd = |c: f64| two_change(vs, c, ve, lim);
     let v = lim.max_vel;
     let m = vs.max(ve);
     let (s_m, d_m) = sd(m);
@@ -125,8 +119,7 @@ fn may_last_within(d: f64, vs: f64, ve: f64, budget: f64, lim: &Limits) -> bool 
     }
     if d < d_m {
         // Only a valley move can fit: it must hold the stop-and-go distance at least.
-        let stop = lim.speed_change_distance(vs, 0.0) + lim.speed_change_distance(0.0, ve);
-        return d >= stop;
+        return d >= sd(0.0).1;
     }
     if m >= v {
         // A cruise at V: no cheap bound beyond the above.
