@@ -54,9 +54,9 @@ fn random_arc(rng: &mut Rng) -> ResolvedArc {
     }
 }
 
-/// Duration of the transition from layer k to k+1 at speeds `vs`, `ve` in the delivery model
-/// (`None`: infeasible).
-fn transition(arc: &ResolvedArc, lim: &Limits, k: usize, vs: f64, ve: f64) -> Option<f64> {
+/// The planner's analysis of the forward move from layer k to k+1 at speeds `vs`, `ve` in the
+/// delivery model (`None`: the sweeps overlap or no forward move fits).
+fn analysis(arc: &ResolvedArc, lim: &Limits, k: usize, vs: f64, ve: f64) -> Option<MoveAnalysis> {
     let (a, b) = (&arc.layers[k], &arc.layers[k + 1]);
     let gap = (b.angle_deg - a.angle_deg) - (vs * a.irradiation_s + ve * b.irradiation_s) / 2.0;
     if gap < 0.0 {
@@ -67,9 +67,23 @@ fn transition(arc: &ResolvedArc, lim: &Limits, k: usize, vs: f64, ve: f64) -> Op
         v_start: vs,
         v_end: ve,
     };
-    MoveAnalysis::new(&mv, lim, Reversal::Forbid)
-        .ok()?
-        .shortest_duration_at_least(b.switch_in_s)
+    MoveAnalysis::new(&mv, lim, Reversal::Forbid).ok()
+}
+
+/// Random J (0.1–4 °/s³), A (0.1–2 °/s²) and V (2–8 °/s).
+fn random_limits(rng: &mut Rng) -> Limits {
+    Limits::new(
+        rng.range(0.1, 4.0),
+        rng.range(0.1, 2.0),
+        rng.range(2.0, 8.0),
+    )
+    .expect("limits")
+}
+
+/// Duration of the transition from layer k to k+1 at speeds `vs`, `ve` in the delivery model
+/// (`None`: infeasible).
+fn transition(arc: &ResolvedArc, lim: &Limits, k: usize, vs: f64, ve: f64) -> Option<f64> {
+    analysis(arc, lim, k, vs, ve)?.shortest_duration_at_least(arc.layers[k + 1].switch_in_s)
 }
 
 /// [`transition`] in whole periods of `ts`: the least multiple of `ts` at or above the
@@ -82,18 +96,8 @@ fn transition_on(
     ve: f64,
     ts: f64,
 ) -> Option<f64> {
-    let (a, b) = (&arc.layers[k], &arc.layers[k + 1]);
-    let gap = (b.angle_deg - a.angle_deg) - (vs * a.irradiation_s + ve * b.irradiation_s) / 2.0;
-    if gap < 0.0 {
-        return None;
-    }
-    let mv = Move {
-        distance: gap,
-        v_start: vs,
-        v_end: ve,
-    };
-    let analysis = MoveAnalysis::new(&mv, lim, Reversal::Forbid).ok()?;
-    let t = analysis.shortest_duration_at_least(b.switch_in_s)?;
+    let analysis = analysis(arc, lim, k, vs, ve)?;
+    let t = analysis.shortest_duration_at_least(arc.layers[k + 1].switch_in_s)?;
     analysis
         .durations()
         .intervals()
@@ -154,12 +158,7 @@ fn no_speed_grid_beats_optimal_on_small_arcs() {
     let mut worst_gap = 0.0f64;
     for case in 0..cases {
         let arc = random_arc(&mut rng);
-        let lim = Limits::new(
-            rng.range(0.1, 4.0),
-            rng.range(0.1, 2.0),
-            rng.range(2.0, 8.0),
-        )
-        .expect("limits");
+        let lim = random_limits(&mut rng);
         let arcs = [arc];
         let total = |s: Schedule| {
             simulate_resolved(&arcs, &lim, &Options::new(s))
@@ -216,10 +215,11 @@ fn no_speed_grid_beats_optimal_on_small_arcs() {
     );
 }
 
-/// On a servo period (0.5–20 ms), `optimal` searches the grid-timed problem itself: no point of
-/// the 201-speed grid, every transition timed in whole periods, beats it by more than a period
-/// per transition's worth of rounding of the grid's spacing; it is never worse than `scan` on the
-/// same period, and the certificate for the period is never above the grid's best.
+/// On a servo period (0.5–20 ms), `optimal` searches the grid-timed problem itself: no path
+/// through the 201-speed grid, every transition timed in whole periods, beats it by more than
+/// [`TOLERANCE`]; it is never worse than `scan` on the same period, and the certificate for the
+/// period is never above the grid's best nor above `optimal`. (Before the search ran on the
+/// grid-timed problem, case 3 here came out 2.5 % above the grid.)
 #[test]
 fn no_speed_grid_beats_optimal_on_a_servo_period() {
     let mut rng = Rng::new(0x5eed_7e57);
@@ -227,12 +227,7 @@ fn no_speed_grid_beats_optimal_on_a_servo_period() {
     let (mut worst, mut better_than_scan) = (f64::NEG_INFINITY, 0);
     for case in 0..cases {
         let arc = random_arc(&mut rng);
-        let lim = Limits::new(
-            rng.range(0.1, 4.0),
-            rng.range(0.1, 2.0),
-            rng.range(2.0, 8.0),
-        )
-        .expect("limits");
+        let lim = random_limits(&mut rng);
         let ts = rng.range(5e-4, 2e-2);
         let arcs = [arc];
         let run = |s: Schedule| {
