@@ -105,7 +105,7 @@ fn atom_speeds_reproduce_atom_totals() {
 /// The README's ATOM table, pinned to 0.01 s: (case, optimal, scan, step-and-shoot).
 const README_TABLE: [(&str, f64, f64, f64); 3] = [
     ("prostate", 285.29, 285.29, 952.28),
-    ("head-and-neck", 306.54, 306.54, 992.15),
+    ("head-and-neck", 306.53, 306.53, 992.15),
     ("liver", 281.64, 281.64, 945.00),
 ];
 
@@ -174,7 +174,7 @@ fn free_motion_beats_constant_speed_and_atom_local_search() {
     // (case, rest ends, free ends): totals in s, from this test's output.
     const PINNED: [(&str, f64, f64); 3] = [
         ("prostate", 198.40, 194.70),
-        ("head-and-neck", 249.88, 247.62),
+        ("head-and-neck", 249.96, 247.70),
         ("liver", 194.92, 191.13),
     ];
     for (name, rest, free) in PINNED {
@@ -289,4 +289,40 @@ fn scan_and_optimal_sweeps_give_the_same_sensitivities() {
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 8: `scan` within 0.5 % of `optimal` on the ATOM cases, checked at the low-jerk settings
+/// where it was furthest (the first three were 4.8 %, 0.65 % and 0.58 % above before the scan
+/// lowered end speeds alone before a braking chain, `rebalance` in `scan.rs`).
+#[test]
+fn scan_stays_within_half_a_percent_of_optimal_at_low_jerk() {
+    for (j, a, v) in [
+        (0.2, 0.3, 2.0),
+        (0.2, 0.5, 2.0),
+        (0.2, 1.0, 4.0),
+        (0.1, 0.5, 2.0),
+        (0.5, 0.5, 5.0),
+    ] {
+        let mut m = machine();
+        m.gantry.max_jerk_deg_per_s3 = j;
+        m.gantry.max_accel_deg_per_s2 = a;
+        m.gantry.max_speed_deg_per_s = v;
+        for name in ["prostate", "head-and-neck", "liver"] {
+            let plan = case_plan(name);
+            let total = |s: Schedule| {
+                let opts = Options {
+                    motion: arcsim_sequencer::Motion::Constant,
+                    build_timeline: false,
+                    ..Options::new(s)
+                };
+                simulate(&plan, &m, &opts).expect("simulate").total_s
+            };
+            let (scan, optimal) = (total(Schedule::Scan), total(Schedule::Optimal));
+            println!("{name} J {j} A {a} V {v}: scan {scan:.3} s, optimal {optimal:.3} s");
+            assert!(
+                optimal <= scan * (1.0 + 1e-12) && scan <= optimal * 1.005,
+                "{name} at J {j} A {a} V {v}: scan {scan} s, optimal {optimal} s"
+            );
+        }
+    }
 }

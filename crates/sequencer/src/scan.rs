@@ -9,7 +9,9 @@
 //! the move can only last by stopping and dwelling (the ELST falls in the gap between the
 //! durations a move can last without stopping and those with a stop), slightly lower speeds
 //! last it without the stop and cost less: [`stop_avoiding_scan`] tries them (at low jerk the
-//! plain scan lost up to 4.8 % this way on the ATOM cases).
+//! plain scan lost up to 4.8 % this way on the ATOM cases). It then [`rebalance`]s the
+//! transitions that the ELST made it slow down for: a lower end speed lets the braking before
+//! them stay faster (up to 0.46 % on the bundled plans and the ATOM cases).
 
 use crate::servo::grid_duration_in;
 use arcsim_plan::ResolvedArc;
@@ -169,21 +171,30 @@ pub(crate) fn scan(
 }
 
 /// The `scan` schedule in continuous time: `settled` ([`scan`] from the caps with ELSTs), then
-/// [`avoid_stops`].
+/// [`avoid_stops`] and [`rebalance`].
 pub(crate) fn stop_avoiding_scan(
     p: &ArcProblem,
     lim: &Limits,
     settled: (Vec<f64>, Vec<SpeedBound>),
 ) -> (Vec<f64>, Vec<SpeedBound>) {
     let mut v = settled.0.clone();
-    let changed = avoid_stops(p, lim, &mut v);
+    let mut changed = avoid_stops(p, lim, &mut v);
+    changed.extend(rebalance(p, lim, &mut v));
     if changed.is_empty() {
         return settled;
     }
     let bound: Vec<SpeedBound> = v
         .iter()
         .zip(settled.0.iter().zip(&settled.1))
-        .map(|(&new, (&old, &b))| if new < old { SpeedBound::Elst } else { b })
+        .map(|(&new, (&old, &b))| {
+            if new < old {
+                SpeedBound::Elst
+            } else if new > old {
+                SpeedBound::Gap
+            } else {
+                b
+            }
+        })
         .collect();
     // Each lowering was kept for a gain over the transitions it changed (all feasible), so the
     // speeds as they are shorten the arc: a check of those transitions confirms it, and the scan
@@ -432,6 +443,98 @@ fn avoid_stops(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, us
         if let Some((_, w, range)) = best {
             *v = w;
             changed.push(range);
+        }
+    }
+    changed
+}
+
+/// End speeds, as fractions of the scan's, that [`rebalance`] tries.
+const REBALANCE_END_SPEEDS: [f64; 4] = [0.5, 0.25, 0.1, 0.0];
+
+/// The scan lowers both speeds of a transition that cannot last its ELST by one factor; where
+/// the gantry brakes into it, that factor also slows every layer of the braking chain before it.
+/// Lowering the end speed further instead (at low jerk, often nearly to rest) lets the start and
+/// the chain before it stay faster: for each transition that lasts exactly its ELST with both
+/// ends moving and is entered braking, a few lower end speeds are tried, each with the highest
+/// start that still lasts the ELST, the braking chain before it raised as far as it can still
+/// reach that start (and be reached), and the speed-up after it lowered as the passes would. The
+/// largest gain over the transitions changed, each costed exactly, is kept. Returns the ranges
+/// of transitions changed.
+fn rebalance(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, usize)> {
+    let n = p.len();
+    let mut changed = Vec::new();
+    for k in 1..n.saturating_sub(2) {
+        let e = p.elst[k + 1];
+        let (vs, ve) = (v[k], v[k + 1]);
+        if e <= 0.0 || vs <= 0.0 || ve <= 0.0 || v[k - 1] <= vs {
+            continue;
+        }
+        match p.cost(k, vs, ve, lim) {
+            Some(c) if c <= e * (1.0 + 1e-12) => {}
+            _ => continue,
+        }
+        let fits = |x: f64, y: f64| p.cost(k, x, y, lim).is_some_and(|c| c <= e * (1.0 + 1e-12));
+        let mut best: Option<(f64, Vec<f64>, (usize, usize))> = None;
+        for frac in REBALANCE_END_SPEEDS {
+            let y = frac * ve;
+            let top = p.speed_cap[k].min(highest_start(p, k, y, lim));
+            if top <= vs || !fits(vs, y) {
+                continue;
+            }
+            let (mut a, mut b) = (vs, top);
+            if fits(top, y) {
+                a = top;
+            } else {
+                for _ in 0..12 {
+                    let m = 0.5 * (a + b);
+                    if fits(m, y) {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+            }
+            let mut w = v.clone();
+            (w[k], w[k + 1]) = (a, y);
+            let mut first = k;
+            while first > 0 {
+                let i = first - 1;
+                let mut t = p.speed_cap[i].min(highest_start(p, i, w[i + 1], lim));
+                if i > 0 && w[i - 1] < t {
+                    t = t.min(highest_end(p, i - 1, w[i - 1], lim));
+                }
+                if t <= w[i]
+                    || p.cost(i, t, w[i + 1], lim).is_none()
+                    || (i > 0 && p.cost(i - 1, w[i - 1], t, lim).is_none())
+                {
+                    break;
+                }
+                w[i] = t;
+                first = i;
+            }
+            let mut last = k;
+            while last + 2 < n && w[last + 2] > w[last + 1] {
+                let b = highest_end(p, last + 1, w[last + 1], lim);
+                if w[last + 2] <= b {
+                    break;
+                }
+                w[last + 2] = b;
+                last += 1;
+            }
+            let (lo, hi) = (first.saturating_sub(1), (last + 1).min(n - 2));
+            let cost = |x: &[f64]| -> f64 {
+                (lo..=hi)
+                    .map(|j| p.cost(j, x[j], x[j + 1], lim).unwrap_or(f64::INFINITY))
+                    .sum()
+            };
+            let gain = cost(v) - cost(&w);
+            if gain > 1e-9 && best.as_ref().is_none_or(|b| gain > b.0) {
+                best = Some((gain, w, (lo, hi)));
+            }
+        }
+        if let Some((_, w, r)) = best {
+            *v = w;
+            changed.push(r);
         }
     }
     changed
