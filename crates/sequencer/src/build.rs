@@ -4,8 +4,10 @@ use arcsim_plan::{ArcPlan, Machine, ResolvedArc};
 use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal, SevenPhases};
 
 use crate::free;
-use crate::optimal::{moving_time_on, optimal};
-use crate::scan::{moving_time, scan, scan_converged, stop_avoiding_scan, ArcProblem};
+use crate::optimal::optimal;
+use crate::scan::{
+    moving_time, moving_time_on, scan, scan_converged, stop_avoiding_scan, ArcProblem,
+};
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
@@ -45,13 +47,7 @@ pub fn simulate(
 /// Time of one arc at layer speeds `v` with every transition on the servo period (infinite when
 /// a transition has no such duration).
 pub(crate) fn arc_time_on_grid(p: &ArcProblem, v: &[f64], lim: &Limits, period: f64) -> f64 {
-    let moving: Option<f64> = (0..p.len().saturating_sub(1))
-        .map(|k| {
-            let d = p.cost(k, v[k], v[k + 1], lim)?;
-            grid_duration(p.transition_move(k, v[k], v[k + 1]), lim, d, period)
-        })
-        .sum();
-    moving.map_or(f64::INFINITY, |m| m + p.irradiation_s.iter().sum::<f64>())
+    moving_time_on(p, lim, v, Some(period)) + p.irradiation_s.iter().sum::<f64>()
 }
 
 fn check_period(opts: &Options) -> Result<(), SequenceError> {
@@ -207,8 +203,8 @@ fn optimal_speeds(
     // The same search with every transition timed on the period, its first grids holding the
     // best of those, repeated from its own result while that improves: a grid-timed cost is
     // flat between ticks, so one pass often stops on a plateau that the next one leaves.
-    let mut on_grid = start.clone();
-    let mut on_grid_time = moving_time_on(p, limits, &start, period);
+    let start_time = moving_time_on(p, limits, &start, period);
+    let (mut on_grid, mut on_grid_time) = (start.clone(), start_time);
     for _ in 0..GRID_PASSES {
         let (v, t) = optimal(p, limits, &upper, &on_grid, period);
         if t >= on_grid_time * (1.0 - 1e-9) {
@@ -216,7 +212,7 @@ fn optimal_speeds(
         }
         (on_grid, on_grid_time) = (v, t);
     }
-    if time(&on_grid) < time(&start) {
+    if on_grid_time < start_time {
         let labels = on_grid
             .iter()
             .zip(&start)

@@ -22,7 +22,7 @@
 
 use arcsim_planner::{two_change, Limits, LinearGap};
 
-use crate::scan::ArcProblem;
+use crate::scan::{moving_time_on, ArcProblem};
 use crate::servo::ticks;
 
 /// Points per layer in each refinement's grid.
@@ -171,16 +171,6 @@ fn may_last_within(d: f64, vs: f64, ve: f64, budget: f64, lim: &Limits) -> bool 
         }
     }
     true
-}
-
-/// Σ transition durations of speeds `v`, on `period` when given; infinite if one is infeasible.
-pub(crate) fn moving_time_on(p: &ArcProblem, lim: &Limits, v: &[f64], period: Option<f64>) -> f64 {
-    (0..p.len().saturating_sub(1))
-        .map(|k| {
-            p.cost_on(k, v[k], v[k + 1], lim, period)
-                .unwrap_or(f64::INFINITY)
-        })
-        .sum()
 }
 
 fn grid_around(centre: f64, half_width: f64, upper: f64, extra: &[f64], points: usize) -> Vec<f64> {

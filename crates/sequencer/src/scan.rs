@@ -116,14 +116,7 @@ impl ArcProblem {
     /// Duration of transition `k` at speeds `vs`, `ve`: the shortest feasible duration of at least
     /// max(minimum time, ELST), or `None` when no forward move fits the gap or none lasts the ELST.
     pub fn cost(&self, k: usize, vs: f64, ve: f64, lim: &Limits) -> Option<f64> {
-        let analysis = self.analysis(k, vs, ve, lim)?;
-        let t_opt = analysis.min_time();
-        let e = self.elst[k + 1];
-        if e <= t_opt {
-            Some(t_opt)
-        } else {
-            analysis.shortest_duration_at_least(e)
-        }
+        self.cost_on(k, vs, ve, lim, None)
     }
 
     /// [`Self::cost`] on a servo period: the shortest whole number of periods, at least the
@@ -137,18 +130,18 @@ impl ArcProblem {
         lim: &Limits,
         period: Option<f64>,
     ) -> Option<f64> {
-        let Some(ts) = period else {
-            return self.cost(k, vs, ve, lim);
-        };
         let analysis = self.analysis(k, vs, ve, lim)?;
-        let e = self.elst[k + 1];
         let t_opt = analysis.min_time();
+        let e = self.elst[k + 1];
         let d = if e <= t_opt {
             t_opt
         } else {
             analysis.shortest_duration_at_least(e)?
         };
-        grid_duration_in(&analysis.durations(), d, ts)
+        match period {
+            Some(ts) => grid_duration_in(&analysis.durations(), d, ts),
+            None => Some(d),
+        }
     }
 }
 
@@ -213,8 +206,16 @@ pub(crate) fn stop_avoiding_scan(
 
 /// Σ transition durations of an arc at speeds `v` (infinite if one is infeasible).
 pub(crate) fn moving_time(p: &ArcProblem, lim: &Limits, v: &[f64]) -> f64 {
+    moving_time_on(p, lim, v, None)
+}
+
+/// Σ transition durations of speeds `v`, on `period` when given; infinite if one is infeasible.
+pub(crate) fn moving_time_on(p: &ArcProblem, lim: &Limits, v: &[f64], period: Option<f64>) -> f64 {
     (0..p.len().saturating_sub(1))
-        .map(|k| p.cost(k, v[k], v[k + 1], lim).unwrap_or(f64::INFINITY))
+        .map(|k| {
+            p.cost_on(k, v[k], v[k + 1], lim, period)
+                .unwrap_or(f64::INFINITY)
+        })
         .sum()
 }
 
@@ -512,15 +513,7 @@ fn rebalance(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, usiz
                 w[i] = t;
                 first = i;
             }
-            let mut last = k;
-            while last + 2 < n && w[last + 2] > w[last + 1] {
-                let b = highest_end(p, last + 1, w[last + 1], lim);
-                if w[last + 2] <= b {
-                    break;
-                }
-                w[last + 2] = b;
-                last += 1;
-            }
+            let last = lower_speed_up_after(p, k, &mut w, lim);
             let (lo, hi) = (first.saturating_sub(1), (last + 1).min(n - 2));
             let cost = |x: &[f64]| -> f64 {
                 (lo..=hi)
@@ -561,6 +554,15 @@ fn lowered(
         w[first - 1] = b;
         first -= 1;
     }
+    let last = lower_speed_up_after(p, k, &mut w, lim);
+    let range = (first.saturating_sub(1), (last + 1).min(w.len() - 2));
+    (w, range)
+}
+
+/// Lowers the speeds after layer `k + 1` that rise above what the layer before them can reach,
+/// as the scan's forward pass would, until one already can; returns the last transition index
+/// `last` such that layers up to `last + 1` may have changed.
+fn lower_speed_up_after(p: &ArcProblem, k: usize, w: &mut [f64], lim: &Limits) -> usize {
     let mut last = k;
     while last + 2 < w.len() && w[last + 2] > w[last + 1] {
         let b = highest_end(p, last + 1, w[last + 1], lim);
@@ -570,8 +572,7 @@ fn lowered(
         w[last + 2] = b;
         last += 1;
     }
-    let range = (first.saturating_sub(1), (last + 1).min(w.len() - 2));
-    (w, range)
+    last
 }
 
 /// Largest factor `s` in [0, 1] such that the gantry can brake from `s·vs` to rest and start
