@@ -5,9 +5,7 @@ use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal, SevenPhases}
 
 use crate::free;
 use crate::optimal::optimal;
-use crate::scan::{
-    moving_time, moving_time_on, scan, scan_converged, stop_avoiding_scan, ArcProblem,
-};
+use crate::scan::{moving_time, moving_time_on, polished_scan, scan, scan_converged, ArcProblem};
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
@@ -132,7 +130,7 @@ fn scan_speeds(
     period: Option<f64>,
 ) -> (Vec<f64>, Vec<SpeedBound>) {
     let settled = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
-    on_period(p, limits, stop_avoiding_scan(p, limits, settled), period)
+    on_period(p, limits, polished_scan(p, limits, settled), period)
 }
 
 /// Continuous-time scan speeds `cont` on a servo period: kept where their transitions fit the
@@ -178,7 +176,7 @@ fn optimal_speeds(
         .collect::<Vec<_>>();
     // The search is local: the `scan` schedule (which avoids stops at ELSTs) can sit in a better
     // basin, and `optimal` is never worse than it.
-    let fast = stop_avoiding_scan(p, limits, (seed.clone(), seed_bounds.clone()));
+    let fast = polished_scan(p, limits, (seed.clone(), seed_bounds.clone()));
     let (best, b) = if moving_time(p, limits, &fast.0) < found_time {
         fast.clone()
     } else {

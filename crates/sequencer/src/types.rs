@@ -13,7 +13,8 @@ pub enum Schedule {
     /// The plan's required speeds, checked; infeasible ones are reported and corrected minimally.
     Prescribed,
     /// Bidirectional scan: window/V caps, then backward and forward passes until feasible, then
-    /// lower speeds where a transition would stop and dwell to last its ELST.
+    /// lower speeds where a transition would stop and dwell to last its ELST, then a local search
+    /// over single speeds and neighbour pairs.
     Scan,
     /// The least total delivery time found over the layer speeds (dynamic programming over
     /// refined speed grids; a local search, never worse than `Scan`).
