@@ -629,6 +629,7 @@ pub fn certify(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scan::tests::random_limits;
     use arcsim_plan::{ResolvedLayer, RotationDirection};
     use arcsim_test_support::Rng;
 
@@ -671,13 +672,7 @@ mod tests {
         let mut rng = Rng::new(0xb0b0_0008);
         let (mut checked, mut tight) = (0, 0.0f64);
         for _ in 0..400 {
-            let lim = Limits::with_decel(
-                rng.range(0.1, 4.0),
-                rng.range(0.1, 2.0),
-                rng.range(0.1, 2.0),
-                rng.range(1.0, 8.0),
-            )
-            .expect("limits");
+            let lim = random_limits(&mut rng);
             let p = random_problem(&mut rng, &lim);
             let k = rng.below(p.len() - 1);
             let v = lim.max_vel;

@@ -750,10 +750,21 @@ pub(crate) fn polish(p: &ArcProblem, lim: &Limits, v: &mut [f64]) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use arcsim_plan::{ResolvedLayer, RotationDirection};
     use arcsim_test_support::Rng;
+
+    /// Random limits of the unit tests: J 0.1–4, A and D 0.1–2, V 1–8.
+    pub(crate) fn random_limits(rng: &mut Rng) -> Limits {
+        Limits::with_decel(
+            rng.range(0.1, 4.0),
+            rng.range(0.1, 2.0),
+            rng.range(0.1, 2.0),
+            rng.range(1.0, 8.0),
+        )
+        .expect("limits")
+    }
 
     /// A random arc of closely spaced layers with short irradiation times and ELSTs of
     /// 0–2 s: the setting where transitions barely exceed their ELSTs.
@@ -795,13 +806,7 @@ mod tests {
         let mut rng = Rng::new(0x9011_5800);
         let (mut shorter, mut cases) = (0, 0);
         for _ in 0..300 {
-            let lim = Limits::with_decel(
-                rng.range(0.1, 4.0),
-                rng.range(0.1, 2.0),
-                rng.range(0.1, 2.0),
-                rng.range(1.0, 8.0),
-            )
-            .expect("limits");
+            let lim = random_limits(&mut rng);
             let p = ArcProblem::new(&random_arc(&mut rng), &lim);
             let settled = scan(&p, &lim, &p.speed_cap, &p.cap_bound, true, None);
             let (start, _) = stop_avoiding_scan(&p, &lim, settled.clone());
