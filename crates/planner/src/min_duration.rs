@@ -233,16 +233,41 @@ impl MoveAnalysis {
     /// The shortest duration >= `t` that the move can last (Ruckig's `minimum_duration`
     /// semantics): the minimum time when `t` is below it, `t` itself when feasible, else the start
     /// of the next feasible interval; `None` when every feasible duration is shorter than `t`.
+    ///
+    /// With reversal forbidden one root solve decides most cases, as in
+    /// [`MoveAnalysis::can_last_at_least`]: the cruise-free valley lasting `t` covers the least
+    /// distance of any profile lasting `t`, so `t` is feasible iff that valley fits the gap.
+    /// Only a `t` between the two intervals, where stopping fits, needs the whole
+    /// [`DurationSet`] (the start of the second interval).
     pub fn shortest_duration_at_least(&self, t: f64) -> Option<f64> {
         if t <= self.t_opt {
             return Some(self.t_opt);
         }
-        // Stopping fits and t is at least the stop-and-go time: a dwell at rest makes it.
         let lo = self.tr.vs.min(self.tr.ve);
-        if lo >= 0.0 {
-            let stop = self.eval(Side::Valley, lo);
-            if stop.d <= self.tr.d && t >= stop.t {
-                return Some(t);
+        if lo <= 0.0 || self.tr.d < self.eval(Side::Valley, 0.0).d {
+            // As in `valley_ends`: every duration from the minimum time on is feasible.
+            return Some(t);
+        }
+        // Stopping fits and t is at least the stop-and-go time: a dwell at rest makes it.
+        let stop = self.eval(Side::Valley, lo);
+        let stop_fits = stop.d <= self.tr.d;
+        if stop_fits && t >= stop.t {
+            return Some(t);
+        }
+        if self.reversal == Reversal::Forbid {
+            // The same 1e-9 tolerance as `DurationSet::at_least` at an interval's end.
+            let t_in = t / (1.0 + 1e-9);
+            if t_in >= stop.t {
+                // Stopping does not fit: the first interval ends below the stop-and-go time.
+                return None;
+            }
+            if let Some(x) = self.x_limit(Side::Valley, lo, t_in) {
+                if self.eval(Side::Valley, x).d <= self.tr.d {
+                    return Some(t);
+                }
+                if !stop_fits {
+                    return None;
+                }
             }
         }
         self.durations().at_least(t)

@@ -289,3 +289,55 @@ fn can_last_at_least_agrees_with_the_duration_set() {
     println!("can last: {yes}, cannot: {no}");
     assert!(yes > 1000 && no > 1000, "yes {yes}, no {no}");
 }
+
+/// `shortest_duration_at_least` (one root solve in most cases) gives what the whole duration set
+/// gives, near both ends of each interval and far from them.
+#[test]
+fn shortest_duration_at_least_agrees_with_the_duration_set() {
+    let mut rng = Rng::new(2026);
+    let (mut inside, mut later, mut none) = (0, 0, 0);
+    for case in 0..40_000 {
+        let lim = random_limits(&mut rng);
+        let mv = random_move(&mut rng, &lim, true);
+        let Ok(analysis) = MoveAnalysis::new(&mv, &lim, Reversal::Forbid) else {
+            continue;
+        };
+        let set = analysis.durations();
+        let ends: Vec<f64> = set
+            .intervals()
+            .iter()
+            .flat_map(|&(a, b)| [a, b])
+            .filter(|x| x.is_finite())
+            .collect();
+        let t = match rng.next_u64() % 3 {
+            0 => {
+                ends[(rng.next_u64() % ends.len() as u64) as usize]
+                    * (1.0 + rng.uniform(-1e-6, 1e-6))
+            }
+            1 if set.max().is_finite() => set.max() * (1.0 + rng.uniform(-0.5, 0.5)),
+            _ => set.min() * (1.0 + rng.log_uniform(-6.0, 1.3)),
+        };
+        let fast = analysis.shortest_duration_at_least(t);
+        let full = set.at_least(t);
+        match (fast, full) {
+            (Some(a), Some(b)) => {
+                assert!(
+                    (a - b).abs() <= 1e-9 * b,
+                    "case {case}: {a} vs {b}, {set:?} t {t}"
+                );
+                if b > t * (1.0 + 1e-12) {
+                    later += 1;
+                } else {
+                    inside += 1;
+                }
+            }
+            (None, None) => none += 1,
+            _ => panic!("case {case}: {fast:?} vs {full:?}, {set:?} t {t}"),
+        }
+    }
+    println!("inside {inside}, later {later}, none {none}");
+    assert!(
+        inside > 1000 && later > 100 && none > 1000,
+        "inside {inside}, later {later}, none {none}"
+    );
+}

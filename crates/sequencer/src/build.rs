@@ -159,7 +159,12 @@ fn optimal_speeds(
 ) -> (Vec<f64>, Vec<SpeedBound>) {
     let (upper, _) = scan(p, limits, &p.speed_cap, &p.cap_bound, false, None);
     let (seed, seed_bounds) = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
-    let (found, found_time) = optimal(p, limits, &upper, &seed, None);
+    // The search is local: the `scan` schedule (which avoids stops at ELSTs) can sit in a better
+    // basin, and `optimal` is never worse than it. The two are independent and run side by side.
+    let ((found, found_time), fast) = rayon::join(
+        || optimal(p, limits, &upper, &seed, None),
+        || polished_scan(p, limits, (seed.clone(), seed_bounds.clone())),
+    );
     let labels = found
         .iter()
         .zip(&seed_bounds)
@@ -174,9 +179,6 @@ fn optimal_speeds(
             }
         })
         .collect::<Vec<_>>();
-    // The search is local: the `scan` schedule (which avoids stops at ELSTs) can sit in a better
-    // basin, and `optimal` is never worse than it.
-    let fast = polished_scan(p, limits, (seed.clone(), seed_bounds.clone()));
     let (best, b) = if moving_time(p, limits, &fast.0) < found_time {
         fast.clone()
     } else {

@@ -16,6 +16,10 @@
 //! [`may_last_within`] (eq. 3–4, no root solve) skips every pair whose minimum time already
 //! exceeds what would improve it, so only a few pairs per target get the exact planner solve.
 //!
+//! The two searches are independent and run side by side (`rayon::join`; the polished scan
+//! candidate of the caller too): one plan's `optimal` uses both cores, while a sweep, whose rows
+//! already keep every core busy, runs them in turn at no cost.
+//!
 //! On a servo period the same search runs on the grid-timed problem: each pair costs the whole
 //! number of periods its move can last ([`ArcProblem::cost_on`]); the test above still applies,
 //! as a period only lengthens a transition.
@@ -229,25 +233,29 @@ pub(crate) fn optimal(
     }
     let hi: Vec<f64> = (0..n).map(|k| speed_bound(p, lim, k)).collect();
     let narrow: Vec<f64> = upper.iter().zip(&hi).map(|(u, h)| u.min(*h)).collect();
-    [
-        search(
-            p,
-            lim,
-            &hi,
-            &hi,
-            [upper, seed],
-            first_grid_points(n),
-            period,
-        ),
-        search(p, lim, &narrow, &hi, [upper, seed], GRID, period),
-    ]
-    .into_iter()
-    .flatten()
-    .min_by(|a, b| a.0.total_cmp(&b.0))
-    .map_or_else(
-        || (seed.to_vec(), moving_time_on(p, lim, seed, period)),
-        |(total, path)| (path, total),
-    )
+    // The two searches are independent: on a second core they run side by side.
+    let (wide, close) = rayon::join(
+        || {
+            search(
+                p,
+                lim,
+                &hi,
+                &hi,
+                [upper, seed],
+                first_grid_points(n),
+                period,
+            )
+        },
+        || search(p, lim, &narrow, &hi, [upper, seed], GRID, period),
+    );
+    [wide, close]
+        .into_iter()
+        .flatten()
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or_else(
+            || (seed.to_vec(), moving_time_on(p, lim, seed, period)),
+            |(total, path)| (path, total),
+        )
 }
 
 /// Whether `path` takes, at some layer, its grid's lowest or highest speed where the grid could
