@@ -243,11 +243,10 @@ impl MoveAnalysis {
         if t <= self.t_opt {
             return Some(self.t_opt);
         }
-        let lo = self.tr.vs.min(self.tr.ve);
-        if lo <= 0.0 || self.tr.d < self.eval(Side::Valley, 0.0).d {
-            // As in `valley_ends`: every duration from the minimum time on is feasible.
+        if self.every_duration_fits() {
             return Some(t);
         }
+        let lo = self.tr.vs.min(self.tr.ve);
         // Stopping fits and t is at least the stop-and-go time: a dwell at rest makes it.
         let stop = self.eval(Side::Valley, lo);
         let stop_fits = stop.d <= self.tr.d;
@@ -284,12 +283,10 @@ impl MoveAnalysis {
         if t <= self.t_opt || self.reversal == Reversal::Allow {
             return true;
         }
-        let lo = self.tr.vs.min(self.tr.ve);
-        if lo <= 0.0 || self.tr.d < self.eval(Side::Valley, 0.0).d {
-            // As in `valley_ends`: one end at rest (dwell there), or the optimum is already a
-            // valley above rest; every duration is feasible.
+        if self.every_duration_fits() {
             return true;
         }
+        let lo = self.tr.vs.min(self.tr.ve);
         let stop = self.eval(Side::Valley, lo);
         if stop.d <= self.tr.d {
             return true;
@@ -571,15 +568,20 @@ impl MoveAnalysis {
         Some(build_seven_phases(shape, dir, lim))
     }
 
+    /// Whether every duration from the minimum time on is feasible without looking at the
+    /// valleys: one end at (or against) rest, where the valley distance only falls with depth
+    /// (dwell there), or the optimum is already a valley past the hump.
+    fn every_duration_fits(&self) -> bool {
+        self.tr.vs.min(self.tr.ve) <= 0.0 || self.tr.d < self.eval(Side::Valley, 0.0).d
+    }
+
     /// Depth `x_b` of the shallow valley with no cruise and distance exactly d (the first
     /// interval ends at `T(x_b)`), and where the second interval starts (see the module
     /// documentation); `None` when every duration from the minimum time is feasible.
     fn valley_ends(&self) -> Option<(f64, Option<SecondStart>)> {
         let (vs, ve, d) = (self.tr.vs, self.tr.ve, self.tr.d);
         let lo = vs.min(ve);
-        if lo <= 0.0 || d < self.eval(Side::Valley, 0.0).d {
-            // One end at (or against) rest, where D only falls with depth, or the optimum is
-            // already a valley past the hump.
+        if self.every_duration_fits() {
             return None;
         }
         let dist = |x: f64| self.eval(Side::Valley, x).d;

@@ -16,9 +16,9 @@
 //!
 //! The box is first cut down to the speeds that can have a move at all ([`clip_to_moves`]: each
 //! speed is tested against the other span's ends, with the gap and the change distance taken at
-//! the same pair of speeds), so its top corner is not far beyond reach. Where no point of the box has a move that lasts the
-//! ELST (none stops, and every candidate is shorter: `G` is greatest at the bottom corner), the
-//! box has no transition at all.
+//! the same pair of speeds), so its top corner is not far beyond reach. Where no point of the
+//! box has a move that lasts the ELST (none stops, and every candidate is shorter: `G` is
+//! greatest at the bottom corner), the box has no transition at all.
 //!
 //! **The arc.** Each layer's speed lies in `[0, speed_bound]`; the ranges are cut into cells,
 //! finest around a feasible schedule's speeds, and dynamic programming over cell pairs, each
@@ -226,11 +226,10 @@ fn clip_to_moves(gap: &LinearGap, s: Span, e: Span, lim: &Limits) -> Option<(Spa
     let dist = |a: f64, b: f64| lim.speed_change_distance(a, b);
     let stop = |a: f64, b: f64| dist(a, 0.0) + dist(0.0, b);
     let fits = |a: f64, b: f64| gap.at(a, b) + tol >= dist(a, b);
-    let braking =
-        |vs: f64| fits(vs, e.lo) || fits(vs, e.hi) || gap.at(vs, e.lo) + tol >= stop(vs, e.lo);
+    let stop_fits = |a: f64, b: f64| gap.at(a, b) + tol >= stop(a, b);
+    let braking = |vs: f64| fits(vs, e.lo) || fits(vs, e.hi) || stop_fits(vs, e.lo);
     let s = highest_passing(s, e.hi, braking)?;
-    let speeding =
-        |ve: f64| fits(s.lo, ve) || fits(s.hi, ve) || gap.at(s.lo, ve) + tol >= stop(s.lo, ve);
+    let speeding = |ve: f64| fits(s.lo, ve) || fits(s.hi, ve) || stop_fits(s.lo, ve);
     let e = highest_passing(e, s.hi, speeding)?;
     Some((s, e))
 }
@@ -637,39 +636,19 @@ pub fn certify(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan::tests::random_limits;
-    use arcsim_plan::{ResolvedLayer, RotationDirection};
+    use crate::scan::tests::{random_arc_of, random_limits};
     use arcsim_planner::{MoveAnalysis, Reversal};
     use arcsim_test_support::Rng;
 
     fn random_problem(rng: &mut Rng, lim: &Limits) -> ArcProblem {
-        let n = 6;
-        let mut angle = 0.0;
-        let layers = (0..n)
-            .map(|k| {
-                if k > 0 {
-                    angle += rng.range(0.3, 4.0);
-                }
-                let t = rng.range(0.05, 1.5);
-                ResolvedLayer {
-                    control_point: k,
-                    layer: 0,
-                    angle_deg: angle,
-                    window_deg: rng.range(0.3, 4.0),
-                    energy_mev: 100.0,
-                    irradiation_s: t,
-                    spot_irradiation_s: t,
-                    scanning_s: 0.0,
-                    required_speed_deg_per_s: None,
-                    switch_in_s: [0.0, 0.5, 1.0, 2.0, 5.0][rng.below(5)],
-                }
-            })
-            .collect();
-        let arc = ResolvedArc {
-            arc_index: 0,
-            direction: RotationDirection::Cw,
-            layers,
-        };
+        let arc = random_arc_of(
+            rng,
+            6,
+            (0.3, 4.0),
+            (0.05, 1.5),
+            (0.3, 4.0),
+            &[0.0, 0.5, 1.0, 2.0, 5.0],
+        );
         ArcProblem::new(&arc, lim)
     }
 
@@ -749,14 +728,15 @@ mod tests {
         for _ in 0..3000 {
             let (lim, p, k, s, e, _) = random_box(&mut rng, &[1.0, 0.3, 0.1, 1e-2, 1e-3]);
             let clipped = clip_to_moves(&p.gap(k), s, e, &lim);
+            let moves_between = |a: f64, b: f64| {
+                p.gap(k).at(a, b) >= 0.0
+                    && MoveAnalysis::new(&p.transition_move(k, a, b), &lim, Reversal::Forbid)
+                        .is_ok()
+            };
             let mut has_move = false;
             for q in 0..100 {
                 let (vs, ve) = box_point(&mut rng, s, e, q);
-                if p.gap(k).at(vs, ve) < 0.0 {
-                    continue;
-                }
-                let mv = p.transition_move(k, vs, ve);
-                if MoveAnalysis::new(&mv, &lim, Reversal::Forbid).is_err() {
+                if !moves_between(vs, ve) {
                     continue;
                 }
                 has_move = true;
@@ -770,11 +750,6 @@ mod tests {
                     "{vs}, {ve} has a move, outside the clip {cs:?} x {ce:?} of {s:?} x {e:?} ({lim:?}, {p:?}, k {k})"
                 );
             }
-            let moves_between = |a: f64, b: f64| {
-                p.gap(k).at(a, b) >= 0.0
-                    && MoveAnalysis::new(&p.transition_move(k, a, b), &lim, Reversal::Forbid)
-                        .is_ok()
-            };
             match clipped {
                 None => dropped += 1,
                 Some((cs, ce)) if has_move && (cs != s || ce != e) => {

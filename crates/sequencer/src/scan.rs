@@ -766,28 +766,34 @@ pub(crate) mod tests {
         .expect("limits")
     }
 
-    /// A random arc of closely spaced layers with short irradiation times and ELSTs of
-    /// 0–2 s: the setting where transitions barely exceed their ELSTs.
-    fn random_arc(rng: &mut Rng) -> ResolvedArc {
-        let n = 4 + rng.below(12);
+    /// A random arc of `n` layers: spacing, irradiation time and window drawn uniformly from
+    /// the given ranges (deg, s, deg), the ELST of each switch one of `elsts_s`.
+    pub(crate) fn random_arc_of(
+        rng: &mut Rng,
+        n: usize,
+        spacing_deg: (f64, f64),
+        irradiation_s: (f64, f64),
+        window_deg: (f64, f64),
+        elsts_s: &[f64],
+    ) -> ResolvedArc {
         let mut angle = 0.0;
         let layers = (0..n)
             .map(|k| {
                 if k > 0 {
-                    angle += rng.range(0.2, 3.0);
+                    angle += rng.range(spacing_deg.0, spacing_deg.1);
                 }
-                let t = rng.range(0.05, 1.0);
+                let t = rng.range(irradiation_s.0, irradiation_s.1);
                 ResolvedLayer {
                     control_point: k,
                     layer: 0,
                     angle_deg: angle,
-                    window_deg: rng.range(0.2, 3.0),
+                    window_deg: rng.range(window_deg.0, window_deg.1),
                     energy_mev: 100.0,
                     irradiation_s: t,
                     spot_irradiation_s: t,
                     scanning_s: 0.0,
                     required_speed_deg_per_s: None,
-                    switch_in_s: [0.0, 0.3, 0.5, 1.0, 2.0][rng.below(5)],
+                    switch_in_s: elsts_s[rng.below(elsts_s.len())],
                 }
             })
             .collect();
@@ -796,6 +802,20 @@ pub(crate) mod tests {
             direction: RotationDirection::Cw,
             layers,
         }
+    }
+
+    /// A random arc of closely spaced layers with short irradiation times and ELSTs of
+    /// 0–2 s: the setting where transitions barely exceed their ELSTs.
+    fn random_arc(rng: &mut Rng) -> ResolvedArc {
+        let n = 4 + rng.below(12);
+        random_arc_of(
+            rng,
+            n,
+            (0.2, 3.0),
+            (0.05, 1.0),
+            (0.2, 3.0),
+            &[0.0, 0.3, 0.5, 1.0, 2.0],
+        )
     }
 
     /// The polish keeps only moves that shorten the arc: on random arcs and limits its schedule
