@@ -6,29 +6,33 @@
 //! anywhere inside the window `[θ_k - w_k/2, θ_k + w_k/2]`; at least the ELST passes between one
 //! beam-off and the next beam-on; and the whole delivery is one jerk-, acceleration- and
 //! speed-limited motion that never reverses inside an arc. Every constant-speed timeline is a
-//! free one, so free motion is never slower; with a low jerk limit it is much faster, because the
-//! gantry keeps accelerating across many layers instead of returning to zero acceleration at
-//! each of them.
+//! free one, so free motion is never slower.
 //!
-//! The solver (per arc):
-//! 1. *Anchors* are cut at the switches that are long against the moves between layers (the
-//!    gantry must slow down to last them) and at rest ends. Between two cuts, the layers are
-//!    delivered along **one** move, the fastest jerk-limited move between its anchor states
-//!    (beam-on of its first layer, beam-off of its last), with every beam scheduled as early as
-//!    the window and the previous switch allow; when the fastest move outruns a beam, it is
-//!    lengthened just enough, and a stretch that cannot be delivered that way is cut in two.
-//! 2. A pattern search moves every anchor's position (inside its window), speed and
-//!    acceleration while the total drops; a cut's switch lasts its ELST less the time the
-//!    previous stretch already spent after its last beam.
-//! 3. The result is compared with the constant-speed optimum it started from and the faster of
-//!    the two is kept; every move is re-integrated from our own segments.
+//! The solver (per arc) is a direct transcription solved by sequential linear programming:
+//! 1. A *seed*: the better of the constant-speed schedule and the anchored moves (layers
+//!    between the long switches flown along one fastest move, [`solve`]).
+//! 2. The seed is cut into stages (run-up, beams, switches, braking) of constant-jerk pieces
+//!    with free durations ([`transcribe`]); the states at the joins, the jerks and the durations
+//!    are the variables, the limits, windows, irradiation times and ELSTs the constraints, the
+//!    total duration the objective.
+//! 3. Each step solves that problem linearised inside a trust region, as one banded linear
+//!    programme ([`lp`], an interior-point method whose Newton steps cost O(pieces)), and a
+//!    corrector; a step is kept when the exact delivery built from it is shorter ([`refine`]).
+//! 4. The exact delivery: every beam and switch re-flown as a time-optimal full-state move
+//!    between the transcript's states (rsruckig, [`mover`]), or on the transcript's own pieces
+//!    where no such move exists to rounding; every move re-integrated and checked.
 //!
-//! The search is local (a feasible schedule, not a certified optimum). Full-state moves (any
-//! acceleration at both ends) come from rsruckig ([`mover`]).
+//! The result is a local optimum of the transcribed problem. On the ATOM article cases it is
+//! within 0.05 % of an independent optimiser (direct multiple shooting with IPOPT); the tests
+//! check it against an exhaustive search on small arcs and against the problem's own laws
+//! (never slower than constant speed; a higher limit never costs more than solver noise).
 
 mod assemble;
+mod lp;
 mod mover;
+mod refine;
 mod solve;
+mod transcribe;
 
 pub(crate) use assemble::{assemble, from_constant};
 pub(crate) use solve::{solve_arc, End, Start};

@@ -206,6 +206,21 @@ impl Mover {
 
     /// The fastest move `from → to` lasting at least `min_duration`, as verified segments.
     pub fn solve(&mut self, from: FullState, to: FullState, min_duration: f64) -> Option<FullMove> {
+        if let Some(mv) = self.solve_once(from, to, min_duration) {
+            return Some(mv);
+        }
+        // Ruckig may fail to synchronise to a minimum duration that equals the fastest move's
+        // own duration (to rounding): that move is then the answer.
+        let mv = self.solve_once(from, to, 0.0)?;
+        (mv.duration() >= min_duration - 1e-12 * (1.0 + min_duration)).then_some(mv)
+    }
+
+    fn solve_once(
+        &mut self,
+        from: FullState,
+        to: FullState,
+        min_duration: f64,
+    ) -> Option<FullMove> {
         self.duration(from, to, min_duration)?;
         let mv = self.segments(from)?;
         self.check(&mv, to).then_some(mv)
@@ -253,14 +268,26 @@ impl Mover {
     /// constant-jerk segment included).
     fn check(&self, mv: &FullMove, to: FullState) -> bool {
         let l = &self.lim;
-        let v_lo = if self.reversible { -l.max_vel } else { 0.0 };
         let scale_p = 1.0 + mv.start.pos.abs().max(to.pos.abs());
+        let Some(s) = self.end_within_limits(mv) else {
+            return false;
+        };
+        (s.pos - to.pos).abs() <= TOL * scale_p
+            && (s.vel - to.vel).abs() <= TOL * l.max_vel
+            && (s.acc - to.acc).abs() <= TOL * l.max_accel.max(l.max_decel)
+    }
+
+    /// The end state of a move that keeps every limit from its start on (extrema inside each
+    /// constant-jerk segment included); `None` if it breaks one.
+    pub fn end_within_limits(&self, mv: &FullMove) -> Option<FullState> {
+        let l = &self.lim;
+        let v_lo = if self.reversible { -l.max_vel } else { 0.0 };
         let mut s = mv.start;
         for seg in &mv.segments {
             if !(seg.duration.is_finite() && seg.duration >= 0.0)
                 || seg.jerk.abs() > l.max_jerk * (1.0 + TOL)
             {
-                return false;
+                return None;
             }
             let e = s.after(seg.duration, seg.jerk);
             let mut speeds = [s.vel, e.vel, s.vel];
@@ -272,19 +299,40 @@ impl Mover {
             }
             for v in speeds {
                 if v < v_lo - TOL * l.max_vel || v > l.max_vel * (1.0 + TOL) {
-                    return false;
+                    return None;
                 }
             }
             for a in [s.acc, e.acc] {
                 if a < -l.max_decel * (1.0 + TOL) || a > l.max_accel * (1.0 + TOL) {
-                    return false;
+                    return None;
                 }
             }
             s = e;
         }
-        (s.pos - to.pos).abs() <= TOL * scale_p
-            && (s.vel - to.vel).abs() <= TOL * l.max_vel
-            && (s.acc - to.acc).abs() <= TOL * l.max_accel.max(l.max_decel)
+        Some(s)
+    }
+
+    /// The shortest braking from `from` to rest, wherever it ends, as verified segments.
+    pub fn brake(&mut self, from: FullState) -> Option<FullMove> {
+        if !self.admissible(from) {
+            return None;
+        }
+        let input = &mut self.run_up_input;
+        input.current_position[0] = from.pos;
+        input.current_velocity[0] = from.vel;
+        input.current_acceleration[0] = from.acc;
+        input.target_velocity[0] = 0.0;
+        input.target_acceleration[0] = 0.0;
+        let res = self.otg.calculate(input, &mut self.traj);
+        // The run-ups start from rest: leave the input as they expect it.
+        let input = &mut self.run_up_input;
+        input.current_position[0] = 0.0;
+        input.current_velocity[0] = 0.0;
+        input.current_acceleration[0] = 0.0;
+        res.ok()?;
+        let mv = self.segments(from)?;
+        let end = mv.end();
+        self.check(&mv, FullState::rest(end.pos)).then_some(mv)
     }
 
     /// The shortest run-up from rest to `to`'s speed and acceleration, ending at `to`'s position

@@ -1,9 +1,10 @@
-//! The free-motion solver of one arc: anchors at the long energy switches, the fastest move
-//! between them, and a pattern search over the anchor states.
+//! One arc's free motion: the seed (layers between the long energy switches flown along one
+//! fastest move, every beam as early as its window and the ELST allow), then its refinement.
 
 use arcsim_planner::Limits;
 
 use super::mover::{FullMove, FullState, Mover};
+use super::refine::refine;
 use crate::scan::ArcProblem;
 
 /// How an arc's motion starts.
@@ -59,12 +60,8 @@ pub(crate) struct FreeArc {
     pub total: f64,
 }
 
-/// Search budget in passes over all anchors (deterministic: the same result on any machine).
-const MAX_PASSES: usize = 60;
-
 struct Solver<'a> {
     p: &'a ArcProblem,
-    lim: Limits,
     start: Start,
     end: End,
     mover: Mover,
@@ -76,17 +73,6 @@ impl Solver<'_> {
     }
     fn hi(&self, k: usize) -> f64 {
         self.p.travel_deg[k] + 0.5 * self.p.window[k]
-    }
-    /// Range of an anchor's position: its layer's window, or (for the rest state after the last
-    /// beam of a braking end) up to a braking distance beyond it.
-    fn pos_range(&self, k: usize, braking_anchor: bool) -> (f64, f64) {
-        if braking_anchor {
-            let l = &self.lim;
-            let reach = l.max_vel * (l.max_vel / l.max_decel + l.max_decel / l.max_jerk);
-            (self.lo(k), self.hi(k) + reach)
-        } else {
-            (self.lo(k), self.hi(k))
-        }
     }
     fn edge_tol(&self) -> f64 {
         1e-12 * (1.0 + self.p.travel_deg.last().copied().unwrap_or(0.0))
@@ -195,50 +181,13 @@ impl Solver<'_> {
         let duration = mv.duration();
         Some((mv, Timed { duration, last_off }))
     }
-
-    fn stretch_time(&mut self, st: LayerSpan, on: FullState, off: FullState) -> Option<Timed> {
-        self.solve_stretch(st, on, off).map(|(_, t)| t)
-    }
-
-    /// The switch between two stretches: from the last beam-off state to the next beam-on state,
-    /// lasting the ELST less what the previous stretch already spent after its last beam.
-    fn cut_time(&mut self, from: FullState, to: FullState, elst: f64, tail: f64) -> Option<f64> {
-        self.mover
-            .solve(from, to, (elst - tail).max(0.0))
-            .map(|m| m.duration())
-    }
-
-    fn run_up_time(&mut self, on: FullState) -> Option<f64> {
-        self.mover.run_up(on).map(|m| m.duration())
-    }
 }
 
-/// Anchor states and the costs they give.
-#[derive(Clone)]
+/// Anchor states: each stretch's first beam-on and last beam-off.
 struct State {
     stretches: Vec<LayerSpan>,
     on: Vec<FullState>,
     off: Vec<FullState>,
-    timed: Vec<Timed>,
-    cuts: Vec<f64>,
-    run_up: f64,
-}
-
-impl State {
-    /// Total time: run-up, stretches, switches; with a free end the last stretch counts to its
-    /// last beam-off.
-    fn total(&self, end: End) -> f64 {
-        let n = self.timed.len();
-        let mut t = self.run_up + self.cuts.iter().sum::<f64>();
-        for (i, tm) in self.timed.iter().enumerate() {
-            t += if i + 1 == n && end == End::Free {
-                tm.last_off
-            } else {
-                tm.duration
-            };
-        }
-        t
-    }
 }
 
 /// Solves one arc's free motion starting from the constant-speed schedule `speeds` (which it
@@ -257,7 +206,6 @@ pub(crate) fn solve_arc(
     }
     let mut s = Solver {
         p,
-        lim: *lim,
         start,
         end,
         mover: Mover::new(lim, false),
@@ -357,210 +305,19 @@ pub(crate) fn solve_arc(
             *last = FullState::rest(last.pos + stop);
         }
     }
-    let mut timed = Vec::with_capacity(stretches.len());
-    for (i, st) in stretches.iter().enumerate() {
-        timed.push(s.stretch_time(*st, on[i], off[i])?);
-    }
-    let mut cuts = Vec::with_capacity(stretches.len());
-    for i in 0..stretches.len() - 1 {
-        let tail = timed[i].duration - timed[i].last_off;
-        cuts.push(s.cut_time(off[i], on[i + 1], p.elst[stretches[i + 1].first], tail)?);
-    }
-    let run_up = if start == Start::RunUp {
-        s.run_up_time(on[0])?
-    } else {
-        0.0
-    };
-    let mut state = State {
-        stretches,
-        on,
-        off,
-        timed,
-        cuts,
-        run_up,
-    };
-    search(&mut s, &mut state);
-    finish(&mut s, &state)
-}
-
-/// Pattern search over the anchor states: each position, speed and acceleration is moved up
-/// and down by its step; a move is kept when the total drops; steps halve when none helps.
-fn search(s: &mut Solver, st: &mut State) {
-    let p = s.p;
-    let lim = s.lim;
-    let m = st.stretches.len();
-    let w_min = p
-        .window
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min)
-        .max(1e-6);
-    let mut step = [
-        0.25 * w_min,
-        0.05 * lim.max_vel,
-        0.25 * lim.max_accel.min(lim.max_decel),
-    ];
-    let floor = [1e-7 * w_min, 1e-7 * lim.max_vel, 1e-7 * lim.max_accel];
-    let mut current = st.total(s.end);
-    for _ in 0..MAX_PASSES {
-        let at_start = current;
-        let mut improved = false;
-        for i in 0..m {
-            let stretch = st.stretches[i];
-            let braking = i + 1 == m && s.end == End::Brake;
-            for which in [Anchor::On, Anchor::Off] {
-                for (var, &size) in step.iter().enumerate() {
-                    // A rest anchor has only a position; a braking end's last anchor is at rest.
-                    let rest = stretch.at_rest || (braking && which == Anchor::Off);
-                    if (rest && var > 0) || (stretch.at_rest && which == Anchor::Off) {
-                        continue;
-                    }
-                    let range = s.pos_range(
-                        if which == Anchor::On {
-                            stretch.first
-                        } else {
-                            stretch.last
-                        },
-                        braking && which == Anchor::Off,
-                    );
-                    for sign in [1.0, -1.0] {
-                        let mut d = sign * size;
-                        let mut gained = false;
-                        // A move that pays is repeated with doubling steps while it keeps paying.
-                        for _ in 0..21 {
-                            let Some((on, off)) = nudged(st, i, which, var, d, range, &lim) else {
-                                break;
-                            };
-                            match try_change(s, st, i, on, off) {
-                                Some(delta) if delta < -1e-12 * (1.0 + current) => {
-                                    current += delta;
-                                    gained = true;
-                                    d *= 2.0;
-                                }
-                                _ => break,
-                            }
-                        }
-                        if gained {
-                            improved = true;
-                            break;
-                        }
-                    }
-                }
-            }
-        }
-        // A pass that gains next to nothing refines the steps instead of repeating itself.
-        if !improved || at_start - current < 1e-7 * (1.0 + current) {
-            for (a, b) in step.iter_mut().zip(&floor) {
-                *a = (*a * 0.5).max(*b);
-            }
-            if step.iter().zip(&floor).all(|(a, b)| a <= b) {
-                break;
-            }
-        }
-    }
-}
-
-/// Which anchor of a stretch: the first beam-on or the last beam-off.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Anchor {
-    On,
-    Off,
-}
-
-/// LayerSpan `i`'s anchor states with one coordinate (`var`: position, speed, acceleration) of
-/// one anchor moved by `d`; `None` outside the limits or the position `range`. A stretch at rest
-/// moves both anchors (one state).
-fn nudged(
-    st: &State,
-    i: usize,
-    which: Anchor,
-    var: usize,
-    d: f64,
-    range: (f64, f64),
-    lim: &Limits,
-) -> Option<(FullState, FullState)> {
-    let mut q = match which {
-        Anchor::On => st.on[i],
-        Anchor::Off => st.off[i],
-    };
-    match var {
-        0 => q.pos += d,
-        1 => q.vel += d,
-        _ => q.acc += d,
-    }
-    let inside = q.pos >= range.0
-        && q.pos <= range.1
-        && q.vel >= 0.0
-        && q.vel <= lim.max_vel
-        && q.acc <= lim.max_accel
-        && q.acc >= -lim.max_decel;
-    if !inside {
-        return None;
-    }
-    Some(if st.stretches[i].at_rest {
-        (q, q)
-    } else {
-        match which {
-            Anchor::On => (q, st.off[i]),
-            Anchor::Off => (st.on[i], q),
-        }
-    })
-}
-
-/// Applies new anchor states to stretch `i` if the total drops; returns the change (s).
-fn try_change(
-    s: &mut Solver,
-    st: &mut State,
-    i: usize,
-    on: FullState,
-    off: FullState,
-) -> Option<f64> {
-    let p = s.p;
-    let m = st.stretches.len();
-    let stretch = st.stretches[i];
-    let timed = s.stretch_time(stretch, on, off)?;
-    let last = i + 1 == m && s.end == End::Free;
-    let cost = |t: &Timed| if last { t.last_off } else { t.duration };
-    let mut delta = cost(&timed) - cost(&st.timed[i]);
-    let before = if i > 0 {
-        let tail = st.timed[i - 1].duration - st.timed[i - 1].last_off;
-        let c = s.cut_time(st.off[i - 1], on, p.elst[stretch.first], tail)?;
-        delta += c - st.cuts[i - 1];
-        Some(c)
-    } else {
-        None
-    };
-    let after = if i + 1 < m {
-        let tail = timed.duration - timed.last_off;
-        let c = s.cut_time(off, st.on[i + 1], p.elst[st.stretches[i + 1].first], tail)?;
-        delta += c - st.cuts[i];
-        Some(c)
-    } else {
-        None
-    };
-    let run_up = if i == 0 && s.start == Start::RunUp {
-        let r = s.run_up_time(on)?;
-        delta += r - st.run_up;
-        Some(r)
-    } else {
-        None
-    };
-    if delta >= 0.0 {
-        return Some(delta);
-    }
-    st.on[i] = on;
-    st.off[i] = off;
-    st.timed[i] = timed;
-    if let Some(c) = before {
-        st.cuts[i - 1] = c;
-    }
-    if let Some(c) = after {
-        st.cuts[i] = c;
-    }
-    if let Some(r) = run_up {
-        st.run_up = r;
-    }
-    Some(delta)
+    let anchored = finish(&mut s, &State { stretches, on, off });
+    // The transcription, refined from the better of the anchored moves and the constant-speed
+    // schedule.
+    let base = super::from_constant(p, lim, speeds);
+    let seed = [anchored.as_ref(), base.as_ref()]
+        .into_iter()
+        .flatten()
+        .min_by(|a, b| a.total.total_cmp(&b.total));
+    let refined = seed.and_then(|fa| refine(p, lim, start, end, &mut s.mover, fa));
+    [anchored, refined]
+        .into_iter()
+        .flatten()
+        .min_by(|a, b| a.total.total_cmp(&b.total))
 }
 
 /// Builds the moves and beam times of the final anchor states.
