@@ -1,7 +1,7 @@
 //! Sequencer benchmarks on the 180-layer ATOM article cases (the bundled `plans/atom/*.json`):
 //! `scan` and `optimal` schedules, totals only (as sweeps run them) and with the full verified
 //! timeline; `optimal` on head-and-neck; free motion (seeded by `optimal`) with both arc-end
-//! options.
+//! options on prostate, rest ends on head-and-neck and on the bundled 722-layer `plans/head-neck.json`.
 //! `cargo bench --bench sequencer`
 
 use std::hint::black_box;
@@ -87,6 +87,28 @@ fn bench(c: &mut Criterion) {
                 })
             },
         );
+    }
+    let rest = Options {
+        motion: Motion::Free,
+        ..Options::new(Schedule::Optimal)
+    };
+    let long = {
+        let path = arcsim_suite::repo_root().join("plans/head-neck.json");
+        resolve(&load_plan(path).expect("plan"), &machine).expect("resolve")
+    };
+    for (name, plan) in [
+        ("head-and-neck 180 layers, arc ends rest", &hn),
+        ("bundled head-neck 722 layers, arc ends rest", &long),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                black_box(
+                    simulate_resolved(black_box(plan), &limits, &rest)
+                        .expect("simulate")
+                        .total_s,
+                )
+            })
+        });
     }
     group.finish();
 }

@@ -2,7 +2,7 @@
 //! `optimal` schedule (every 10th combination of the 1000-setting sweep
 //! `scenarios/sweep-atom-1000.json` over the three ATOM article cases; the same settings with
 //! `optimal` in place of `scan`), on 1 and on 2 threads; the ratio of the two throughputs is the
-//! parallel speed-up.
+//! parallel speed-up. Then free motion (`optimal+free`, every 100th combination) on 2 threads.
 //! `cargo bench --bench sweep` (Criterion reports "thrpt" in evaluations/s).
 
 use std::hint::black_box;
@@ -12,7 +12,7 @@ use arcsim_evaluator::{Evaluator, Sweep};
 use arcsim_plan::load_plan;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
-/// `sweep-atom-1000.json` with `schedule` as its one schedule.
+/// `sweep-atom-1000.json` with `schedule` (a schedule entry of a sweep file) as its one schedule.
 fn sweep(schedule: &str) -> Sweep {
     let scenarios = arcsim_suite::repo_root().join("scenarios");
     let path = scenarios.join("sweep-atom-1000.json");
@@ -20,7 +20,7 @@ fn sweep(schedule: &str) -> Sweep {
         .expect("sweep-atom-1000.json")
         .replace(
             r#""schedules": ["scan"]"#,
-            &format!(r#""schedules": ["{schedule}"]"#),
+            &format!(r#""schedules": [{schedule}]"#),
         );
     assert!(text.contains(schedule), "the sweep names its schedule");
     Sweep::from_text(
@@ -34,7 +34,7 @@ fn sweep(schedule: &str) -> Sweep {
 
 fn bench(c: &mut Criterion) {
     for schedule in ["scan", "optimal"] {
-        let ev = Evaluator::new(sweep(schedule)).expect("prepare");
+        let ev = Evaluator::new(sweep(&format!("\"{schedule}\""))).expect("prepare");
         // Every 10th combination: a representative mix of settings and plans, 300 evaluations.
         let all: Vec<usize> = (0..ev.len()).step_by(10).collect();
         let mut group = c.benchmark_group(format!("sweep {schedule} 180 layers"));
@@ -65,5 +65,23 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// Free motion: every 100th combination (30 evaluations) on 2 threads.
+fn bench_free(c: &mut Criterion) {
+    let ev =
+        Evaluator::new(sweep(r#"{"schedule": "optimal", "motion": "free"}"#)).expect("prepare");
+    let some: Vec<usize> = (0..ev.len()).step_by(100).collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .expect("pool");
+    let mut group = c.benchmark_group("sweep optimal+free 180 layers");
+    group.throughput(Throughput::Elements(some.len() as u64));
+    group.sample_size(10);
+    group.bench_function(format!("2 threads, {} evaluations", some.len()), |b| {
+        b.iter(|| black_box(pool.install(|| ev.run_collect(black_box(&some))).len()))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench, bench_free);
 criterion_main!(benches);

@@ -16,6 +16,9 @@
 //! scan rebalances transitions it slowed down for an ELST (head-neck scan 760.646 → 759.976 s).
 //! Later on 2026-12-03: the scan ends with a local search over single speeds and neighbour pairs
 //! (`polish` in `scan.rs`; head-neck scan 759.976 → 759.446 s, every other total unchanged).
+//! 2026-12-04: free motion is a direct transcription refined by sequential linear programming
+//! instead of a pattern search (prostate 191.902 → 190.155 s, lung 135.266 → 115.705 s, two-arc
+//! 257.381 → 253.226 s).
 
 use arcsim_plan::{load_machine, load_plan};
 use arcsim_sequencer::{simulate, Motion, Options, Schedule};
@@ -41,9 +44,9 @@ const CONSTANT: [(&str, Schedule, f64); 16] = [
 
 /// `arcsim simulate PLAN` (optimal, free motion, arc ends at rest).
 const FREE: [(&str, f64); 3] = [
-    ("prostate", 191.902206),
-    ("lung", 135.265904),
-    ("two-arc", 257.381369),
+    ("prostate", 190.155240),
+    ("lung", 115.704554),
+    ("two-arc", 253.225837),
 ];
 
 /// The README's servo-period example: prostate, `--motion constant --period TS`.

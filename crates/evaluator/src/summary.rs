@@ -15,7 +15,10 @@
 //! - **sensitivity** of the total to each limit L at the base machine, by central finite
 //!   differences: `s_per_10_percent = (T(1.1 L) - T(L / 1.1)) / 2`, the change in total time for a
 //!   +10 % change of L (≈ ln(1.1) · dT/d ln L; negative: raising L saves time), and
-//!   `s_per_ln = dT/d ln L` itself. A limit has **no effect** (`no_effect`) when every value of it
+//!   `s_per_ln = dT/d ln L` itself. For a gantry limit (J, A, V), `T(1.1 L)` is taken as the
+//!   shortest of the totals at `1.1 L`, `L` and `L / 1.1`: a timeline within the lower limits is
+//!   also one within the higher, so the sensitivity is never positive even where a solver's
+//!   local optimum at `1.1 L` came out a little longer. A limit has **no effect** (`no_effect`) when every value of it
 //!   the summary evaluated with the other limits at the base machine (L / 1.1, L, 1.1 L and the
 //!   profile's values; from `evaluated_min` to `evaluated_max`) is feasible and gives the same
 //!   total within [`TIE_TOLERANCE`] (relative);
@@ -380,7 +383,15 @@ impl Evaluator {
         extras: &ExtraTotals,
         base_total: Option<f64>,
     ) -> Sensitivity {
-        let (up, down) = (extras.nudged(axis, true), extras.nudged(axis, false));
+        let (mut up, down) = (extras.nudged(axis, true), extras.nudged(axis, false));
+        if axis.is_gantry_limit() {
+            // A delivery found with a lower gantry limit is also one with a higher limit, so
+            // the time at `1.1 L` is at most the time at `L` and at `L / 1.1`.
+            up = [up, base_total, down]
+                .into_iter()
+                .flatten()
+                .min_by(f64::total_cmp);
+        }
         let diff = up.zip(down).map(|(p, m)| p - m);
         let b = self.sweep().base_value(axis).unwrap_or(f64::NAN);
         // Every value of this limit evaluated with the others at the base machine.

@@ -143,6 +143,12 @@ impl Axis {
         Axis::DoseRateScale,
     ];
 
+    /// The gantry's own limits (J, A, V): raising one admits every timeline the lower value
+    /// admitted, so it never makes the best delivery longer.
+    pub fn is_gantry_limit(self) -> bool {
+        matches!(self, Axis::Jerk | Axis::Accel | Axis::Speed)
+    }
+
     /// The field name in sweep files and output columns.
     pub fn field(self) -> &'static str {
         match self {

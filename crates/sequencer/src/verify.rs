@@ -93,7 +93,11 @@ pub(crate) fn verify_timeline(
                 current_dir = problems.get(arc).map_or(0.0, |p| p.dir);
             }
             PieceKind::Move { transition } => {
-                let tr = &transitions[transition];
+                let Some(tr) = transitions.get(transition) else {
+                    return fail(format!(
+                        "a move belongs to transition {transition}, which does not exist"
+                    ));
+                };
                 if tr.arc_change {
                     current_dir = 0.0; // a stop-and-turn may go either way, at rest at both ends
                 } else {

@@ -183,6 +183,15 @@ impl Flight<'_> {
                     })?,
                 }
             };
+            // Exactly the irradiation time (Ruckig's duration may be off by rounding), so that
+            // beam edges and move joins coincide.
+            let mut mv = mv;
+            let excess = mv.duration() - t_k;
+            if let Some(last) = mv.segments.last_mut() {
+                if last.duration > excess {
+                    last.duration -= excess;
+                }
+            }
             let c = s.mover.end_within_limits(&mv)?;
             if c.pos > hi[k] + tol {
                 return None;
