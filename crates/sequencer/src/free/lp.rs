@@ -372,16 +372,22 @@ impl Band {
     fn solve(&self, b: &[f64], x: &mut [f64]) {
         let w = self.bw + 1;
         for i in 0..self.n {
+            let k0 = i.saturating_sub(self.bw);
             let mut s = b[i];
-            for k in i.saturating_sub(self.bw)..i {
-                s -= self.a[i * w + (i - k)] * x[k];
+            for (k, xk) in x[k0..i].iter().enumerate().map(|(o, xk)| (k0 + o, xk)) {
+                s -= self.a[i * w + (i - k)] * xk;
             }
             x[i] = s / self.a[i * w];
         }
         for i in (0..self.n).rev() {
+            let k1 = (i + w).min(self.n);
             let mut s = x[i];
-            for k in i + 1..(i + w).min(self.n) {
-                s -= self.a[k * w + (k - i)] * x[k];
+            for (k, xk) in x[i + 1..k1]
+                .iter()
+                .enumerate()
+                .map(|(o, xk)| (i + 1 + o, xk))
+            {
+                s -= self.a[k * w + (k - i)] * xk;
             }
             x[i] = s / self.a[i * w];
         }

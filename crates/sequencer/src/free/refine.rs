@@ -256,10 +256,9 @@ fn pieces_from(
             // Braking that turns into speeding up inside the piece must not dip below zero
             // speed on the way: the least jerk whose lowest speed is exactly zero.
             let u = g.jerk;
-            if s.acc < 0.0 && u > 0.0 && -s.acc / u < d && s.vel - s.acc * s.acc / (2.0 * u) < 0.0 {
-                if s.vel > 0.0 {
-                    g.jerk = (s.acc * s.acc / (2.0 * s.vel)).min(lim.max_jerk);
-                }
+            let dips = s.acc < 0.0 && u > 0.0 && -s.acc / u < d;
+            if dips && s.vel > 0.0 && s.vel - s.acc * s.acc / (2.0 * u) < 0.0 {
+                g.jerk = (s.acc * s.acc / (2.0 * s.vel)).min(lim.max_jerk);
             }
         }
         s = s.after(g.duration, g.jerk);

@@ -307,10 +307,11 @@ impl Transcript {
         // Clock of each node: time since its stage began (0 at a stage's first node).
         let mut clock = vec![0.0; np + 1];
         for st in &self.stages {
+            let span = st.first..st.first + st.count;
             let mut c = 0.0;
-            for q in st.first..st.first + st.count {
-                clock[q] = c;
-                c += self.dur[q];
+            for (slot, d) in clock[span.clone()].iter_mut().zip(&self.dur[span]) {
+                *slot = c;
+                c += d;
             }
         }
         // Variables (changes from the current values), node by node.
@@ -346,10 +347,10 @@ impl Transcript {
         for st in &self.stages {
             let total: f64 = self.dur[st.first..st.first + st.count].iter().sum();
             let mean = total / st.count as f64;
-            for q in st.first..st.first + st.count {
+            for (q, &at_rest) in rest_piece.iter().enumerate().skip(st.first).take(st.count) {
                 let (u, d) = (self.jerk[q], self.dur[q]);
                 let ru = 2.0 * radius * jm;
-                jerk.push(if rest_piece[q] {
+                jerk.push(if at_rest {
                     lp.var(-u, -u, 0.0)
                 } else {
                     lp.var((-jm - u).max(-ru), (jm - u).min(ru), 0.0)
