@@ -9,10 +9,13 @@
 //! a feasible delivery, so free motion (a local optimum over all deliveries) must never be slower
 //! than the grid's best.
 
-use arcsim_plan::{ResolvedArc, ResolvedLayer, RotationDirection};
+mod common;
+
+use arcsim_plan::ResolvedArc;
 use arcsim_planner::Limits;
 use arcsim_sequencer::{simulate_resolved, ArcEnds, Motion, Options, Schedule};
 use arcsim_test_support::Rng;
+use common::{random_arc, ArcRanges};
 use rsruckig::prelude::*;
 
 /// (angle, speed, acceleration).
@@ -191,38 +194,13 @@ fn exhaustive(arc: &ResolvedArc, lim: &Limits, g: usize) -> Option<f64> {
         .min_by(f64::total_cmp)
 }
 
-fn random_arc(rng: &mut Rng, n: usize) -> ResolvedArc {
-    let mut angle = 0.0;
-    let layers = (0..n)
-        .map(|k| {
-            if k > 0 {
-                angle += rng.range(1.0, 4.0);
-            }
-            let t = rng.range(0.05, 0.6);
-            ResolvedLayer {
-                control_point: k,
-                layer: 0,
-                angle_deg: angle,
-                window_deg: rng.range(0.5, 3.0),
-                energy_mev: 100.0,
-                irradiation_s: t,
-                spot_irradiation_s: t,
-                scanning_s: 0.0,
-                required_speed_deg_per_s: None,
-                switch_in_s: if k == 0 {
-                    0.0
-                } else {
-                    [0.3, 0.5, 1.0, 2.0, 5.0][rng.below(5)]
-                },
-            }
-        })
-        .collect();
-    ResolvedArc {
-        arc_index: 0,
-        direction: RotationDirection::Cw,
-        layers,
-    }
-}
+/// The small arcs: 1–4° apart, beams of 0.05–0.6 s, windows of 0.5–3°.
+const SMALL: ArcRanges = ArcRanges {
+    spacing_deg: (1.0, 4.0),
+    irradiation_s: (0.05, 0.6),
+    window_deg: (0.5, 3.0),
+    elst_s: &[0.3, 0.5, 1.0, 2.0, 5.0],
+};
 
 #[test]
 fn no_grid_of_deliveries_beats_free_motion_on_small_arcs() {
@@ -231,7 +209,7 @@ fn no_grid_of_deliveries_beats_free_motion_on_small_arcs() {
     let mut close = 0;
     for case in 0..16 {
         let (n, g) = if case < 10 { (3, 7) } else { (4, 4) };
-        let arc = random_arc(&mut rng, n);
+        let arc = random_arc(&mut rng, n, &SMALL);
         let lim = Limits::with_decel(
             rng.range(0.2, 2.0),
             rng.range(0.2, 1.5),

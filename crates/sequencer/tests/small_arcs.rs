@@ -6,10 +6,13 @@
 //! above the exhaustive search's best, nor above a random schedule that is feasible. The same on
 //! a servo period, with every transition timed in whole periods.
 
-use arcsim_plan::{ResolvedArc, ResolvedLayer, RotationDirection};
+mod common;
+
+use arcsim_plan::ResolvedArc;
 use arcsim_planner::{Limits, Move, MoveAnalysis, Reversal};
 use arcsim_sequencer::{certify, simulate_resolved, Options, Schedule, CERTIFY_ROUNDS};
 use arcsim_test_support::Rng;
+use common::ArcRanges;
 
 /// Speeds per layer in the exhaustive search.
 const SPEEDS: usize = 201;
@@ -20,38 +23,19 @@ const SPEEDS: usize = 201;
 /// above this grid.
 const TOLERANCE: f64 = 1e-4;
 
+/// 3–7 layers, 0.5–3° apart, beams of 0.05–1 s, windows of 0.3–3°.
 fn random_arc(rng: &mut Rng) -> ResolvedArc {
     let n = 3 + rng.below(5);
-    let mut angle = 0.0;
-    let layers = (0..n)
-        .map(|k| {
-            if k > 0 {
-                angle += rng.range(0.5, 3.0);
-            }
-            let t = rng.range(0.05, 1.0);
-            ResolvedLayer {
-                control_point: k,
-                layer: 0,
-                angle_deg: angle,
-                window_deg: rng.range(0.3, 3.0),
-                energy_mev: 100.0,
-                irradiation_s: t,
-                spot_irradiation_s: t,
-                scanning_s: 0.0,
-                required_speed_deg_per_s: None,
-                switch_in_s: if k == 0 {
-                    0.0
-                } else {
-                    [0.0, 0.5, 1.0, 2.0, 5.0][rng.below(5)]
-                },
-            }
-        })
-        .collect();
-    ResolvedArc {
-        arc_index: 0,
-        direction: RotationDirection::Cw,
-        layers,
-    }
+    common::random_arc(
+        rng,
+        n,
+        &ArcRanges {
+            spacing_deg: (0.5, 3.0),
+            irradiation_s: (0.05, 1.0),
+            window_deg: (0.3, 3.0),
+            elst_s: &[0.0, 0.5, 1.0, 2.0, 5.0],
+        },
+    )
 }
 
 /// The planner's analysis of the forward move from layer k to k+1 at speeds `vs`, `ve` in the

@@ -152,7 +152,7 @@ const TOL: f64 = 1e-9;
 pub(crate) struct Mover {
     otg: Ruckig<1, ThrowErrorHandler>,
     input: InputParameter<1>,
-    /// The same limits for run-ups from rest (velocity interface: any start position).
+    /// The same limits for run-ups and braking (velocity interface: any end position).
     run_up_input: InputParameter<1>,
     traj: Trajectory<1>,
     lim: Limits,
@@ -317,20 +317,7 @@ impl Mover {
         if !self.admissible(from) {
             return None;
         }
-        let input = &mut self.run_up_input;
-        input.current_position[0] = from.pos;
-        input.current_velocity[0] = from.vel;
-        input.current_acceleration[0] = from.acc;
-        input.target_velocity[0] = 0.0;
-        input.target_acceleration[0] = 0.0;
-        let res = self.otg.calculate(input, &mut self.traj);
-        // The run-ups start from rest: leave the input as they expect it.
-        let input = &mut self.run_up_input;
-        input.current_position[0] = 0.0;
-        input.current_velocity[0] = 0.0;
-        input.current_acceleration[0] = 0.0;
-        res.ok()?;
-        let mv = self.segments(from)?;
+        let mv = self.reach_speed(from, 0.0, 0.0)?;
         let end = mv.end();
         self.check(&mv, FullState::rest(end.pos)).then_some(mv)
     }
@@ -341,17 +328,26 @@ impl Mover {
         if !self.admissible(to) {
             return None;
         }
-        let input = &mut self.run_up_input;
-        input.target_velocity[0] = to.vel;
-        input.target_acceleration[0] = to.acc;
-        self.otg.calculate(input, &mut self.traj).ok()?;
-        let from_zero = self.segments(FullState::rest(0.0))?;
+        let from_zero = self.reach_speed(FullState::rest(0.0), to.vel, to.acc)?;
         let dist = from_zero.end().pos;
         let mv = FullMove {
             start: FullState::rest(to.pos - dist),
             segments: from_zero.segments,
         };
         self.check(&mv, to).then_some(mv)
+    }
+
+    /// The shortest move from `from` to speed `vel` and acceleration `acc`, wherever it ends
+    /// (Ruckig's velocity interface), as our segments, not yet checked.
+    fn reach_speed(&mut self, from: FullState, vel: f64, acc: f64) -> Option<FullMove> {
+        let input = &mut self.run_up_input;
+        input.current_position[0] = from.pos;
+        input.current_velocity[0] = from.vel;
+        input.current_acceleration[0] = from.acc;
+        input.target_velocity[0] = vel;
+        input.target_acceleration[0] = acc;
+        self.otg.calculate(input, &mut self.traj).ok()?;
+        self.segments(from)
     }
 }
 

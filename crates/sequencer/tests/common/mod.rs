@@ -2,8 +2,11 @@
 //! instant of a timeline, independently of the sequencer's own verification.
 #![allow(dead_code)] // each test file uses its own part
 
-use arcsim_plan::{parse_machine, GantryLimitsSpec, Machine};
+use arcsim_plan::{
+    parse_machine, GantryLimitsSpec, Machine, ResolvedArc, ResolvedLayer, RotationDirection,
+};
 use arcsim_sequencer::Timeline;
+use arcsim_test_support::Rng;
 
 /// A machine file of `scenarios/`.
 pub fn machine(name: &str) -> Machine {
@@ -63,4 +66,50 @@ pub fn check_limits_at(tl: &Timeline, g: &GantryLimitsSpec, t: f64, what: &str) 
         "{what}: jerk at {t}"
     );
     dir
+}
+
+/// Ranges of a random arc's layers ([`random_arc`]).
+pub struct ArcRanges {
+    /// Angle between neighbouring layers (deg).
+    pub spacing_deg: (f64, f64),
+    pub irradiation_s: (f64, f64),
+    pub window_deg: (f64, f64),
+    /// ELSTs to draw from (s).
+    pub elst_s: &'static [f64],
+}
+
+/// A clockwise arc of `n` layers, one per control point, drawn from `r` (per layer: the spacing,
+/// the irradiation time, the window, the ELST, in that order).
+pub fn random_arc(rng: &mut Rng, n: usize, r: &ArcRanges) -> ResolvedArc {
+    let mut angle = 0.0;
+    let layers = (0..n)
+        .map(|k| {
+            if k > 0 {
+                angle += rng.range(r.spacing_deg.0, r.spacing_deg.1);
+            }
+            let t = rng.range(r.irradiation_s.0, r.irradiation_s.1);
+            let window_deg = rng.range(r.window_deg.0, r.window_deg.1);
+            ResolvedLayer {
+                control_point: k,
+                layer: 0,
+                angle_deg: angle,
+                window_deg,
+                energy_mev: 100.0,
+                irradiation_s: t,
+                spot_irradiation_s: t,
+                scanning_s: 0.0,
+                required_speed_deg_per_s: None,
+                switch_in_s: if k == 0 {
+                    0.0
+                } else {
+                    r.elst_s[rng.below(r.elst_s.len())]
+                },
+            }
+        })
+        .collect();
+    ResolvedArc {
+        arc_index: 0,
+        direction: RotationDirection::Cw,
+        layers,
+    }
 }
