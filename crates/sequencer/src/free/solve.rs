@@ -190,9 +190,10 @@ struct State {
     off: Vec<FullState>,
 }
 
-/// Solves one arc's free motion starting from the constant-speed schedule `speeds` (which it
-/// never does worse than; `None` when the anchored search finds nothing feasible, in which case
-/// the constant-speed timeline is the answer).
+/// Solves one arc's free motion: the anchored moves built from the constant-speed schedule
+/// `speeds`, then the refinement of the better of them and that schedule ([`refine`]); the
+/// shorter result. `None` when neither gives a feasible delivery (the constant-speed timeline
+/// is then the answer; the caller also keeps it when it is shorter).
 pub(crate) fn solve_arc(
     p: &ArcProblem,
     lim: &Limits,

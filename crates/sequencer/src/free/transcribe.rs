@@ -11,7 +11,7 @@
 //! Exact integration across a piece is linear in the state and the jerk and a polynomial in the
 //! duration, so a step solves the problem linearised at the current pieces (the changes of all
 //! variables; the durations inside a trust region) as one linear programme. The driver
-//! ([`super::solve`]) keeps a step only when the exact delivery built from its beam-on and
+//! ([`super::refine`]) keeps a step only when the exact delivery built from its beam-on and
 //! beam-off states is shorter. A speed may dip between joins by up to J·d²/8; the exact build
 //! (time-optimal moves between the states) is what is verified and returned.
 
