@@ -117,6 +117,12 @@ impl ArcProblem {
         MoveAnalysis::new(&mv, lim, Reversal::Forbid).ok()
     }
 
+    /// Layer `k`'s window along travel, `[θ_k − w_k/2, θ_k + w_k/2]` (deg).
+    pub fn window_edges(&self, k: usize) -> (f64, f64) {
+        let half = 0.5 * self.window[k];
+        (self.travel_deg[k] - half, self.travel_deg[k] + half)
+    }
+
     /// Duration of transition `k` at speeds `vs`, `ve`: the shortest feasible duration of at least
     /// max(minimum time, ELST), or `None` when no forward move fits the gap or none lasts the ELST.
     pub fn cost(&self, k: usize, vs: f64, ve: f64, lim: &Limits) -> Option<f64> {

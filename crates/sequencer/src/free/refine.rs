@@ -11,7 +11,7 @@
 use arcsim_planner::{Limits, Segment};
 
 use super::mover::{FullMove, FullState, Mover};
-use super::solve::{End, FreeArc, Start};
+use super::solve::{beam_at_rest, End, FreeArc, Start};
 use super::transcribe::Transcript;
 use crate::scan::ArcProblem;
 
@@ -94,21 +94,15 @@ impl Flight<'_> {
         let p = s.p;
         let n = p.len();
         let lim = s.lim;
-        let (on_s, off_s, _) = tr.anchors(n);
-        let (lo, hi): (Vec<f64>, Vec<f64>) = (0..n)
-            .map(|k| {
-                let half = 0.5 * p.window[k];
-                (p.travel_deg[k] - half, p.travel_deg[k] + half)
-            })
-            .unzip();
+        let (on_s, off_s) = tr.anchors(n);
+        let (lo, hi): (Vec<f64>, Vec<f64>) = (0..n).map(|k| p.window_edges(k)).unzip();
         let clean = |x: FullState, k: usize| FullState {
             pos: x.pos.clamp(lo[k], hi[k]),
             vel: x.vel.clamp(0.0, lim.max_vel),
             acc: x.acc.clamp(-lim.max_decel, lim.max_accel),
         };
         let (start, end) = (s.start, s.end);
-        let rest_at =
-            |k: usize| (k == 0 && start == Start::Rest) || (k + 1 == n && end == End::Rest);
+        let rest_at = |k: usize| beam_at_rest(k, n, start, end);
         let mut moves = Vec::with_capacity(2 * n + 1);
         let mut beam_on = vec![0.0; n];
         let (mut cur, run_up) = if start == Start::RunUp {

@@ -28,6 +28,12 @@ pub(crate) enum End {
     Free,
 }
 
+/// Whether layer `k` of `n` is irradiated at rest: the arc's first layer with a rest start, its
+/// last with a rest end.
+pub(super) fn beam_at_rest(k: usize, n: usize, start: Start, end: End) -> bool {
+    (k == 0 && start == Start::Rest) || (k + 1 == n && end == End::Rest)
+}
+
 /// Layers `first..=last` delivered along one move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct LayerSpan {
@@ -69,10 +75,10 @@ struct Solver<'a> {
 
 impl Solver<'_> {
     fn lo(&self, k: usize) -> f64 {
-        self.p.travel_deg[k] - 0.5 * self.p.window[k]
+        self.p.window_edges(k).0
     }
     fn hi(&self, k: usize) -> f64 {
-        self.p.travel_deg[k] + 0.5 * self.p.window[k]
+        self.p.window_edges(k).1
     }
     fn edge_tol(&self) -> f64 {
         1e-12 * (1.0 + self.p.travel_deg.last().copied().unwrap_or(0.0))

@@ -19,7 +19,7 @@ use arcsim_planner::{Limits, Segment};
 
 use super::lp::Lp;
 use super::mover::{FullMove, FullState};
-use super::solve::{End, FreeArc, Start};
+use super::solve::{beam_at_rest, End, FreeArc, Start};
 use crate::scan::ArcProblem;
 
 /// What a stage of the arc's motion is.
@@ -145,8 +145,7 @@ impl Transcript {
         let mut last = FullState::default();
         for (kind, a, b) in bounds {
             let (s0, mut segs) = cut(&pieces, a, b);
-            let at_rest = matches!(kind, StageKind::Beam(k)
-                if (k == 0 && start == Start::Rest) || (k + 1 == n && end == End::Rest));
+            let at_rest = matches!(kind, StageKind::Beam(k) if beam_at_rest(k, n, start, end));
             let want = match kind {
                 _ if at_rest => 1,
                 StageKind::Beam(_) => BEAM_PIECES,
@@ -186,9 +185,8 @@ impl Transcript {
         tr
     }
 
-    /// Beam-on and beam-off state of every layer, and the final state (at rest after a braking
-    /// end).
-    pub fn anchors(&self, n: usize) -> (Vec<FullState>, Vec<FullState>, FullState) {
+    /// Beam-on and beam-off state of every layer.
+    pub fn anchors(&self, n: usize) -> (Vec<FullState>, Vec<FullState>) {
         let mut on = vec![FullState::default(); n];
         let mut off = vec![FullState::default(); n];
         for st in &self.stages {
@@ -197,8 +195,7 @@ impl Transcript {
                 off[k] = self.state[st.first + st.count];
             }
         }
-        let last = self.state.last().copied().unwrap_or_default();
-        (on, off, last)
+        (on, off)
     }
 
     /// The pieces of layer `k`'s beam.
@@ -290,11 +287,10 @@ impl Transcript {
             first_of_stage[a] = true;
             match st.kind {
                 StageKind::Beam(k) => {
-                    floor[a] = p.travel_deg[k] - 0.5 * p.window[k] + GATE_MARGIN_DEG;
-                    ceil[b] = p.travel_deg[k] + 0.5 * p.window[k] - GATE_MARGIN_DEG;
-                    let at_rest =
-                        (k == 0 && start == Start::Rest) || (k + 1 == n && end == End::Rest);
-                    if at_rest {
+                    let (lo, hi) = p.window_edges(k);
+                    floor[a] = lo + GATE_MARGIN_DEG;
+                    ceil[b] = hi - GATE_MARGIN_DEG;
+                    if beam_at_rest(k, n, start, end) {
                         rest[a..=b].iter_mut().for_each(|r| *r = true);
                         rest_piece[a..b].iter_mut().for_each(|r| *r = true);
                     }
