@@ -106,7 +106,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let rows = evaluate(&pool, &ev, &indices, csv, &bar)?;
     let complete = rows.len() == indices.len();
 
-    let summary = complete.then(|| pool.install(|| ev.summarize(&rows)));
+    let summary = complete
+        .then(|| pool.install(|| summarize(&ev, &rows)))
+        .transpose()?;
     if let Some(path) = &args.json {
         let results = Results {
             format: RESULTS_FORMAT,
@@ -312,6 +314,24 @@ fn evaluate(
     Ok(rows)
 }
 
+/// The summary of `rows`, with a progress bar over the extra settings it simulates (one-limit
+/// profiles and ±10 % finite differences that are not grid rows), and how long they took.
+fn summarize(ev: &Evaluator, rows: &[Row]) -> Result<arcsim_evaluator::Summary, CliError> {
+    let extra = ev.summary_evaluations(rows);
+    let bar = progress_bar(extra)?;
+    let started = Instant::now();
+    let summary = ev.summarize_with(rows, &|| bar.inc(1));
+    bar.finish_and_clear();
+    if extra > 0 {
+        eprintln!(
+            "summarised in {:.2} s ({} besides the rows: one-limit profiles and ±10 % finite differences)",
+            started.elapsed().as_secs_f64(),
+            crate::count(extra, "setting")
+        );
+    }
+    Ok(summary)
+}
+
 /// Writes the `--json` results document.
 fn write_json(path: &Path, results: &Results) -> Result<(), CliError> {
     let mut f = AtomicFile::create(path)?;
@@ -390,7 +410,7 @@ pub fn merge(args: MergeArgs) -> Result<(), CliError> {
             let rows = ev
                 .rows_from_csv(&args.out.display().to_string(), &merged)
                 .map_err(failed)?;
-            let summary = ev.summarize(&rows);
+            let summary = summarize(&ev, &rows)?;
             Some((ev, rows, summary))
         }
         None => None,

@@ -276,14 +276,55 @@ fn feasible_points(rows: &[&Row]) -> Vec<Point> {
         .collect()
 }
 
+/// The total of a setting the summary needs, when a grid row among `rows` or the base machine
+/// already has it (`Some(None)`: known to be infeasible); `None` when it must be simulated.
+fn known_total(
+    setting: &Setting,
+    base: &Setting,
+    base_total: Option<f64>,
+    rows: &[&Row],
+) -> Option<Option<f64>> {
+    if setting == base {
+        return Some(base_total);
+    }
+    rows.iter()
+        .find(|row| row.setting == *setting)
+        .map(|row| row.outcome.map(|o| o.total_s))
+}
+
 impl Evaluator {
     /// Summarises `rows` (any subset of the sweep's, e.g. a shard's), evaluating on the current
     /// rayon pool the extra settings the summary needs (one-limit profiles, finite differences).
     pub fn summarize(&self, rows: &[Row]) -> Summary {
+        self.summarize_with(rows, &|| {})
+    }
+
+    /// How many settings [`Evaluator::summarize`] simulates besides `rows`: the extra settings
+    /// that are neither a grid row among `rows` nor the base machine (for a progress bar).
+    pub fn summary_evaluations(&self, rows: &[Row]) -> usize {
         let sweep = self.sweep();
-        let entries = (0..sweep.plans.len())
-            .flat_map(|plan| (0..sweep.schedule_grids.len()).map(move |run| (plan, run)))
-            .map(|(plan, run)| self.summarize_entry(plan, run, rows))
+        let base = sweep.base_setting();
+        self.entries()
+            .map(|(plan, run)| {
+                let (extras, mine) = self.entry_extras(plan, run, rows);
+                let base_total = self.base_total_s(plan, run);
+                extras
+                    .into_iter()
+                    .filter(|&e| {
+                        known_total(&self.extra_setting(e), &base, base_total, &mine).is_none()
+                    })
+                    .count()
+            })
+            .sum()
+    }
+
+    /// [`Evaluator::summarize`], calling `on_evaluated` after each of the
+    /// [`Evaluator::summary_evaluations`] extra settings it simulates.
+    pub fn summarize_with(&self, rows: &[Row], on_evaluated: &(dyn Fn() + Sync)) -> Summary {
+        let sweep = self.sweep();
+        let entries = self
+            .entries()
+            .map(|(plan, run)| self.summarize_entry(plan, run, rows, on_evaluated))
             .collect();
         Summary {
             sweep: sweep.name.clone(),
@@ -294,17 +335,51 @@ impl Evaluator {
         }
     }
 
+    /// Every (plan, schedule entry) pair, in the summary's order.
+    fn entries(&self) -> impl Iterator<Item = (usize, usize)> {
+        let runs = self.sweep().schedule_grids.len();
+        (0..self.sweep().plans.len()).flat_map(move |plan| (0..runs).map(move |run| (plan, run)))
+    }
+
+    /// The extra settings of plan `plan` under schedule entry `run`, and that entry's rows among
+    /// `rows`.
+    fn entry_extras<'r>(
+        &self,
+        plan: usize,
+        run: usize,
+        rows: &'r [Row],
+    ) -> (Vec<Extra>, Vec<&'r Row>) {
+        let sweep = self.sweep();
+        let entry = &sweep.schedule_grids[run];
+        let swept = swept_axes(&entry.grid, &sweep.base_setting());
+        let sensitivity_axes = self.sensitivity_axes(&swept);
+        let extras = extra_settings(&entry.grid, &swept, &sensitivity_axes);
+        (extras, self.rows_of(plan, run, rows))
+    }
+
     /// The summary of plan `plan` under schedule entry `run`, from that entry's rows among `rows`
     /// and the extra settings it evaluates.
-    fn summarize_entry(&self, plan: usize, run: usize, rows: &[Row]) -> Entry {
+    fn summarize_entry(
+        &self,
+        plan: usize,
+        run: usize,
+        rows: &[Row],
+        on_evaluated: &(dyn Fn() + Sync),
+    ) -> Entry {
         let sweep = self.sweep();
         let entry = &sweep.schedule_grids[run];
         let base_total = self.base_total_s(plan, run);
         let swept = swept_axes(&entry.grid, &sweep.base_setting());
         let sensitivity_axes = self.sensitivity_axes(&swept);
-        let extras = extra_settings(&entry.grid, &swept, &sensitivity_axes);
-        let extras = self.evaluate_extras(plan, entry.schedule, extras, base_total);
-        let mine = self.rows_of(plan, run, rows);
+        let (extras, mine) = self.entry_extras(plan, run, rows);
+        let extras = self.evaluate_extras(
+            plan,
+            entry.schedule,
+            extras,
+            base_total,
+            &mine,
+            on_evaluated,
+        );
         let feasible = feasible_points(&mine);
         let target_total_s = base_total.map(|b| sweep.target.total_s(b));
         let cheapest = target_total_s.zip(base_total).and_then(|(target, b)| {
@@ -355,21 +430,32 @@ impl Evaluator {
         }
     }
 
-    /// The totals of `extras` for a plan under a schedule, simulated on the current rayon pool.
+    /// The totals of `extras` for a plan under a schedule: taken from the entry's grid rows
+    /// (`rows`) or the base machine where they hold the setting (the same simulation), the others
+    /// simulated on the current rayon pool.
     fn evaluate_extras(
         &self,
         plan: usize,
         schedule: RunMode,
         extras: Vec<Extra>,
         base_total: Option<f64>,
+        rows: &[&Row],
+        on_evaluated: &(dyn Fn() + Sync),
     ) -> ExtraTotals {
+        let base = self.sweep().base_setting();
         let totals: Vec<Option<f64>> = extras
             .par_iter()
             .map(|&extra| {
                 let setting = self.extra_setting(extra);
-                self.simulate(plan, schedule, &setting, base_total)
+                if let Some(known) = known_total(&setting, &base, base_total, rows) {
+                    return known;
+                }
+                let total = self
+                    .simulate(plan, schedule, &setting, base_total)
                     .1
-                    .map(|o| o.total_s)
+                    .map(|o| o.total_s);
+                on_evaluated();
+                total
             })
             .collect();
         ExtraTotals(extras.into_iter().zip(totals).collect())

@@ -310,6 +310,44 @@ fn summary_finds_the_cheapest_change() {
 
 /// Merged shards read back with the sweep file summarise exactly as the single run does; a
 /// table from another sweep, or a damaged line, is a located error.
+/// The summary simulates only what the rows do not hold: a profiled value that is a grid row (or
+/// the base machine) is taken from it, and its total equals a fresh simulation of that setting;
+/// the progress callback runs once per setting the summary does simulate.
+#[test]
+fn summary_reuses_grid_rows_and_counts_what_it_simulates() {
+    let text = GOOD.replace(
+        "[0.5, 1]",
+        "[0.25, 0.5, 1], \"accel_deg_per_s2\": [0.5, 0.7]",
+    );
+    let ev = Evaluator::new(from_text(&text).expect("sweep")).expect("prepare");
+    let rows = ev.run_collect(&(0..ev.len()).collect::<Vec<_>>());
+    // J and A swept (J, A, V nudged ±10 %); every profiled value is a grid row with the other
+    // limit at the base machine's value, so only the six nudges are simulated.
+    assert_eq!(ev.summary_evaluations(&rows), 6);
+    let calls = std::sync::atomic::AtomicUsize::new(0);
+    let s = ev.summarize_with(&rows, &|| {
+        calls.fetch_add(1, Ordering::Relaxed);
+    });
+    assert_eq!(calls.load(Ordering::Relaxed), 6);
+    assert_eq!(s, ev.summarize(&rows));
+    let base = ev.sweep().base_setting();
+    for profile in &s.entries[0].profiles {
+        for point in &profile.points {
+            let setting = base.with(profile.axis, point.value);
+            let fresh = ev.simulate(
+                0,
+                s.entries[0].schedule,
+                &setting,
+                s.entries[0].base_total_s,
+            );
+            assert_eq!(point.total_s, fresh.1.map(|o| o.total_s), "{setting:?}");
+        }
+    }
+    // A shard's rows hold fewer of the profiled values: the summary simulates the rest.
+    let first = &rows[..2];
+    assert_eq!(ev.summary_evaluations(first), 6 + 2);
+}
+
 #[test]
 fn merged_shards_summarise_like_a_single_run() {
     let text = GOOD
