@@ -253,7 +253,7 @@ fn check_motion(opts: &Options) -> Result<(), SequenceError> {
             "free arc ends need free motion (--motion free): a constant-speed arc starts and ends at rest".into(),
         )),
         (Motion::Free, _) if opts.servo_period_s.is_some() => Err(SequenceError::Input(
-            "free motion is continuous-time only: drop the servo period (--period or the machine's servo_period_s)".into(),
+            "free motion is continuous-time only (its solver switches jerk at any instant; a version whose jerk holds over whole servo periods is not built): drop the servo period (--period or the machine's servo_period_s), or use --motion constant, which supports one".into(),
         )),
         (Motion::Free, _) if matches!(opts.schedule, Schedule::StepAndShoot | Schedule::Prescribed) => {
             Err(SequenceError::Input(format!(

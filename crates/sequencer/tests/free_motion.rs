@@ -60,6 +60,21 @@ fn check_sampled(d: &Delivery, m: &Machine, dt: f64, what: &str) {
             tr.elst_s
         );
     }
+    // Every join continuous to 1e-12 in angle, speed and acceleration: each piece starts where
+    // the one before ends.
+    for (i, w) in tl.pieces.windows(2).enumerate() {
+        let end = w[0].state_after(w[0].duration_s);
+        let jumps = [
+            end.angle_deg - w[1].angle_deg,
+            end.speed_deg_per_s - w[1].speed_deg_per_s,
+            end.accel_deg_per_s2 - w[1].accel_deg_per_s2,
+        ];
+        assert!(
+            jumps.iter().all(|j| j.abs() <= 1e-12),
+            "{what}: join {i} at t = {} s jumps by {jumps:?} (angle, speed, acceleration)",
+            w[1].t_start_s
+        );
+    }
     let dir_of = |layer: usize| -> f64 {
         let arc = d.layers[layer].arc;
         let same: Vec<&arcsim_sequencer::LayerRow> =
@@ -281,7 +296,7 @@ fn incompatible_options_are_refused() {
 }
 
 #[test]
-#[ignore]
+#[ignore = "a timing printout, not a check: run with --ignored --nocapture"]
 fn time_atom_free() {
     let Some(text) = atom() else { return };
     let m = machine("machine-atom.json");
@@ -309,40 +324,69 @@ fn time_atom_free() {
 }
 
 /// Raising a gantry limit admits every timeline the lower limit admitted, so the true minimum
-/// never grows. Free motion is a local optimum: along one-axis sweeps on the ATOM cases its total
-/// may rise only by solver noise, at most `NOISE` (relative) above the best total at any lower
-/// value. (The previous solver, a pattern search, rose by up to 0.8 % on these sweeps.)
+/// never grows. Free motion is a local optimum: along one-axis sweeps of J, A, D and V (10 values
+/// each, rest ends) on the ATOM cases and the bundled prostate plan, its total may rise only by
+/// solver noise, at most `NOISE` (relative) above the best total at any lower value. (The pattern
+/// search before it rose by up to 0.8 % on such sweeps; the bundled lung and two-arc plans, where
+/// long switches at shared control points make the problem rugged, still rise by up to 1.2 %: see
+/// the README.)
 #[test]
 fn raising_a_gantry_limit_never_costs_more_than_noise() {
-    const NOISE: f64 = 5e-4;
+    use rayon::prelude::*;
+    const NOISE: f64 = 1e-4;
     let Some(text) = atom() else { return };
     let base = machine("machine-atom.json");
-    let sweeps: [(&str, &str, [f64; 6]); 3] = [
-        ("head-and-neck", "A", [0.5, 0.7, 0.8, 0.9, 1.0, 1.1]),
-        ("head-and-neck", "J", [0.5, 0.7, 0.9, 1.0, 1.1, 1.2]),
-        ("prostate", "V", [3.0, 3.8, 4.4, 5.0, 5.6, 6.2]),
-    ];
-    for (case, axis, values) in sweeps {
-        let plan = arcsim_plan::atom_case_plan(&text, case).expect("case");
-        let mut best = f64::INFINITY;
-        for v in values {
-            let mut m = base.clone();
-            match axis {
-                "A" => {
-                    m.gantry.max_accel_deg_per_s2 = v;
-                    m.gantry.max_decel_deg_per_s2 = Some(v);
-                }
-                "J" => m.gantry.max_jerk_deg_per_s3 = v,
-                _ => m.gantry.max_speed_deg_per_s = v,
+    let base_decel = base
+        .gantry
+        .max_decel_deg_per_s2
+        .unwrap_or(base.gantry.max_accel_deg_per_s2);
+    let spread = |lo: f64, hi: f64| (0..10).map(move |i| lo + (hi - lo) * f64::from(i) / 9.0);
+    let mut plans: Vec<(String, ArcPlan)> = ["prostate", "head-and-neck", "liver"]
+        .into_iter()
+        .map(|case| {
+            let plan = arcsim_plan::atom_case_plan(&text, case).expect("case");
+            (format!("ATOM {case}"), plan)
+        })
+        .collect();
+    let bundled = format!("{}/../../plans/prostate.json", env!("CARGO_MANIFEST_DIR"));
+    plans.push((
+        "bundled prostate".into(),
+        arcsim_plan::load_plan(&bundled).expect("plan"),
+    ));
+    for (name, plan) in &plans {
+        for axis in ["J", "A", "D", "V"] {
+            let values: Vec<f64> = match axis {
+                "V" => spread(2.0, 8.0).collect(),
+                _ => spread(0.3, 1.2).collect(),
+            };
+            let totals: Vec<f64> = values
+                .par_iter()
+                .map(|&v| {
+                    let mut m = base.clone();
+                    let g = &mut m.gantry;
+                    match axis {
+                        "J" => g.max_jerk_deg_per_s3 = v,
+                        "A" => {
+                            g.max_accel_deg_per_s2 = v;
+                            g.max_decel_deg_per_s2 = Some(base_decel);
+                        }
+                        "D" => g.max_decel_deg_per_s2 = Some(v),
+                        _ => g.max_speed_deg_per_s = v,
+                    }
+                    simulate(plan, &m, &free(ArcEnds::Rest))
+                        .expect("free")
+                        .total_s
+                })
+                .collect();
+            println!("{name} {axis} {values:?}: {totals:?}");
+            let mut best = f64::INFINITY;
+            for (v, t) in values.iter().zip(&totals) {
+                assert!(
+                    *t <= best * (1.0 + NOISE),
+                    "{name}: {axis} = {v} gives {t} s, a lower {axis} gave {best} s"
+                );
+                best = best.min(*t);
             }
-            let d = simulate(&plan, &m, &free(ArcEnds::Rest)).expect("free");
-            println!("{case} {axis} {v}: {:.4} s", d.total_s);
-            assert!(
-                d.total_s <= best * (1.0 + NOISE),
-                "{case}: {axis} = {v} gives {} s, a lower {axis} gave {best} s",
-                d.total_s
-            );
-            best = best.min(d.total_s);
         }
     }
 }

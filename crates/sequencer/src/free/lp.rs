@@ -311,6 +311,9 @@ struct Band {
     bw: usize,
     /// Row `i`, column `i - k` at `i * (bw + 1) + k`.
     a: Vec<f64>,
+    /// The reciprocals of the factor's diagonal: the factor and the solves multiply by them
+    /// (a division in their serial chains costs several times a multiplication).
+    inv: Vec<f64>,
 }
 
 impl Band {
@@ -319,6 +322,7 @@ impl Band {
             n,
             bw,
             a: vec![0.0; n * (bw + 1)],
+            inv: vec![0.0; n],
         }
     }
 
@@ -356,13 +360,15 @@ impl Band {
                 }
                 if i == j {
                     let scale = self.a[i * w].abs().max(1e-300);
-                    self.a[i * w] = if s > 1e-14 * scale && s.is_finite() {
+                    let d = if s > 1e-14 * scale && s.is_finite() {
                         s.sqrt()
                     } else {
                         1e64
                     };
+                    self.a[i * w] = d;
+                    self.inv[i] = 1.0 / d;
                 } else {
-                    self.a[i * w + (i - j)] = s / self.a[j * w];
+                    self.a[i * w + (i - j)] = s * self.inv[j];
                 }
             }
         }
@@ -377,7 +383,7 @@ impl Band {
             for (k, xk) in x[k0..i].iter().enumerate().map(|(o, xk)| (k0 + o, xk)) {
                 s -= self.a[i * w + (i - k)] * xk;
             }
-            x[i] = s / self.a[i * w];
+            x[i] = s * self.inv[i];
         }
         for i in (0..self.n).rev() {
             let k1 = (i + w).min(self.n);
@@ -389,7 +395,7 @@ impl Band {
             {
                 s -= self.a[k * w + (k - i)] * xk;
             }
-            x[i] = s / self.a[i * w];
+            x[i] = s * self.inv[i];
         }
     }
 }

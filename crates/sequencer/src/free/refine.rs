@@ -168,13 +168,7 @@ impl Flight<'_> {
                 let ruckig = s.mover.solve(cur, to, t_k);
                 match ruckig {
                     Some(mv) if mv.duration() <= t_k * (1.0 + 1e-12) => mv,
-                    _ => pieces_from(cur, tr.beam_segments(k), None, &lim).map(|mut mv| {
-                        let sum = mv.duration();
-                        for g in &mut mv.segments {
-                            g.duration *= t_k / sum;
-                        }
-                        mv
-                    })?,
+                    _ => pieces_from(cur, scaled_to(tr.beam_segments(k), t_k), None, &lim)?,
                 }
             };
             // Exactly the irradiation time (Ruckig's duration may be off by rounding), so that
@@ -216,9 +210,20 @@ impl Flight<'_> {
     }
 }
 
+/// `segs` with their durations scaled to sum to `total` (unchanged if they sum to zero).
+fn scaled_to(mut segs: Vec<Segment>, total: f64) -> Vec<Segment> {
+    let sum: f64 = segs.iter().map(|g| g.duration).sum();
+    if sum > 0.0 {
+        for g in &mut segs {
+            g.duration *= total / sum;
+        }
+    }
+    segs
+}
+
 /// A transcript's pieces flown from `from`: each jerk clipped so that the acceleration and the
-/// speed at the piece's end stay inside the limits and the speed never dips below zero inside
-/// it (the linearisation and the joins-only speed bound can leave them a hair outside), the
+/// speed at the piece's end stay inside the limits and the speed neither dips below zero nor
+/// overshoots V inside it (the linearisation and the joins-only speed bound can leave them a hair outside), the
 /// durations scaled up to `at_least` seconds if given. `None` without a piece.
 fn pieces_from(
     from: FullState,
@@ -253,6 +258,14 @@ fn pieces_from(
             let dips = s.acc < 0.0 && u > 0.0 && -s.acc / u < d;
             if dips && s.vel > 0.0 && s.vel - s.acc * s.acc / (2.0 * u) < 0.0 {
                 g.jerk = (s.acc * s.acc / (2.0 * s.vel)).min(lim.max_jerk);
+            }
+            // Likewise speeding up that turns into braking must not overshoot V: the least
+            // braking jerk whose highest speed is exactly V.
+            let u = g.jerk;
+            let room = lim.max_vel - s.vel;
+            let peaks = s.acc > 0.0 && u < 0.0 && -s.acc / u < d;
+            if peaks && room > 0.0 && s.vel - s.acc * s.acc / (2.0 * u) > lim.max_vel {
+                g.jerk = -(s.acc * s.acc / (2.0 * room)).min(lim.max_jerk);
             }
         }
         s = s.after(g.duration, g.jerk);

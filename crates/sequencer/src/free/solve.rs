@@ -313,15 +313,19 @@ pub(crate) fn solve_arc(
         }
     }
     let anchored = finish(&mut s, &State { stretches, on, off });
-    // The transcription, refined from the better of the anchored moves and the constant-speed
-    // schedule.
+    // The transcription refined from each seed, the anchored moves and the constant-speed
+    // schedule: where long switches at shared control points make the problem rugged (the
+    // bundled lung plan), the two lead to different local optima, 1.3 % apart.
+    // The two refinements are independent: side by side when a core is free.
     let base = super::from_constant(p, lim, speeds);
-    let seed = [anchored.as_ref(), base.as_ref()]
-        .into_iter()
-        .flatten()
-        .min_by(|a, b| a.total.total_cmp(&b.total));
-    let refined = seed.and_then(|fa| refine(p, lim, start, end, &mut s.mover, fa));
-    [anchored, refined]
+    let refined_from = |seed: Option<&FreeArc>| {
+        seed.and_then(|seed| refine(p, lim, start, end, &mut Mover::new(lim, false), seed))
+    };
+    let (from_anchored, from_constant) = rayon::join(
+        || refined_from(anchored.as_ref()),
+        || refined_from(base.as_ref()),
+    );
+    [anchored, from_anchored, from_constant]
         .into_iter()
         .flatten()
         .min_by(|a, b| a.total.total_cmp(&b.total))

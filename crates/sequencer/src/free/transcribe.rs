@@ -12,7 +12,12 @@
 //! duration, so a step solves the problem linearised at the current pieces (the changes of all
 //! variables; the durations inside a trust region) as one linear programme. The driver
 //! ([`super::refine`]) keeps a step only when the exact delivery built from its beam-on and
-//! beam-off states is shorter. A speed may dip between joins by up to J·d²/8; the exact build
+//! beam-off states is shorter. The speed is bounded at the joins; inside a piece where braking
+//! turns into speeding up (or the reverse) it passes a low (high) point between them, kept at
+//! or above 0 (at or below V) by a linearised cut where it comes near: 2·u·v ≥ a²
+//! (2·|u|·(V − v) ≥ a²). Without the upper cut, beams planned at full speed with the
+//! acceleration still positive overshoot V, the exact build rejects every such step, and the
+//! refinement stalls (the bundled two-arc plan at 252.93 s instead of 251.81 s). The exact build
 //! (time-optimal moves between the states) is what is verified and returned.
 
 use arcsim_planner::{Limits, Segment};
@@ -435,6 +440,24 @@ impl Transcript {
                                 (slack, -1.0),
                             ],
                             s.acc * s.acc - 2.0 * u * s.vel,
+                        );
+                    }
+                }
+                // Likewise speeding up that turns into braking peaks at v + a²/(2|u|): keep it
+                // at most V (2·|u|·(V - v) ≥ a², linearised) where it comes near V.
+                if !rest_piece[q] && s.acc > 0.0 && u < 0.0 && -s.acc / u < 1.2 * d {
+                    let peak = s.vel - s.acc * s.acc / (2.0 * u);
+                    if peak > 0.9 * lim.max_vel {
+                        let slack = lp.var(0.0, inf, 0.0);
+                        let room = lim.max_vel - s.vel;
+                        lp.row(
+                            &[
+                                (jerk[q], -2.0 * room),
+                                (nq.v, 2.0 * u),
+                                (nq.a, -2.0 * s.acc),
+                                (slack, -1.0),
+                            ],
+                            s.acc * s.acc + 2.0 * u * room,
                         );
                     }
                 }
