@@ -4,7 +4,7 @@ use arcsim_plan::{ArcPlan, Machine, ResolvedArc};
 use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal, SevenPhases};
 
 use crate::free;
-use crate::optimal::optimal;
+use crate::optimal::{optimal, speed_free_scan};
 use crate::scan::{moving_time, moving_time_on, polished_scan, scan, scan_converged, ArcProblem};
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
@@ -120,7 +120,8 @@ fn choose_speeds(
     chosen
 }
 
-/// The scan's speeds. On a servo period, the continuous scan's speeds are kept where their
+/// The scan's speeds, from the scan of the arc without V ([`speed_free_scan`]: the same start
+/// at every V that cuts none of its speeds, so raising V does not move it). On a servo period, the continuous scan's speeds are kept where their
 /// transitions fit the grid and lowered only where not, so a period never shortens a transition
 /// (a scan from the caps on a fine grid could settle on other, faster speeds); the scan from the
 /// caps is the fallback when that repair does not settle.
@@ -129,7 +130,7 @@ fn scan_speeds(
     limits: &Limits,
     period: Option<f64>,
 ) -> (Vec<f64>, Vec<SpeedBound>) {
-    let settled = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
+    let settled = speed_free_scan(p, limits);
     on_period(p, limits, polished_scan(p, limits, settled), period)
 }
 
@@ -158,9 +159,12 @@ fn optimal_speeds(
     period: Option<f64>,
 ) -> (Vec<f64>, Vec<SpeedBound>) {
     let (upper, _) = scan(p, limits, &p.speed_cap, &p.cap_bound, false, None);
-    let (seed, seed_bounds) = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
-    // The search is local: the `scan` schedule (which avoids stops at ELSTs) can sit in a better
-    // basin, and `optimal` is never worse than it. The two are independent and run side by side.
+    // The search's seed: the scan from the caps the arc has without V, the same at every V that
+    // cuts none of its speeds (see `optimal`'s module doc: why `optimal` is monotone in V).
+    let (seed, seed_bounds) = speed_free_scan(p, limits);
+    // The search is local: the `scan` schedule (which avoids stops at ELSTs, from the same seed)
+    // can sit in a better basin, and `optimal` is never worse than it. The two are independent
+    // and run side by side.
     let ((found, found_time), fast) = rayon::join(
         || optimal(p, limits, &upper, &seed, None),
         || polished_scan(p, limits, (seed.clone(), seed_bounds.clone())),
@@ -194,9 +198,13 @@ fn optimal_speeds(
     let repaired = scan(p, limits, &best, &b, true, period);
     let direct = scan(p, limits, &p.speed_cap, &p.cap_bound, true, period);
     let seeded = scan_converged(p, limits, &seed, &seed_bounds, true, period);
+    // The scan from the caps (the seed before the V-free one) repaired on the grid: one more
+    // start, so the V-free seed never makes a servo-period total longer than it was.
+    let capped = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
+    let capped = scan_converged(p, limits, &capped.0, &capped.1, true, period);
     let scanned = on_period(p, limits, fast, period);
     let time = |v: &[f64]| arc_time_on_grid(p, v, limits, ts);
-    let (start, start_bounds) = [Some(direct), seeded, Some(scanned)]
+    let (start, start_bounds) = [Some(direct), seeded, capped, Some(scanned)]
         .into_iter()
         .flatten()
         .fold(repaired, |a, c| if time(&c.0) < time(&a.0) { c } else { a });

@@ -5,12 +5,52 @@
 //! over a grid is exact for that grid; refining around the best path makes it a local search,
 //! not a certified optimum (the transition cost jumps where an ELST stops fitting without a stop,
 //! so the chain has many local optima). Every layer's speed is provably at most its
-//! [`speed_bound`]. Two searches run and the shorter is kept: one with grids over [0, bound],
-//! one with finer grids over [0, upper_k], the scan without ELST, where the optimum most often is
-//! (not a bound: a slower neighbour widens a gap, so a layer can be faster). First grids contain
-//! the scan's speeds and rest, so the result is never worse than the seed scan or step-and-shoot;
-//! each refinement shrinks the spacing six-fold around the best path, and runs once more at the
-//! same spacing when the path improved and ended on a grid's edge (the optimum may lie beyond).
+//! [`speed_bound`]. Two searches run and the shorter is kept: one with grids over [0, s_k]
+//! ([`jerk_spans`]: the window cap and what jerk alone lets the gantry reach from rest and
+//! brake from), one with finer grids over [0, upper_k], the scan without ELST, where
+//! the optimum most often is (not a bound: a slower neighbour widens a gap, so a layer can be
+//! faster). First grids contain the seed scan's speeds and rest, so the result is never worse
+//! than the seed or step-and-shoot; each refinement shrinks the spacing six-fold around the best
+//! path, and runs once more at the same spacing when the path improved and ended on a grid's
+//! edge (the optimum may lie beyond). A fourth, finer refinement follows while the third still
+//! gained 1e-6 of the moving time: with three, the speeds could stop some 1e-5 °/s short of the
+//! local optimum, and free motion, which starts from them, landed a second apart on such a
+//! difference (a 4-layer arc of `free_optimality.rs`: 11.16 s against 12.22 s).
+//!
+//! # Why raising a limit does not lengthen it (issue 30)
+//!
+//! Raising J, A, D or V admits every move the lower limits admitted, so each transition's cost
+//! (its shortest feasible duration of at least the ELST) can only fall, and dynamic programming
+//! over the *same* grids can only find a shorter path. The search used to lose that property
+//! through its inputs, not its costs: the grids spanned each layer's bound min(V, w_k/t_k, reach),
+//! so a higher V spread the same points over a wider range, and the seed and the ELST-free
+//! `upper` came from scans that start at min(V, w_k/t_k) and lower speeds by factors of where
+//! they start. A higher V (one that limited no speed of the result) then searched coarser grids
+//! around another seed and ended in a worse basin: bundled head-neck 757.871 s at V 1.3,
+//! 757.885 s at every V from 1.93 up (ATOM machine), prostate 273.849 → 273.853 s from V 3.1
+//! to 3.7. Now, in continuous time:
+//!
+//! - the first grids are the lattice `i · s_k / (m − 1)` of a span `s_k` that holds no limit but
+//!   J ([`jerk_spans`]: the window cap w_k / t_k, and the speed a jerk triangle reaches from
+//!   rest over the travel before the layer and brakes from over the travel after it), cut at
+//!   the layer's provable bound: A, D and V enter only as that cut, so a higher limit keeps
+//!   every point a lower one had (and may add the cut point);
+//! - the seed ([`speed_free_scan`], also the `scan` schedule's start) and the finer search's span
+//!   are scans of the arc without V ([`without_speed_limit`]: V raised to the highest window
+//!   cap); the seed is then scanned again at the true V, which changes nothing where V cuts none
+//!   of its speeds.
+//!
+//! So for every V that cuts no speed of the V-free seed and no move of the search, the whole
+//! computation is the same, whatever V is; for A and D the first grids are the same points.
+//! Where V does cut, and along J, A and D (which enter the scans' passes and ELST lowering and
+//! the costs the refinements follow), the seed and the refinements are still local heuristics
+//! that depend on the limits: there monotonicity is what the one-axis sweeps of
+//! `tests/optimal_monotone.rs` check (J, A, D, V, ten values each, ATOM machine, ATOM cases and
+//! bundled plans: no step above 1e-6 relative; 30 of 280 settings failed before, worst +0.014 s),
+//! not a theorem. Probes at other bases still find small steps: at J 0.287, A 0.698 along A up
+//! to +0.010 s (10 of 280 settings; 61 before, up to +0.36 s), where a lower A sends the scan's
+//! ELST lowering into another basin; at the ATOM machine with other sweep values, along D on
+//! lung, +0.0004 s (3 of 280; 32 before).
 //!
 //! Most speed pairs of a grid cannot improve their target: the closed-form test
 //! [`may_last_within`] (eq. 3–4, no root solve) skips every pair whose minimum time already
@@ -22,12 +62,21 @@
 //!
 //! On a servo period the same search runs on the grid-timed problem: each pair costs the whole
 //! number of periods its move can last ([`ArcProblem::cost_on`]); the test above still applies,
-//! as a period only lengthens a transition.
+//! as a period only lengthens a transition. There the grids keep their earlier spans (each
+//! layer's bound, and the caller's `upper`): the grid-timed search is repeated from several
+//! starts and is not swept for monotonicity. Those repeated passes also show where the
+//! continuous search stops short: on plans/lung.json a 1 µs period gives 158.215 s against
+//! 158.232 s continuous, with no transition shorter than its continuous duration (its speeds
+//! replayed in continuous time give 158.215 s too), so the grid-timing rule holds and the
+//! continuous result is the one that is not optimal. Repeating the continuous search from its
+//! own result closes that (158.235 s after two passes, before the fourth refinement) but costs
+//! one search per pass and moved lung along A by 2e-6 relative, so it is not done.
 
 use arcsim_planner::{two_change, Limits, LinearGap};
 
-use crate::scan::{moving_time_on, ArcProblem};
+use crate::scan::{moving_time_on, scan, ArcProblem};
 use crate::servo::ticks;
+use crate::SpeedBound;
 
 /// Points per layer in each refinement's grid.
 const GRID: usize = 13;
@@ -38,6 +87,11 @@ const FIRST_GRID_PAIRS: usize = 180 * GRID * GRID;
 const MAX_FIRST_GRID: usize = 257;
 /// Refinements around the best path.
 const REFINEMENTS: usize = 3;
+/// Finer refinements after those, each only while the one before still gained more than
+/// [`EXTRA_REFINEMENT_GAIN`] of the moving time.
+const EXTRA_REFINEMENTS: usize = 1;
+/// Relative gain of a refinement below which no finer one follows.
+const EXTRA_REFINEMENT_GAIN: f64 = 1e-6;
 
 /// Best path through per-layer speed grids; `None` if no path is feasible.
 fn best_path(
@@ -212,14 +266,16 @@ pub(crate) fn speed_bound(p: &ArcProblem, lim: &Limits, k: usize) -> f64 {
         .min(reach(p.travel_deg[n - 1] - p.travel_deg[k], false))
 }
 
-/// Minimum-time speeds of an arc. `upper`: the scan without ELST (where the optimum most often
-/// sits); `seed`: a feasible schedule (the scan) that the result never does worse than;
+/// Minimum-time speeds of an arc. `upper`: on a servo period, the scan without ELST (where the
+/// optimum most often sits; in continuous time the search scans the arc without V instead, see
+/// the module doc); `seed`: a feasible schedule (the scan) that the result never does worse than;
 /// `period`: time every transition in whole servo periods. Returns the speeds and their moving
 /// time (Σ transition durations, s).
 ///
-/// Two searches, the shorter kept: grids spanning each layer's provable speed bound, and finer
-/// grids spanning [0, upper] (the scan's ELST-free speeds are not a bound: a slower neighbour
-/// widens a gap, so a layer can be faster than they allow).
+/// Two searches, the shorter kept: grids spanning [`jerk_spans`] (on a period: each layer's
+/// provable speed bound), and finer grids spanning [0, upper] (the scan's ELST-free speeds are
+/// not a bound: a slower neighbour widens a gap, so a layer can be faster than they allow).
+/// Every grid is cut at the layer's provable bound.
 pub(crate) fn optimal(
     p: &ArcProblem,
     lim: &Limits,
@@ -232,14 +288,32 @@ pub(crate) fn optimal(
         return (seed.to_vec(), moving_time_on(p, lim, seed, period));
     }
     let hi: Vec<f64> = (0..n).map(|k| speed_bound(p, lim, k)).collect();
-    let narrow: Vec<f64> = upper.iter().zip(&hi).map(|(u, h)| u.min(*h)).collect();
+    // Spans: in continuous time without A, D and V (jerk_spans) and without V (the ELST-free
+    // scan of the arc without V), so that a higher limit searches the same lattice.
+    let (span, upper): (Vec<f64>, Vec<f64>) = match period {
+        Some(_) => (hi.clone(), upper.to_vec()),
+        None => {
+            let (free_p, free_lim) = without_speed_limit(p, lim);
+            let (free_upper, _) = scan(
+                &free_p,
+                &free_lim,
+                &free_p.speed_cap,
+                &free_p.cap_bound,
+                false,
+                None,
+            );
+            (jerk_spans(&free_p, lim.max_jerk), free_upper)
+        }
+    };
+    let narrow: Vec<f64> = upper.iter().zip(&span).map(|(u, s)| u.min(*s)).collect();
+    let upper = &upper[..];
     // The two searches are independent: on a second core they run side by side.
     let (wide, close) = rayon::join(
         || {
             search(
                 p,
                 lim,
-                &hi,
+                &span,
                 &hi,
                 [upper, seed],
                 first_grid_points(n),
@@ -256,6 +330,60 @@ pub(crate) fn optimal(
             || (seed.to_vec(), moving_time_on(p, lim, seed, period)),
             |(total, path)| (path, total),
         )
+}
+
+/// Each layer's window cap, lowered to the highest speed any jerk-limited motion (whatever A, D
+/// and V) can reach from rest at the arc's first layer and still brake from to rest by its last:
+/// with no acceleration limit the fastest change from rest to `u` is a jerk triangle covering
+/// `u^(3/2) / J^(1/2)`, so over `d` no speed above `(J·d²)^(1/3)` is reachable. A and D only
+/// lower that, so these spans hold no limit but J: grids spanned on them are the same lattice
+/// at every A, D and V (each cut at the layer's true bound).
+fn jerk_spans(free_p: &ArcProblem, jerk: f64) -> Vec<f64> {
+    let n = free_p.len();
+    let s = &free_p.travel_deg;
+    let reach = |d: f64| (jerk * d.max(0.0) * d.max(0.0)).cbrt();
+    (0..n)
+        .map(|k| {
+            free_p.speed_cap[k]
+                .min(reach(s[k] - s[0]))
+                .min(reach(s[n - 1] - s[k]))
+        })
+        .collect()
+}
+
+/// The arc and limits with V raised to the highest window cap (w_k / t_k) of the arc's inner
+/// layers, or kept where V is higher. No layer is faster than its window cap, so below that
+/// speed V only cuts speeds and moves off: a scan of this arc is the same at every lower V.
+fn without_speed_limit(p: &ArcProblem, lim: &Limits) -> (ArcProblem, Limits) {
+    let n = p.len();
+    let window_cap = |k: usize| {
+        let t = p.irradiation_s[k];
+        if t > 0.0 {
+            p.window[k] / t
+        } else {
+            f64::INFINITY
+        }
+    };
+    let top = (1..n.saturating_sub(1))
+        .map(window_cap)
+        .filter(|c| c.is_finite())
+        .fold(lim.max_vel, f64::max);
+    let free_lim = Limits {
+        max_vel: top,
+        ..*lim
+    };
+    let mut free_p = p.clone();
+    for k in 1..n.saturating_sub(1) {
+        let c = window_cap(k);
+        if c < top {
+            free_p.speed_cap[k] = c;
+            free_p.cap_bound[k] = SpeedBound::Window;
+        } else {
+            free_p.speed_cap[k] = top;
+            free_p.cap_bound[k] = SpeedBound::MaxSpeed;
+        }
+    }
+    (free_p, free_lim)
 }
 
 /// Whether `path` takes, at some layer, its grid's lowest or highest speed where the grid could
@@ -286,15 +414,35 @@ fn search(
     period: Option<f64>,
 ) -> Option<(f64, Vec<f64>)> {
     let n = p.len();
-    let mut grids: Vec<Vec<f64>> = (0..n)
+    let grids: Vec<Vec<f64>> = (0..n)
         .map(|k| {
             let extra = [0.0, seed[k].min(hi[k]), upper[k].min(hi[k])];
             grid_around(0.5 * span[k], 0.5 * span[k], hi[k], &extra, first)
         })
         .collect();
-    let (mut total, mut path) = best_path(p, lim, &grids, period)?;
-    let mut half: Vec<f64> = span.iter().map(|w| w / (first - 1) as f64).collect();
-    for _ in 0..REFINEMENTS {
+    let (total, path) = best_path(p, lim, &grids, period)?;
+    let half: Vec<f64> = span.iter().map(|w| w / (first - 1) as f64).collect();
+    Some(refine(p, lim, hi, (total, path), half, period))
+}
+
+/// Refinements of `start` (its moving time and speeds): grids of [`GRID`] points, `half` wide
+/// on each side of the best path (within [0, hi_k]), shrinking six-fold [`REFINEMENTS`] times.
+fn refine(
+    p: &ArcProblem,
+    lim: &Limits,
+    hi: &[f64],
+    (mut total, mut path): (f64, Vec<f64>),
+    mut half: Vec<f64>,
+    period: Option<f64>,
+) -> (f64, Vec<f64>) {
+    let n = p.len();
+    let mut grids: Vec<Vec<f64>> = vec![Vec::new(); n];
+    let mut level_gain = f64::INFINITY;
+    for level in 0..REFINEMENTS + EXTRA_REFINEMENTS {
+        if level >= REFINEMENTS && level_gain <= EXTRA_REFINEMENT_GAIN * total {
+            break;
+        }
+        let before = total;
         // Once more at the same spacing when the best path improved and ended on its grid's
         // edge somewhere: the optimum may lie beyond it.
         for _ in 0..2 {
@@ -310,11 +458,36 @@ fn search(
                 break;
             }
         }
+        level_gain = before - total;
         for h in half.iter_mut() {
             *h *= 2.0 / (GRID - 1) as f64;
         }
     }
-    Some((total, path))
+    (total, path)
+}
+
+/// The scan with ELST ([`scan`]) from the caps the arc has without V ([`without_speed_limit`]),
+/// lowered to V, then scanned again on the true limits: where V cuts no speed of the first scan
+/// (and no move between them), the result is the same at every such V.
+pub(crate) fn speed_free_scan(p: &ArcProblem, lim: &Limits) -> (Vec<f64>, Vec<SpeedBound>) {
+    let (free_p, free_lim) = without_speed_limit(p, lim);
+    let (v, b) = scan(
+        &free_p,
+        &free_lim,
+        &free_p.speed_cap,
+        &free_p.cap_bound,
+        true,
+        None,
+    );
+    let mut caps = p.speed_cap.clone();
+    let mut bounds = p.cap_bound.clone();
+    for k in 0..caps.len() {
+        if v[k] < caps[k] {
+            caps[k] = v[k];
+            bounds[k] = b[k];
+        }
+    }
+    scan(p, lim, &caps, &bounds, true, None)
 }
 
 #[cfg(test)]
