@@ -25,6 +25,9 @@
 //! while the last refinement still gained 1e-6 of the moving time (head-neck 757.885 → 757.730 s,
 //! lung 158.242 → 158.232 s, prostate on 1 ms 274.249 → 274.113 s, on 4 ms 274.932 → 274.792 s;
 //! free motion on lung, from those speeds, 115.705 → 114.006 s). Every change is a decrease.
+//! Then free motion is refined from both of its seeds and gets an upper-speed cut (lung
+//! 114.006 → 114.303 s: another local optimum, where the lung plan's landscape is rugged; two-arc
+//! 253.226 → 251.814 s; prostate by rounding, −3e-6 s).
 
 use arcsim_plan::{load_machine, load_plan};
 use arcsim_sequencer::{simulate, Motion, Options, Schedule};
@@ -53,10 +56,13 @@ const CONSTANT: [(&str, Schedule, f64); 16] = [
 
 /// `arcsim simulate PLAN` (optimal, free motion, arc ends at rest).
 const FREE: [(&str, f64); 3] = [
-    ("prostate", 190.155240),
-    // Issue 30: 115.704554 before, from the earlier constant-speed optimum.
-    ("lung", 114.006437),
-    ("two-arc", 253.225837),
+    // Issue 30: 190.155240 before the LP's factor multiplied by reciprocal pivots (rounding).
+    ("prostate", 190.155237),
+    // Issue 30: 115.704554 before; refined from both seeds and from the new constant-speed
+    // optimum.
+    ("lung", 114.303418),
+    // Issue 30: 253.225837 before the upper-speed cut (beams at full speed no longer overshoot V).
+    ("two-arc", 251.813754),
 ];
 
 /// The README's servo-period example: prostate, `--motion constant --period TS`.
