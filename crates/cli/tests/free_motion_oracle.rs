@@ -16,6 +16,8 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
+use common::run;
+
 /// What the environment installs: CasADi at the version the oracle was written and measured with.
 const PACKAGES: &[&str] = &["casadi==3.8.2", "numpy"];
 
@@ -29,36 +31,16 @@ const GAP: f64 = 5e-4;
 const KNOWN_GAPS: &[(&str, f64)] = &[("lung", 6e-3), ("head-neck", 5e-3)];
 
 fn skip_or_fail(why: &str) {
-    if std::env::var_os("CI").is_some() {
-        panic!("CI: the free-motion oracle cannot run: {why}");
-    }
-    eprintln!("NOTICE: free-motion oracle skipped: {why}");
-}
-
-fn run(cmd: &mut Command) -> Result<String, String> {
-    let shown = format!("{cmd:?}");
-    let out = cmd
-        .output()
-        .map_err(|e| format!("{shown}: cannot start: {e}"))?;
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    if out.status.success() {
-        Ok(text)
-    } else {
-        Err(format!("{shown} failed:\n{text}"))
-    }
+    common::skip_or_fail("the free-motion oracle", why);
 }
 
 #[test]
 fn no_independent_optimiser_beats_free_motion() {
     let repo = common::repo();
-    let python = std::env::var("ARCSIM_PYTHON").unwrap_or_else(|_| "python3".into());
-    if let Err(e) = run(Command::new(&python).arg("--version")) {
-        return skip_or_fail(&e);
-    }
+    let python = match common::python() {
+        Ok(python) => python,
+        Err(e) => return skip_or_fail(&e),
+    };
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("free-motion-oracle");
     let venv = work.join("venv");
     std::fs::create_dir_all(&work).expect("work dir");
@@ -70,16 +52,7 @@ fn no_independent_optimiser_beats_free_motion() {
         }
     }
     let py = venv.join("bin/python");
-    if let Err(e) = run(Command::new(&py)
-        .args([
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--disable-pip-version-check",
-        ])
-        .args(PACKAGES))
-    {
+    if let Err(e) = common::pip_install(&py, PACKAGES) {
         return skip_or_fail(&e);
     }
 

@@ -9,32 +9,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use arcsim_test_support::{dicom, temp_file};
+use common::run;
 
 /// What the environment installs: the versions the package is built and tested with.
 const PACKAGES: &[&str] = &["maturin==1.16.0", "numpy", "pandas", "pytest", "dask[bag]"];
 
 fn skip_or_fail(why: &str) {
-    if std::env::var_os("CI").is_some() {
-        panic!("CI: the Python tests cannot run: {why}");
-    }
-    eprintln!("NOTICE: Python tests skipped: {why}");
-}
-
-fn run(cmd: &mut Command) -> Result<String, String> {
-    let shown = format!("{cmd:?}");
-    let out = cmd
-        .output()
-        .map_err(|e| format!("{shown}: cannot start: {e}"))?;
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    if out.status.success() {
-        Ok(text)
-    } else {
-        Err(format!("{shown} failed:\n{text}"))
-    }
+    common::skip_or_fail("the Python tests", why);
 }
 
 fn wheel_in(dir: &Path) -> Option<PathBuf> {
@@ -47,10 +28,10 @@ fn wheel_in(dir: &Path) -> Option<PathBuf> {
 #[test]
 fn python_package_passes_its_pytest_suite() {
     let repo = common::repo();
-    let python = std::env::var("ARCSIM_PYTHON").unwrap_or_else(|_| "python3".into());
-    if let Err(e) = run(Command::new(&python).arg("--version")) {
-        return skip_or_fail(&e);
-    }
+    let python = match common::python() {
+        Ok(python) => python,
+        Err(e) => return skip_or_fail(&e),
+    };
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("python");
     let venv = work.join("venv");
     let dist = work.join("dist");
@@ -61,17 +42,7 @@ fn python_package_passes_its_pytest_suite() {
         return skip_or_fail(&e);
     }
     let bin = venv.join("bin");
-    let pip = |args: &[&str]| {
-        run(Command::new(bin.join("python"))
-            .args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-            ])
-            .args(args))
-    };
+    let pip = |args: &[&str]| common::pip_install(&bin.join("python"), args);
     if let Err(e) = pip(PACKAGES) {
         return skip_or_fail(&e);
     }

@@ -52,3 +52,50 @@ pub fn sweep_file(dir: &Path, name: &str, plan: &str, axes: serde_json::Value) -
     std::fs::write(&path, text.to_string()).expect("write sweep");
     path
 }
+
+/// A test that needs an outside tool (Python, the package index) and cannot run: says so and
+/// passes, except under CI (`CI` set), where that is a failure.
+pub fn skip_or_fail(what: &str, why: &str) {
+    if std::env::var_os("CI").is_some() {
+        panic!("CI: {what} cannot run: {why}");
+    }
+    eprintln!("NOTICE: {what} skipped: {why}");
+}
+
+/// Runs `cmd` to its end: its standard output and error as text, or (when it cannot start or
+/// fails) the command and that text as the error.
+pub fn run(cmd: &mut Command) -> Result<String, String> {
+    let shown = format!("{cmd:?}");
+    let out = cmd
+        .output()
+        .map_err(|e| format!("{shown}: cannot start: {e}"))?;
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    if out.status.success() {
+        Ok(text)
+    } else {
+        Err(format!("{shown} failed:\n{text}"))
+    }
+}
+
+/// The Python interpreter to use (`ARCSIM_PYTHON`, else `python3`), once it answers `--version`.
+pub fn python() -> Result<String, String> {
+    let python = std::env::var("ARCSIM_PYTHON").unwrap_or_else(|_| "python3".into());
+    run(Command::new(&python).arg("--version")).map(|_| python)
+}
+
+/// `pip install`s `packages` quietly into the environment of the interpreter `python`.
+pub fn pip_install(python: &Path, packages: &[&str]) -> Result<String, String> {
+    run(Command::new(python)
+        .args([
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+        ])
+        .args(packages))
+}
