@@ -1,14 +1,26 @@
-//! Writing results. Standard output ends quietly when its reader goes away (`arcsim … | head`),
-//! and output files are checked before the work starts (no alias of an input, a directory that
-//! exists and takes a new file), written to `NAME.partial` beside the target and renamed into
-//! place only when complete, so a failed or interrupted command never leaves a half-written or
-//! overwritten file behind.
+//! Writing results. Standard output ends quietly when its reader goes away (`arcsim … | head`).
+//!
+//! Output files are checked before the work starts: no alias of an input or of another output
+//! (compared after following symlinks), a directory that exists and takes a new file. A regular
+//! file is written to a temporary file of its own beside its target
+//! (`NAME.partial.PID.RANDOM`, created exclusively, so no other file is ever opened or truncated)
+//! and renamed into place only when complete: a failed or interrupted command leaves the old file
+//! as it was, and two commands writing the same output each leave a complete file. An output that
+//! is a symlink is written through it (the link stays, its target is replaced). Anything that is
+//! not a regular file (a FIFO, a character device such as `/dev/null`) is written directly, and
+//! `-` (or `/dev/stdout`) is standard output, where the command's own report then goes to
+//! standard error.
 
-use std::fs::File;
+use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, ErrorKind, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::CliError;
+
+/// Set when an output is standard output: [`print`] then writes to standard error, so the
+/// command's report does not mix with the output.
+static STDOUT_IS_AN_OUTPUT: AtomicBool = AtomicBool::new(false);
 
 /// `text` with control characters other than line breaks and tabs shown as escapes (`\u{1b}`),
 /// so a name in a file (a plan name with ANSI codes) cannot drive the terminal.
@@ -29,11 +41,16 @@ pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
         .into()
 }
 
-/// Writes `text` to standard output, control characters escaped ([`printable`]). A closed pipe
-/// ends the process quietly with exit 0, as Unix tools do when their reader has all it wanted;
-/// other write errors are reported.
+/// Writes `text` to standard output (standard error when standard output is one of the
+/// command's outputs), control characters escaped ([`printable`]). A closed pipe ends the
+/// process quietly with exit 0, as Unix tools do when their reader has all it wanted; other
+/// write errors are reported.
 pub fn print(text: &str) {
     let text = printable(text);
+    if STDOUT_IS_AN_OUTPUT.load(Ordering::Relaxed) {
+        eprint!("{text}");
+        return;
+    }
     let mut out = std::io::stdout().lock();
     let written = out.write_all(text.as_bytes()).and_then(|()| out.flush());
     match written {
@@ -51,29 +68,120 @@ pub fn println(text: &str) {
     print(&format!("{text}\n"));
 }
 
-/// Where a path points once the directories leading to it are resolved (the file itself may not
-/// exist yet). `None` when its directory does not exist.
-fn resolved(path: &Path) -> Option<PathBuf> {
-    if let Ok(p) = path.canonicalize() {
-        return Some(p);
+/// Where an output goes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Destination {
+    /// `-`, `/dev/stdout`: the process's standard output.
+    Stdout,
+    /// Not a regular file (FIFO, character device, socket, or a file reached through `/dev/fd`
+    /// or `/proc`): opened and written in place.
+    Direct(PathBuf),
+    /// A regular file, existing or not (the path with its symlinks followed): replaced by rename.
+    Replace(PathBuf),
+}
+
+/// Most symlinks followed from an output path (the kernel's own limit).
+const MAX_LINKS: usize = 40;
+
+/// Where `path` leads: symlinks followed one by one (a dangling link leads to the file it names,
+/// which is then created), the directories leading to the file resolved.
+fn destination(path: &Path) -> std::io::Result<Destination> {
+    let standard = ["-", "/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"];
+    if standard.iter().any(|s| path.as_os_str() == *s) {
+        return Ok(Destination::Stdout);
     }
-    let name = path.file_name()?;
-    let dir = match path.parent() {
+    let mut at = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        // A descriptor of this process (`/dev/fd/3`, `/dev/stderr`): written through.
+        if ["/dev/fd", "/dev/stdin", "/dev/stderr", "/proc"]
+            .iter()
+            .any(|d| at.starts_with(d))
+        {
+            return Ok(Destination::Direct(path.to_path_buf()));
+        }
+        match std::fs::symlink_metadata(&at) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let link = std::fs::read_link(&at)?;
+                at = match at.parent() {
+                    Some(dir) => dir.join(link),
+                    None => link,
+                };
+            }
+            Ok(m) if m.is_file() => return Ok(Destination::Replace(resolved(&at))),
+            Ok(m) if m.is_dir() => {
+                return Err(std::io::Error::new(
+                    ErrorKind::IsADirectory,
+                    "is a directory; expected a file path",
+                ))
+            }
+            Ok(_) => return Ok(Destination::Direct(path.to_path_buf())),
+            Err(e) if e.kind() == ErrorKind::NotFound => {
+                return Ok(Destination::Replace(resolved(&at)))
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Err(std::io::Error::new(
+        ErrorKind::InvalidInput,
+        "too many levels of symbolic links",
+    ))
+}
+
+/// `path` with its directory resolved (the file itself may not exist yet); as given when the
+/// directory cannot be resolved.
+fn resolved(path: &Path) -> PathBuf {
+    let (Some(name), dir) = (path.file_name(), path.parent()) else {
+        return path.to_path_buf();
+    };
+    let dir = match dir {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    dir.canonicalize().ok().map(|d| d.join(name))
+    dir.canonicalize()
+        .map_or_else(|_| path.to_path_buf(), |d| d.join(name))
 }
 
-fn temp_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".partial");
-    path.with_file_name(name)
+/// A temporary file of this process beside `target`, created exclusively (never an existing
+/// file or a symlink): `NAME.partial.PID.RANDOM`.
+fn create_temp(target: &Path) -> std::io::Result<(PathBuf, File)> {
+    use std::hash::{BuildHasher, Hasher};
+    let name = target.file_name().unwrap_or_default();
+    let mut last = None;
+    for attempt in 0u32..16 {
+        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+        h.write_u32(attempt);
+        let mut temp = name.to_os_string();
+        temp.push(format!(
+            ".partial.{}.{:08x}",
+            std::process::id(),
+            h.finish() as u32
+        ));
+        let temp = target.with_file_name(temp);
+        match OpenOptions::new().write(true).create_new(true).open(&temp) {
+            Ok(f) => return Ok((temp, f)),
+            Err(e) if e.kind() == ErrorKind::AlreadyExists => last = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| ErrorKind::AlreadyExists.into()))
 }
 
-/// Checks every output given (`flag`, path; `None`: the flag was not given) before any work: its
-/// directory exists and takes a new file, it is not a directory, it is not one of `inputs` (which
-/// would be overwritten) and no two outputs are the same file.
+/// What an output is compared by for aliasing; `None` for `/dev/null`, which takes any number.
+fn identity(dest: &Destination) -> Option<PathBuf> {
+    match dest {
+        Destination::Stdout => Some(PathBuf::from("/dev/stdout")),
+        Destination::Direct(p) => {
+            let p = p.canonicalize().unwrap_or_else(|_| p.clone());
+            (p != Path::new("/dev/null")).then_some(p)
+        }
+        Destination::Replace(p) => Some(p.clone()),
+    }
+}
+
+/// Checks every output given (`flag`, path, whether `-` may stand for standard output; `None`:
+/// the flag was not given) before any work: its directory exists and takes a new file, it is not
+/// a directory, it is not one of `inputs` (which would be overwritten) and no two outputs are the
+/// same file.
 pub fn check_outputs(inputs: &[&Path], outputs: &[(&str, Option<&Path>)]) -> Result<(), CliError> {
     let inputs: Vec<PathBuf> = inputs
         .iter()
@@ -83,60 +191,110 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[(&str, Option<&Path>)]) -> Res
     let mut seen: Vec<(PathBuf, &str)> = Vec::new();
     for (flag, path) in outputs.iter().filter_map(|&(f, p)| p.map(|p| (f, p))) {
         let shown = path.display();
-        if path.file_name().is_none() || path.as_os_str() == "-" {
+        if path.file_name().is_none() && path.as_os_str() != "-" {
             return Err(CliError::usage(format!(
                 "{flag} {shown}: expected a file path"
             )));
         }
-        let Some(target) = resolved(path) else {
-            let dir = path.parent().map(|d| d.display().to_string());
+        let dest = destination(path).map_err(|e| match e.kind() {
+            ErrorKind::IsADirectory => CliError::usage(format!("{flag} {shown}: {e}")),
+            _ => CliError::failed(format!("{flag} {shown}: {e}")),
+        })?;
+        if dest == Destination::Stdout && !text_output(flag) {
             return Err(CliError::usage(format!(
-                "{flag} {shown}: directory {} does not exist",
-                dir.unwrap_or_default()
-            )));
-        };
-        if target.is_dir() {
-            return Err(CliError::usage(format!(
-                "{flag} {shown}: is a directory; expected a file path"
+                "{flag} {shown}: this output is binary; expected a file path (- and /dev/stdout are for text outputs)"
             )));
         }
-        if inputs.contains(&target) {
+        if let Destination::Replace(target) = &dest {
+            let dir = target.parent().filter(|d| d.is_dir());
+            let Some(_) = dir else {
+                let dir = path.parent().map(|d| d.display().to_string());
+                return Err(CliError::usage(format!(
+                    "{flag} {shown}: directory {} does not exist",
+                    dir.unwrap_or_default()
+                )));
+            };
+        }
+        let Some(key) = identity(&dest) else {
+            continue;
+        };
+        if inputs.contains(&key) {
             return Err(CliError::usage(format!(
                 "{flag} {shown}: is also an input of this command and would be overwritten; choose another output path"
             )));
         }
-        if let Some((_, other)) = seen.iter().find(|(p, _)| *p == target) {
+        if let Some((_, other)) = seen.iter().find(|(p, _)| *p == key) {
             return Err(CliError::usage(format!(
                 "{flag} {shown}: the same file as {other}; give each output its own path"
             )));
         }
-        // Try the very file the result will first go to.
-        let tmp = temp_path(path);
-        File::create(&tmp)
-            .and_then(|_| std::fs::remove_file(&tmp))
-            .map_err(|e| CliError::failed(format!("{flag} {shown}: cannot write there: {e}")))?;
-        seen.push((target, flag));
+        match &dest {
+            Destination::Stdout => STDOUT_IS_AN_OUTPUT.store(true, Ordering::Relaxed),
+            Destination::Direct(_) => {}
+            // Try the directory with a file of the kind the result will first go to.
+            Destination::Replace(target) => {
+                let (temp, _) = create_temp(target).map_err(|e| {
+                    CliError::failed(format!("{flag} {shown}: cannot write there: {e}"))
+                })?;
+                let _ = std::fs::remove_file(temp);
+            }
+        }
+        seen.push((key, flag));
     }
     Ok(())
 }
 
-/// An output file under construction: written to `NAME.partial`, renamed to `NAME` by
-/// [`AtomicFile::commit`], removed when dropped uncommitted (an error on the way).
+/// Outputs that are text and may go to standard output.
+fn text_output(flag: &str) -> bool {
+    flag != "--rrd"
+}
+
+/// Where an [`AtomicFile`]'s bytes go until it is committed.
+enum Sink {
+    /// A temporary file renamed to `target` on commit.
+    Temp { temp: PathBuf, target: PathBuf },
+    /// Written in place (standard output, a FIFO, a device).
+    InPlace,
+}
+
+/// An output file under construction: a regular file is written to a temporary file beside it
+/// and renamed into place by [`AtomicFile::commit`] (the temporary file is removed when dropped
+/// uncommitted, after an error on the way); anything else is written directly.
 pub struct AtomicFile {
     dest: PathBuf,
-    tmp: PathBuf,
-    writer: Option<BufWriter<File>>,
+    sink: Sink,
+    writer: Option<BufWriter<Box<dyn Write + Send>>>,
 }
 
 impl AtomicFile {
     pub fn create(dest: &Path) -> Result<AtomicFile, CliError> {
-        let tmp = temp_path(dest);
-        let file = File::create(&tmp)
-            .map_err(|e| CliError::failed(format!("{}: cannot create: {e}", dest.display())))?;
+        let cannot =
+            |e: std::io::Error| CliError::failed(format!("{}: cannot create: {e}", dest.display()));
+        let (sink, out): (Sink, Box<dyn Write + Send>) = match destination(dest).map_err(cannot)? {
+            Destination::Stdout => (Sink::InPlace, Box::new(std::io::stdout())),
+            Destination::Direct(p) => {
+                // A regular file reached through a descriptor is rewritten, as `>` does.
+                let regular = std::fs::metadata(&p).is_ok_and(|m| m.is_file());
+                let f = OpenOptions::new()
+                    .write(true)
+                    .truncate(regular)
+                    .open(p)
+                    .map_err(cannot)?;
+                (Sink::InPlace, Box::new(f))
+            }
+            Destination::Replace(target) => {
+                let (temp, f) = create_temp(&target).map_err(cannot)?;
+                // A replaced file keeps its permissions.
+                if let Ok(m) = std::fs::metadata(&target) {
+                    let _ = f.set_permissions(m.permissions());
+                }
+                (Sink::Temp { temp, target }, Box::new(f))
+            }
+        };
         Ok(AtomicFile {
             dest: dest.to_path_buf(),
-            tmp,
-            writer: Some(BufWriter::new(file)),
+            sink,
+            writer: Some(BufWriter::new(out)),
         })
     }
 
@@ -145,8 +303,16 @@ impl AtomicFile {
         &self.dest
     }
 
+    /// Where the bytes are until the commit: the temporary file, if there is one.
+    pub fn temporary(&self) -> Option<&Path> {
+        match &self.sink {
+            Sink::Temp { temp, .. } => Some(temp),
+            Sink::InPlace => None,
+        }
+    }
+
     /// The writer; an error names the final path.
-    pub fn writer(&mut self) -> &mut BufWriter<File> {
+    pub fn writer(&mut self) -> &mut BufWriter<Box<dyn Write + Send>> {
         self.writer
             .as_mut()
             .expect("an AtomicFile is only written before commit")
@@ -164,14 +330,19 @@ impl AtomicFile {
         };
         w.flush().map_err(|e| self.error(e))?;
         drop(w);
-        std::fs::rename(&self.tmp, &self.dest).map_err(|e| self.error(e))
+        match &self.sink {
+            Sink::Temp { temp, target } => std::fs::rename(temp, target).map_err(|e| self.error(e)),
+            Sink::InPlace => Ok(()),
+        }
     }
 }
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
         if self.writer.take().is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
+            if let Sink::Temp { temp, .. } = &self.sink {
+                let _ = std::fs::remove_file(temp);
+            }
         }
     }
 }
@@ -184,18 +355,26 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
     f.commit()
 }
 
-/// Runs `write(tmp_path)` (a writer that takes a path, such as the Rerun recording's) and moves
-/// the result into place when it succeeds; removes the partial file when it fails.
+/// Runs `write(path)` with a path to write to (for a writer that takes a path, such as the Rerun
+/// recording's): a temporary file moved into place when it succeeds and removed when it fails,
+/// or the output itself when it is not a regular file.
 pub fn write_via_path(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<(), CliError>,
 ) -> Result<(), CliError> {
-    let tmp = temp_path(path);
-    match write(&tmp) {
-        Ok(()) => std::fs::rename(&tmp, path)
-            .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", path.display()))),
+    let cannot =
+        |e: std::io::Error| CliError::failed(format!("{}: cannot write: {e}", path.display()));
+    let target = match destination(path).map_err(cannot)? {
+        Destination::Stdout => return write(Path::new("/dev/stdout")),
+        Destination::Direct(p) => return write(&p),
+        Destination::Replace(target) => target,
+    };
+    let (temp, file) = create_temp(&target).map_err(cannot)?;
+    drop(file);
+    match write(&temp) {
+        Ok(()) => std::fs::rename(&temp, &target).map_err(cannot),
         Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
+            let _ = std::fs::remove_file(&temp);
             Err(e)
         }
     }

@@ -93,8 +93,10 @@ fn write_err(path: &Path) -> impl Fn(std::io::Error) -> EvalError + '_ {
 pub fn run(args: Args) -> Result<(), CliError> {
     let shard = parse_shard(args.shard.as_deref())?;
     check_threads(args.threads)?;
-    check_paths(&args)?;
+    // The sweep file first, then every file it names: no output may overwrite one.
+    check_paths(&args, &[])?;
     let sweep = load(&args.sweep)?;
+    check_paths(&args, &sweep.inputs)?;
     let pool = worker_pool(args.threads, sweep.combinations())?;
     let ev = pool.install(|| Evaluator::new(sweep)).map_err(failed)?;
     let indices = shard.indices(ev.len());
@@ -188,11 +190,14 @@ fn check_threads(threads: Option<usize>) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Refuses outputs that would overwrite the sweep file or each other, and a `--plot` that is not a
-/// directory, before anything runs.
-fn check_paths(args: &Args) -> Result<(), CliError> {
+/// Refuses outputs that would overwrite the sweep file, the files it names (`named`) or each
+/// other, and a `--plot` that is not a directory, before anything runs.
+fn check_paths(args: &Args, named: &[PathBuf]) -> Result<(), CliError> {
+    let inputs: Vec<&Path> = std::iter::once(args.sweep.as_path())
+        .chain(named.iter().map(PathBuf::as_path))
+        .collect();
     crate::output::check_outputs(
-        &[&args.sweep],
+        &inputs,
         &[
             ("--out", args.out.as_deref()),
             ("--json", args.json.as_deref()),
@@ -261,10 +266,18 @@ fn progress_bar(len: usize) -> Result<ProgressBar, CliError> {
     Ok(ProgressBar::new(len as u64).with_style(style))
 }
 
-/// Opens `--out` with its header written. Rows go to OUT.partial as they complete (watch it grow);
-/// it is renamed to OUT at the end, also after an interrupt, and removed if the run fails.
+/// Opens `--out` with its header written. Rows go to a temporary file beside OUT as they complete
+/// (named on standard error: watch it grow; after a crash it holds the rows done); it is renamed
+/// to OUT at the end, also after an interrupt, and removed if the run fails.
 fn start_csv(path: &Path) -> Result<AtomicFile, CliError> {
     let mut f = AtomicFile::create(path)?;
+    if let Some(temp) = f.temporary() {
+        eprintln!(
+            "rows go to {} as they complete; it becomes {} when the run ends",
+            temp.display(),
+            path.display()
+        );
+    }
     let w = f.writer();
     let header = write_csv_header(w).and_then(|()| w.flush());
     header.map_err(|e| f.error(e))?;
@@ -381,26 +394,35 @@ fn write_rrd(
 }
 
 pub fn merge(args: MergeArgs) -> Result<(), CliError> {
-    let mut inputs_and_sweep: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
-    inputs_and_sweep.extend(args.sweep.as_deref());
-    crate::output::check_outputs(
-        &inputs_and_sweep,
-        &[
-            ("--out", Some(&args.out)),
-            ("--rrd", args.rrd.as_deref()),
-            ("--report", args.report.as_deref()),
-        ],
-    )?;
+    let check = |named: &[PathBuf]| {
+        let inputs: Vec<&Path> = args
+            .inputs
+            .iter()
+            .chain(args.sweep.as_ref())
+            .chain(named)
+            .map(PathBuf::as_path)
+            .collect();
+        crate::output::check_outputs(
+            &inputs,
+            &[
+                ("--out", Some(&args.out)),
+                ("--rrd", args.rrd.as_deref()),
+                ("--report", args.report.as_deref()),
+            ],
+        )
+    };
+    check(&[])?;
     crate::output::check_output_dir("--plot", args.plot.as_deref())?;
+    let sweep = match &args.sweep {
+        Some(path) => Some(load(path)?),
+        None => None,
+    };
+    check(sweep.as_ref().map_or(&[], |s| &s.inputs))?;
     let inputs = args
         .inputs
         .iter()
         .map(|p| crate::input::read_text(p).map(|t| (crate::input::input_name(p), t)))
         .collect::<Result<Vec<_>, _>>()?;
-    let sweep = match &args.sweep {
-        Some(path) => Some(load(path)?),
-        None => None,
-    };
     let merged = merge_csv(&inputs, sweep.as_ref().map(|s| s.combinations())).map_err(failed)?;
     // With the sweep file, every row is read back against it (a shard of another sweep fails
     // here) before anything is written; then the summary of the whole run.

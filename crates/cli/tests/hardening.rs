@@ -380,3 +380,211 @@ fn extreme_limits_are_refused_with_the_range() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--period 1e300"), "{}", stderr(&o));
 }
+
+/// The files of `dir` whose names start with `prefix`.
+fn names_starting(dir: &Path, prefix: &str) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(prefix))
+        .collect()
+}
+
+#[cfg(unix)]
+#[test]
+fn outputs_go_through_symlinks_and_to_standard_output() {
+    let dir = temp_dir();
+    std::fs::create_dir(dir.join("real")).expect("dir");
+    let link = dir.join("link.json");
+    std::os::unix::fs::symlink("real/out.json", &link).expect("symlink");
+    let run = |json: &str| {
+        arcsim(&[
+            "simulate",
+            "plans/prostate.json",
+            "--schedule",
+            "scan",
+            "--motion",
+            "constant",
+            "--json",
+            json,
+        ])
+    };
+    let o = run(path_str(&link));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::symlink_metadata(&link)
+        .expect("link")
+        .file_type()
+        .is_symlink());
+    let written = std::fs::read_to_string(dir.join("real/out.json")).expect("target written");
+    let doc: serde_json::Value = serde_json::from_str(&written).expect("json");
+    // `-` and /dev/stdout: the document on standard output, the report on standard error.
+    for to in ["-", "/dev/stdout"] {
+        let o = run(to);
+        assert!(o.status.success(), "{to}: {}", stderr(&o));
+        let out: serde_json::Value = serde_json::from_str(&stdout(&o)).expect("stdout is JSON");
+        assert_eq!(out["total_s"], doc["total_s"], "{to}");
+        assert!(
+            stderr(&o).contains("total delivery time"),
+            "{to}: {}",
+            stderr(&o)
+        );
+    }
+    // A binary output cannot go to standard output.
+    let o = arcsim(&["simulate", "plans/prostate.json", "--rrd", "-"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("binary"), "{}", stderr(&o));
+}
+
+#[cfg(unix)]
+#[test]
+fn concurrent_writers_of_one_output_each_leave_a_whole_file() {
+    let dir = temp_dir();
+    let a = small_sweep(&dir, "a", &[0.5, 1.0, 2.0, 4.0]);
+    let b = small_sweep(&dir, "b", &[0.25, 0.75, 1.5, 3.0]);
+    let out = dir.join("rows.csv");
+    let start = |sweep: &Path| {
+        bin()
+            .args([
+                "sweep",
+                path_str(sweep),
+                "--threads",
+                "1",
+                "--out",
+                path_str(&out),
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn")
+    };
+    let (ca, cb) = (start(&a), start(&b));
+    let (oa, ob) = (
+        ca.wait_with_output().expect("a"),
+        cb.wait_with_output().expect("b"),
+    );
+    assert!(oa.status.success(), "{}", stderr(&oa));
+    assert!(ob.status.success(), "{}", stderr(&ob));
+    let merged = std::fs::read_to_string(&out).expect("output");
+    // Each run alone, for what a whole file of each holds.
+    let whole = |sweep: &Path, name: &str| {
+        let p = dir.join(name);
+        let o = arcsim(&["sweep", path_str(sweep), "--out", path_str(&p)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read_to_string(p).expect("alone")
+    };
+    let (alone_a, alone_b) = (whole(&a, "a.csv"), whole(&b, "b.csv"));
+    assert!(
+        merged == alone_a || merged == alone_b,
+        "the output is neither run's whole table:\n{merged}"
+    );
+    assert!(
+        names_starting(&dir, "rows.csv.").is_empty(),
+        "temporary files left"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn a_killed_sweep_keeps_its_rows_where_it_said() {
+    let dir = temp_dir();
+    let jerks: Vec<f64> = (1..=400).map(|i| 0.1 + 0.01 * f64::from(i)).collect();
+    let sweep = sweep_file(&dir, "long", &jerks, &[0.5]);
+    let out = dir.join("rows.csv");
+    let mut child = bin()
+        .args([
+            "sweep",
+            path_str(&sweep),
+            "--threads",
+            "1",
+            "--out",
+            path_str(&out),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    // Wait for some rows in the temporary file, then SIGKILL.
+    let started = Instant::now();
+    let temp = loop {
+        let temps = names_starting(&dir, "rows.csv.partial.");
+        if let Some(t) = temps.first() {
+            let p = dir.join(t);
+            if std::fs::read_to_string(&p).is_ok_and(|s| s.lines().count() > 3) {
+                break p;
+            }
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "no rows written"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    child.kill().expect("kill");
+    let o = child.wait_with_output().expect("wait");
+    assert!(
+        stderr(&o).contains(path_str(&temp)),
+        "the run did not say where its rows go: {}",
+        stderr(&o)
+    );
+    let rows = std::fs::read_to_string(&temp).expect("rows kept");
+    // A later command naming the same output, which fails on a malformed input, keeps them.
+    let bad = dir.join("bad.json");
+    std::fs::write(&bad, "{").expect("bad");
+    let o = arcsim(&["sweep", path_str(&bad), "--out", path_str(&out)]);
+    assert_ne!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&temp).expect("still kept"), rows);
+    assert!(!out.exists());
+}
+
+#[test]
+fn sweep_outputs_may_not_overwrite_the_files_the_sweep_names() {
+    let dir = temp_dir();
+    let plan = dir.join("plan.json");
+    let machine = dir.join("machine.json");
+    std::fs::copy(repo().join("plans/prostate.json"), &plan).expect("plan");
+    std::fs::copy(repo().join("scenarios/machine-atom.json"), &machine).expect("machine");
+    let sweep = dir.join("s.json");
+    let text = serde_json::json!({
+        "format": "arcsim-sweep/1",
+        "name": "s",
+        "plans": ["plan.json"],
+        "machine": "machine.json",
+        "axes": { "jerk_deg_per_s3": [0.5, 1.0] },
+        "schedules": ["scan"]
+    });
+    std::fs::write(&sweep, text.to_string()).expect("sweep");
+    let before = (
+        std::fs::read(&plan).expect("plan"),
+        std::fs::read(&machine).expect("machine"),
+    );
+    for (flag, target) in [
+        ("--out", &plan),
+        ("--json", &machine),
+        ("--report", &plan),
+        ("--rrd", &machine),
+    ] {
+        let o = arcsim(&["sweep", path_str(&sweep), flag, path_str(target)]);
+        assert_eq!(o.status.code(), Some(2), "{flag}: {}", stderr(&o));
+        assert!(stderr(&o).contains("is also an input"), "{}", stderr(&o));
+    }
+    // sweep-merge reads the sweep's files too.
+    let shard = dir.join("all.csv");
+    let o = arcsim(&["sweep", path_str(&sweep), "--out", path_str(&shard)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = arcsim(&[
+        "sweep-merge",
+        path_str(&shard),
+        "--sweep",
+        path_str(&sweep),
+        "--out",
+        path_str(&dir.join("m.csv")),
+        "--report",
+        path_str(&machine),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let after = (
+        std::fs::read(&plan).expect("plan"),
+        std::fs::read(&machine).expect("machine"),
+    );
+    assert!(before == after, "a file the sweep names was overwritten");
+}

@@ -5,15 +5,24 @@
 //!
 //! `probe_bounded` runs for `ARCSIM_PROBE_SECONDS` (default 45 s) in the normal test suite;
 //! `probe_long` (ignored) runs for 20 minutes: `cargo test -p arcsim --test probe -- --ignored`.
+//!
+//! The output-path probe (`outputs_bounded`, `outputs_long`) runs `simulate` with seeded sets of
+//! outputs inside a temporary directory: symlinks (to files, dangling, chained), files whose
+//! temporary-looking names (`NAME.partial`) are symlinks to a victim file, FIFOs or directories,
+//! outputs that are FIFOs (with a reader), `/dev/null`, outputs that alias each other or the
+//! input. After each run no file other than the named outputs' targets may have changed, and
+//! each named output is complete or as it was.
 
 mod common;
 
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use arcsim_test_support::{dicom, temp_dir, Rng};
 
-use common::repo;
+use common::{path_str, repo};
 
 /// Numbers a careless or hostile file might hold.
 const EXTREMES: &[&str] = &[
@@ -305,4 +314,274 @@ fn non_finite_detection_ignores_words() {
     assert!(has_non_finite("total NaN s"));
     assert!(has_non_finite("speed: inf"));
     assert!(!has_non_finite("infeasible: gap too short; information"));
+}
+
+/// What a directory holds, by path relative to it (symlinks not followed): a file's bytes, a
+/// link's target, or the kind of anything else.
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, String> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("read dir") {
+            let p = e.expect("entry").path();
+            let rel = p.strip_prefix(dir).expect("inside").to_path_buf();
+            let m = std::fs::symlink_metadata(&p).expect("metadata");
+            let what = if m.file_type().is_symlink() {
+                format!(
+                    "link -> {}",
+                    std::fs::read_link(&p).expect("link").display()
+                )
+            } else if m.is_dir() {
+                stack.push(p.clone());
+                "dir".to_string()
+            } else if m.is_file() {
+                format!(
+                    "file {}",
+                    String::from_utf8_lossy(&std::fs::read(&p).expect("read"))
+                )
+            } else {
+                "special".to_string()
+            };
+            out.insert(rel, what);
+        }
+    }
+    out
+}
+
+fn mkfifo(path: &Path) {
+    let ok = Command::new("mkfifo").arg(path).status().expect("mkfifo");
+    assert!(ok.success(), "mkfifo {}", path.display());
+}
+
+/// Whether `text` is a whole output of the flag: JSON that parses, or a CSV whose lines have
+/// the header's number of fields and end with a newline.
+fn complete(flag: &str, text: &str) -> Result<(), String> {
+    if flag == "--json" {
+        return serde_json::from_str::<serde_json::Value>(text)
+            .map(|_| ())
+            .map_err(|e| format!("not whole JSON: {e}"));
+    }
+    if !text.ends_with('\n') {
+        return Err("CSV without its last newline".into());
+    }
+    let mut lines = text.lines();
+    let fields = |l: &str| l.split(',').count();
+    let header = lines.next().ok_or("empty CSV")?;
+    match lines.find(|l| fields(l) != fields(header)) {
+        Some(l) => Err(format!("CSV line of another width: {l}")),
+        None if text.lines().count() < 2 => Err("CSV without rows".into()),
+        None => Ok(()),
+    }
+}
+
+/// One seeded case of the output-path probe in a fresh directory; `Err` says what broke.
+fn output_case(rng: &mut Rng, case: usize) -> Result<(), String> {
+    let dir = temp_dir();
+    let plan = dir.join("plan.json");
+    std::fs::copy(repo().join("plans/prostate.json"), &plan).map_err(|e| e.to_string())?;
+    std::fs::create_dir(dir.join("sub")).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join("victim"), "victim\n").map_err(|e| e.to_string())?;
+    let flags = ["--json", "--csv", "--spots"];
+    let mut outputs: Vec<(&str, PathBuf)> = Vec::new();
+    // Whether the command must refuse (two outputs on one file, or an output on the input).
+    let mut refused = false;
+    let mut readers = Vec::new();
+    for (i, flag) in flags.iter().enumerate() {
+        if rng.below(3) == 0 {
+            continue;
+        }
+        let name = dir.join(format!("o{i}"));
+        let path = match rng.below(12) {
+            0 => name,
+            1 => {
+                std::fs::write(&name, "old contents\n").map_err(|e| e.to_string())?;
+                name
+            }
+            2 => {
+                std::fs::write(dir.join(format!("sub/real{i}")), "old\n")
+                    .map_err(|e| e.to_string())?;
+                std::os::unix::fs::symlink(format!("sub/real{i}"), &name)
+                    .map_err(|e| e.to_string())?;
+                name
+            }
+            3 => {
+                std::os::unix::fs::symlink(format!("sub/new{i}"), &name)
+                    .map_err(|e| e.to_string())?;
+                name
+            }
+            4 => {
+                std::os::unix::fs::symlink("victim", dir.join(format!("o{i}.partial")))
+                    .map_err(|e| e.to_string())?;
+                name
+            }
+            5 => {
+                mkfifo(&dir.join(format!("o{i}.partial")));
+                name
+            }
+            6 => {
+                std::fs::create_dir(dir.join(format!("o{i}.partial")))
+                    .map_err(|e| e.to_string())?;
+                name
+            }
+            7 => PathBuf::from("/dev/null"),
+            8 => {
+                std::os::unix::fs::symlink(format!("sub/chain{i}"), dir.join(format!("l{i}")))
+                    .map_err(|e| e.to_string())?;
+                std::os::unix::fs::symlink(format!("l{i}"), &name).map_err(|e| e.to_string())?;
+                name
+            }
+            9 => {
+                // A FIFO output (read to its end by a thread, below).
+                mkfifo(&name);
+                name
+            }
+            10 => match outputs.last() {
+                // The name an earlier output's fixed temporary file once had.
+                Some((_, earlier)) if earlier != Path::new("/dev/null") => {
+                    let mut n = earlier.clone().into_os_string();
+                    n.push(".partial");
+                    // A directory of that name (case 6) is no file to write.
+                    refused |= Path::new(&n).is_dir();
+                    PathBuf::from(n)
+                }
+                _ => name,
+            },
+            _ => match (rng.below(2), outputs.last()) {
+                (0, Some((_, earlier))) if earlier != Path::new("/dev/null") => {
+                    refused = true;
+                    earlier.clone()
+                }
+                _ => {
+                    refused = true;
+                    plan.clone()
+                }
+            },
+        };
+        outputs.push((flag, path));
+    }
+    // Every output that is a FIFO (also a `.partial` decoy named as an output) has a reader,
+    // unless the command is to be refused and never opens it.
+    for (flag, path) in outputs.iter().filter(|_| !refused) {
+        use std::os::unix::fs::FileTypeExt;
+        if std::fs::metadata(path).is_ok_and(|m| m.file_type().is_fifo()) {
+            let fifo = path.clone();
+            readers.push((
+                *flag,
+                std::thread::spawn(move || std::fs::read_to_string(fifo)),
+            ));
+        }
+    }
+    let before = snapshot(&dir);
+    let mut args: Vec<String> = [
+        "simulate",
+        path_str(&plan),
+        "--schedule",
+        "scan",
+        "--motion",
+        "constant",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for (flag, path) in &outputs {
+        args.push(flag.to_string());
+        args.push(path_str(path).to_string());
+    }
+    let shown = format!("case {case}: arcsim {}", args.join(" "));
+    let o = common::bin()
+        .args(&args)
+        .output()
+        .map_err(|e| e.to_string())?;
+    let err = String::from_utf8_lossy(&o.stderr);
+    let fifo_text: Vec<(&str, String)> = readers
+        .into_iter()
+        .map(|(f, t)| (f, t.join().expect("reader").unwrap_or_default()))
+        .collect();
+    let after = snapshot(&dir);
+    if refused {
+        if o.status.code() != Some(2) {
+            return Err(format!(
+                "{shown}: expected a refusal (exit 2), got {:?}: {err}",
+                o.status.code()
+            ));
+        }
+        if before != after {
+            return Err(format!("{shown}: a refused command changed the directory"));
+        }
+        return Ok(());
+    }
+    if !o.status.success() {
+        return Err(format!("{shown}: exit {:?}: {err}", o.status.code()));
+    }
+    // The files each output may change: its final target (symlinks followed).
+    let mut allowed = Vec::new();
+    for (flag, path) in &outputs {
+        if path == Path::new("/dev/null") {
+            continue;
+        }
+        let target = path
+            .canonicalize()
+            .map_err(|e| format!("{shown}: {flag} {}: {e}", path.display()))?;
+        let rel = target
+            .strip_prefix(dir.canonicalize().map_err(|e| e.to_string())?)
+            .map_err(|_| {
+                format!(
+                    "{shown}: {flag} was written outside the directory: {}",
+                    target.display()
+                )
+            })?
+            .to_path_buf();
+        let m = std::fs::metadata(&target).map_err(|e| e.to_string())?;
+        if m.is_file() {
+            let text = std::fs::read_to_string(&target).map_err(|e| e.to_string())?;
+            complete(flag, &text).map_err(|e| format!("{shown}: {flag}: {e}"))?;
+        }
+        allowed.push(rel);
+    }
+    for (flag, text) in &fifo_text {
+        complete(flag, text).map_err(|e| format!("{shown}: {flag} (a FIFO): {e}"))?;
+    }
+    let keys: std::collections::BTreeSet<&PathBuf> = before.keys().chain(after.keys()).collect();
+    for k in keys {
+        if before.get(k) != after.get(k) && !allowed.contains(k) {
+            return Err(format!(
+                "{shown}: {} changed, and it is no named output's target ({} -> {})",
+                k.display(),
+                before.get(k).map_or("absent", |s| &s[..s.len().min(40)]),
+                after.get(k).map_or("absent", |s| &s[..s.len().min(40)])
+            ));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+/// Runs output-path cases for `budget`; returns how many. Panics on the first failure.
+fn probe_outputs(budget: Duration, seed: u64) -> usize {
+    let mut rng = Rng::new(seed);
+    let started = Instant::now();
+    let mut cases = 0;
+    while started.elapsed() < budget {
+        if let Err(why) = output_case(&mut rng, cases) {
+            panic!("{why}");
+        }
+        cases += 1;
+    }
+    cases
+}
+
+#[cfg(unix)]
+#[test]
+fn outputs_bounded() {
+    let cases = probe_outputs(Duration::from_secs(15), 0x0070_2026);
+    eprintln!("output probe: {cases} cases in 15 s");
+    assert!(cases > 0);
+}
+
+#[cfg(unix)]
+#[test]
+#[ignore = "10-minute output-path probe; run before a release"]
+fn outputs_long() {
+    let cases = probe_outputs(Duration::from_secs(600), 0xf1f0_2026);
+    eprintln!("output probe: {cases} cases in 600 s");
 }

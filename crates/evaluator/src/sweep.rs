@@ -113,6 +113,9 @@ pub struct Sweep {
     /// Certify every constant-speed row (lower bound and gap).
     pub certify: bool,
     pub target: Target,
+    /// Every file the sweep file names and that was read (the machine, the plans, ATOM reference
+    /// files), as joined to the sweep file's directory: a command must not write over them.
+    pub inputs: Vec<PathBuf>,
 }
 
 /// The axes, in the order of [`Axis::ALL`] (also the order of the summary's columns).
@@ -361,7 +364,8 @@ impl Sweep {
             message: e.to_string(),
         })?;
         let runs = expand_runs(&spec, &machine, file)?;
-        let plans = load_plans(&spec, base_dir, file, load_plan)?;
+        let mut inputs = vec![machine_path];
+        let plans = load_plans(&spec, base_dir, file, load_plan, &mut inputs)?;
         check_combinations(file, Some(plans.len()), runs.iter().map(|r| &r.grid))?;
         Ok(Sweep {
             name: spec.name,
@@ -373,6 +377,7 @@ impl Sweep {
             margins: spec.margins,
             certify: spec.certify,
             target: spec.target.unwrap_or_default(),
+            inputs,
         })
     }
 
@@ -802,6 +807,7 @@ fn load_plans(
     base_dir: &Path,
     file: &str,
     load_plan: &dyn Fn(&Path) -> Result<ArcPlan, String>,
+    inputs: &mut Vec<PathBuf>,
 ) -> Result<Vec<SweepPlan>, EvalError> {
     if spec.plans.is_empty() {
         return Err(EvalError::sweep(
@@ -849,6 +855,7 @@ fn load_plans(
                         .to_string_lossy()
                         .replace('\\', "/");
                     plans.push(SweepPlan { label, plan });
+                    inputs.push(p);
                 }
             }
             PlanSource::Named { path, name } => {
@@ -871,6 +878,7 @@ fn load_plans(
                     label: name.clone(),
                     plan,
                 });
+                inputs.push(full);
             }
             PlanSource::AtomCase {
                 atom_case,
@@ -888,6 +896,7 @@ fn load_plans(
                             )
                         })?;
                         references.insert(path.clone(), t.clone());
+                        inputs.push(path.clone());
                         t
                     }
                 };
