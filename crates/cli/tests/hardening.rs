@@ -230,6 +230,46 @@ fn sweep_merge_leaves_no_bad_output() {
     // An output that is one of the inputs is refused.
     let o = arcsim(&["sweep-merge", path_str(&s1), "--out", path_str(&s1)]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+
+    // Without the sweep file: a shard that lost its last row is found from the rows' own count.
+    let (t1, t2) = (dir.join("t1.csv"), dir.join("t2.csv"));
+    for (shard, out) in [("1/2", &t1), ("2/2", &t2)] {
+        let o = arcsim(&[
+            "sweep",
+            path_str(&a),
+            "--shard",
+            shard,
+            "--out",
+            path_str(out),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let whole = dir.join("whole.csv");
+    let o = arcsim(&[
+        "sweep-merge",
+        path_str(&t1),
+        path_str(&t2),
+        "--out",
+        path_str(&whole),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&t2).expect("shard 2");
+    let lines: Vec<&str> = text.lines().collect();
+    std::fs::write(&t2, format!("{}\n", lines[..lines.len() - 1].join("\n"))).expect("cut");
+    let o = arcsim(&[
+        "sweep-merge",
+        path_str(&t1),
+        path_str(&t2),
+        "--out",
+        path_str(&merged),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("row 1 of 2 is missing"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!merged.exists(), "an incomplete merge was written");
 }
 
 #[cfg(unix)]

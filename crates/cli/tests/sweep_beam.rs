@@ -126,6 +126,7 @@ fn older_shard_tables_still_merge() {
     );
     // What a V1 table lacks: the beam axes, the beam-on split and (newer still) the certificate.
     let new_columns = [
+        "combinations",
         "scan_speed_mm_per_s",
         "dose_rate_scale",
         "spot_irradiation_s",

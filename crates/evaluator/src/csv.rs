@@ -35,6 +35,9 @@ use crate::EvalError;
 enum Field {
     /// The combination's index: read first, it names the combination the rest is checked against.
     Index,
+    /// The sweep's number of combinations: a shard's table says how many rows the whole sweep
+    /// has, so a merge finds a missing last row without the sweep file.
+    Combinations,
     /// Text naming the combination (plan label, schedule entry): written from the row, and on
     /// reading it must be what the sweep's combination of that index writes.
     Name(fn(&Row) -> String),
@@ -88,6 +91,7 @@ macro_rules! outcome {
 
 sweep_columns! {
     "index" => Field::Index,
+    "combinations" => Field::Combinations,
     "plan" => Field::Name(|r| r.plan.clone()),
     "schedule" => Field::Name(|r| r.schedule.name()),
     "jerk_deg_per_s3" => Field::Limit(Axis::Jerk),
@@ -122,6 +126,14 @@ sweep_columns! {
     "message" => Field::Message,
 }
 
+/// The header of the tables of arcsim before the `combinations` column: [`CSV_HEADER`] without
+/// it. Such tables merge (the sweep's size then comes from `--sweep`, or from the indices) and
+/// read back.
+pub const CSV_HEADER_V3: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
+scan_speed_mm_per_s,dose_rate_scale,status,total_s,beam_on_s,spot_irradiation_s,scanning_s,energy_switching_s,lost_s,speedup,\
+lower_bound_s,gap_s,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,violations,speed_use,accel_use,jerk_use,\
+window_slack_deg,elst_slack_s,message";
+
 /// The header of the tables of arcsim before the certificate: [`CSV_HEADER`] without the
 /// `lower_bound_s` and `gap_s` columns. Such tables merge and read back (no certificate).
 pub const CSV_HEADER_V2: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
@@ -145,6 +157,8 @@ const CERTIFICATE_COLUMNS: [&str; 2] = ["lower_bound_s", "gap_s"];
 enum Layout {
     /// [`CSV_HEADER`]'s columns.
     Current,
+    /// [`CSV_HEADER_V3`]'s columns.
+    V3,
     /// [`CSV_HEADER_V2`]'s columns.
     V2,
     /// [`CSV_HEADER_V1`]'s columns.
@@ -153,13 +167,16 @@ enum Layout {
 
 impl Layout {
     /// Newest first: a header is read as the first layout that has all of its columns.
-    const ALL: [Layout; 3] = [Layout::Current, Layout::V2, Layout::V1];
+    const ALL: [Layout; 4] = [Layout::Current, Layout::V3, Layout::V2, Layout::V1];
 
     /// Whether tables of this layout have `column`.
     fn has(self, column: &Column) -> bool {
         match self {
             Layout::Current => true,
-            Layout::V2 => !CERTIFICATE_COLUMNS.contains(&column.name),
+            Layout::V3 => column.name != "combinations",
+            Layout::V2 => {
+                column.name != "combinations" && !CERTIFICATE_COLUMNS.contains(&column.name)
+            }
             Layout::V1 => CSV_HEADER_V1.split(',').any(|n| n == column.name),
         }
     }
@@ -172,6 +189,7 @@ impl Layout {
     fn describe(self) -> &'static str {
         match self {
             Layout::Current => "the current arcsim sweep CSV header",
+            Layout::V3 => "an older arcsim's header (without the combinations column)",
             Layout::V2 => "an older arcsim's header (without the lower_bound_s and gap_s columns)",
             Layout::V1 => "an older arcsim's header (without the scan_speed_mm_per_s, dose_rate_scale, spot_irradiation_s and scanning_s columns)",
         }
@@ -189,7 +207,8 @@ struct Header {
 
 impl Header {
     /// Finds the columns by name; every name must be a column of the table, once, and the names
-    /// must be those of [`CSV_HEADER`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`] (in any order).
+    /// must be those of [`CSV_HEADER`], [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`]
+    /// (in any order).
     fn parse(names: &StringRecord) -> Result<Header, String> {
         const EXPECTED: &str = "expected the arcsim sweep CSV header";
         if names.iter().all(str::is_empty) {
@@ -362,6 +381,7 @@ fn field_text(field: Field, r: &Row) -> String {
     let outcome = |f: &dyn Fn(&Outcome) -> Option<String>| r.outcome.as_ref().and_then(f);
     let text = match field {
         Field::Index => Some(r.index.to_string()),
+        Field::Combinations => Some(r.combinations.to_string()),
         Field::Name(get) => Some(one_line(&get(r))),
         Field::Limit(axis) => r.setting.get_or(axis, &r.defaults).map(|v| v.to_string()),
         Field::Status => Some(r.status.name().to_string()),
@@ -376,10 +396,12 @@ fn field_text(field: Field, r: &Row) -> String {
 
 /// Joins shard outputs (`(name, text)` pairs, in any order) into the table a single run writes.
 /// Every input must have the sweep header, all the same one ([`CSV_HEADER`], or all an older
-/// arcsim's [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`], which the merged table then keeps; the columns of an input may be
-/// in any order, the merged table has them in the header's); indices must not repeat and must
-/// cover `0..n` without gaps, and be exactly `0..expected` when `expected` is given (the sweep's
-/// combination count).
+/// arcsim's [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`], which the merged table then
+/// keeps; the columns of an input may be in any order, the merged table has them in the
+/// header's); indices must not repeat and must be exactly `0..n`, where `n` is the sweep's
+/// combination count: `expected` when given (from the sweep file), and the `combinations`
+/// column of every row (which must agree with each other and with `expected`). A table without
+/// that column (an older arcsim's) and no `expected` must cover `0..n` without gaps.
 pub fn merge_csv(
     inputs: &[(String, String)],
     expected: Option<usize>,
@@ -388,6 +410,8 @@ pub fn merge_csv(
     let mut rows: Vec<(usize, Vec<String>, &str)> = Vec::new();
     // The layout of the first input, and its name.
     let mut first: Option<(Layout, &str)> = None;
+    // The sweep's size as the first row that says it does, and where.
+    let mut size: Option<(usize, String)> = expected.map(|n| (n, "the sweep file".to_string()));
     for (name, text) in inputs {
         let merr = |message: String| EvalError::Merge {
             file: name.clone(),
@@ -412,13 +436,36 @@ pub fn merge_csv(
             ));
         }
         let index_column = column_index("index");
+        let size_column = column_index("combinations");
         for (line, record) in records {
-            let field = header.get(&record, index_column).unwrap_or_default();
-            let index = field.trim().parse::<usize>().map_err(|_| {
-                merr(format!(
-                    "line {line}: column index: expected a row index (a count), found {field:?}"
-                ))
-            })?;
+            let count = |column: usize, what: &str| -> Result<Option<usize>, EvalError> {
+                let Some(field) = header.get(&record, column) else {
+                    return Ok(None);
+                };
+                field.trim().parse::<usize>().map(Some).map_err(|_| {
+                    merr(format!(
+                        "line {line}: column {}: expected {what}, found {field:?}",
+                        COLUMNS[column].name
+                    ))
+                })
+            };
+            let index = count(index_column, "a row index (a count)")?.unwrap_or_default();
+            if let Some(n) = count(size_column, "the sweep's number of combinations")? {
+                match &size {
+                    None => size = Some((n, format!("{name} line {line}"))),
+                    Some((m, from)) if *m != n => {
+                        return Err(merr(format!(
+                            "line {line}: a sweep of {n} combinations, but {from} says {m}; expected the tables of one sweep"
+                        )));
+                    }
+                    Some(_) => {}
+                }
+                if index >= n {
+                    return Err(merr(format!(
+                        "line {line}: row {index} of a sweep of {n} combinations"
+                    )));
+                }
+            }
             let fields = header
                 .order
                 .iter()
@@ -440,10 +487,20 @@ pub fn merge_csv(
         }
     }
     let present = rows.len();
-    if let Some((i, _)) = rows.iter().enumerate().find(|(i, r)| r.0 != *i) {
+    let total = size.as_ref().map(|s| s.0);
+    let missing = rows
+        .iter()
+        .enumerate()
+        .find(|(i, r)| r.0 != *i)
+        .map(|(i, _)| i)
+        .or_else(|| total.filter(|&n| present < n).map(|_| present));
+    if let Some(i) = missing {
+        let of = total.map_or(String::new(), |n| format!(" of {n}"));
         return Err(EvalError::Merge {
             file: "merged shards".into(),
-            message: format!("row {i} is missing; expected every combination from 0 (is a shard missing or interrupted?)"),
+            message: format!(
+                "row {i}{of} is missing; {present} rows present (is a shard missing or interrupted?)"
+            ),
         });
     }
     if let Some(n) = expected {
@@ -571,9 +628,20 @@ impl Evaluator {
                 self.len()
             )));
         }
+        let size_column = column_index("combinations");
+        if let Some(t) = f.get(size_column) {
+            let n = f.count("combinations", t)?;
+            if n != self.len() {
+                return Err(f.error(format!(
+                    "a sweep of {n} combinations; this sweep has {}",
+                    self.len()
+                )));
+            }
+        }
         let (plan, run, setting) = self.combination(index);
         let mut row = Row {
             index,
+            combinations: self.len(),
             plan: self.sweep().plans[plan].label.clone(),
             schedule: self.sweep().schedule_grids[run].schedule,
             setting,
@@ -661,12 +729,13 @@ fn other_combination(row: &Row) -> String {
 mod tests {
     use super::*;
 
-    /// A table of rows `rows` (index, plan and schedule filled, the other fields empty).
+    /// A table of rows `rows` of a sweep of 5 (index, combinations, plan and schedule filled,
+    /// the other fields empty).
     fn file(rows: &[usize], end: &str) -> String {
         let mut s = format!("{CSV_HEADER}{end}");
-        let empty = ",".repeat(COLUMNS.len() - 3);
+        let empty = ",".repeat(COLUMNS.len() - 4);
         for r in rows {
-            s.push_str(&format!("{r},p,scan{empty}{end}"));
+            s.push_str(&format!("{r},5,p,scan{empty}{end}"));
         }
         s
     }
@@ -679,8 +748,11 @@ mod tests {
         assert_eq!(CSV_HEADER_V1, old.join(","));
         let v2: Vec<&str> = Layout::V2.columns().map(|c| c.name).collect();
         assert_eq!(CSV_HEADER_V2, v2.join(","));
-        assert_eq!(v2.len(), COLUMNS.len() - 2);
-        assert_eq!(old.len(), COLUMNS.len() - 6);
+        let v3: Vec<&str> = Layout::V3.columns().map(|c| c.name).collect();
+        assert_eq!(CSV_HEADER_V3, v3.join(","));
+        assert_eq!(v3.len(), COLUMNS.len() - 1);
+        assert_eq!(v2.len(), COLUMNS.len() - 3);
+        assert_eq!(old.len(), COLUMNS.len() - 7);
         // One limit column per axis, named as the axis.
         let limits: Vec<Axis> = COLUMNS
             .iter()
@@ -711,7 +783,28 @@ mod tests {
         assert!(merge_csv(std::slice::from_ref(&a), None)
             .expect_err("gap")
             .to_string()
-            .contains("row 1 is missing"));
+            .contains("row 1 of 5 is missing"));
+        // The last row missing: found from the rows' own count, without the sweep file.
+        let short = ("s".to_string(), file(&[0, 2], "\n"));
+        let e = merge_csv(&[short, b.clone()], None).expect_err("last row");
+        assert!(e.to_string().contains("row 4 of 5 is missing"), "{e}");
+        // Tables of sweeps of different sizes.
+        let other = (
+            "o".to_string(),
+            file(&[1, 3], "\n").replace(",5,p,", ",6,p,"),
+        );
+        let e = merge_csv(&[a.clone(), other], None).expect_err("sizes");
+        assert!(e.to_string().contains("a sweep of 6 combinations"), "{e}");
+        // A table without the column (an older arcsim's) still merges on its indices.
+        let v3 = |rows: &[usize]| {
+            let mut s = format!("{CSV_HEADER_V3}\n");
+            for r in rows {
+                s.push_str(&format!("{r},p,scan{}\n", ",".repeat(COLUMNS.len() - 4)));
+            }
+            s
+        };
+        let old = merge_csv(&[("x".into(), v3(&[1])), ("y".into(), v3(&[0]))], None);
+        assert_eq!(old.expect("older tables"), v3(&[0, 1]));
         assert!(merge_csv(&[a.clone(), a.clone()], None)
             .expect_err("dup")
             .to_string()
@@ -727,7 +820,10 @@ mod tests {
             "e: empty file; expected the arcsim sweep CSV header"
         );
         let e = merge_csv(
-            &[("d".into(), file(&[0], "\n").replacen("0,p", "zero,p", 1))],
+            &[(
+                "d".into(),
+                file(&[0], "\n").replacen("0,5,p", "zero,5,p", 1),
+            )],
             None,
         )
         .expect_err("index")

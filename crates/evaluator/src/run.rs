@@ -73,6 +73,10 @@ pub struct Outcome {
 pub struct Row {
     /// Combination index (the row's position in a full, unsharded run).
     pub index: usize,
+    /// The sweep's number of combinations (the CSV's `combinations` column; the JSON results
+    /// say it once).
+    #[serde(skip)]
+    pub combinations: usize,
     /// Plan label (path relative to the sweep file, or `atom:CASE`).
     pub plan: String,
     pub schedule: RunMode,
@@ -352,6 +356,7 @@ impl Evaluator {
         );
         Row {
             index,
+            combinations: self.len(),
             plan: self.sweep.plans[b.plan].label.clone(),
             schedule: run.schedule,
             setting,

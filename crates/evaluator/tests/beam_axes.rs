@@ -77,7 +77,8 @@ fn drop_columns(table: &str, names: &[&str]) -> String {
 
 /// The columns a V1 table does not have: the beam axes, the split of the beam-on time and
 /// (newer still) the certificate.
-const NEW_COLUMNS: [&str; 6] = [
+const NEW_COLUMNS: [&str; 7] = [
+    "combinations",
     "scan_speed_mm_per_s",
     "dose_rate_scale",
     "spot_irradiation_s",

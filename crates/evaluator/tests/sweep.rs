@@ -393,7 +393,8 @@ fn merged_shards_summarise_like_a_single_run() {
         .rows_from_csv("other.csv", &csv(&other_rows))
         .expect_err("a different sweep");
     assert!(
-        err.to_string().contains("other.csv: line 2: row 0"),
+        err.to_string()
+            .contains("other.csv: line 2: a sweep of 2 combinations; this sweep has 12"),
         "{err}"
     );
     // A damaged number.
@@ -916,7 +917,7 @@ fn csv_writes_the_limit_used_in_every_column() {
     let limits: Vec<Vec<&str>> = single
         .lines()
         .skip(1)
-        .map(|l| l.split(',').skip(3).take(8).collect())
+        .map(|l| l.split(',').skip(4).take(8).collect())
         .collect();
     assert_eq!(
         limits,
@@ -970,7 +971,7 @@ fn csv_writes_the_limit_used_in_every_column() {
     let table = csv(&rows);
     let line = table.lines().nth(1).expect("row 0");
     assert!(
-        line.starts_with("0,../plans/prostate.json,scan,0.5,1.5,6,,0.3,1,,1,ok,"),
+        line.starts_with("0,2,../plans/prostate.json,scan,0.5,1.5,6,,0.3,1,,1,ok,"),
         "{line}"
     );
     let back = ev.rows_from_csv("fast.csv", &table).expect("read back");

@@ -372,6 +372,7 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
     };
     Row {
         index,
+        combinations: 4,
         plan: "plans/prostate.json".into(),
         schedule: arcsim_evaluator::RunMode::constant(Schedule::Scan),
         setting: Setting {
