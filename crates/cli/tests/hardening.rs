@@ -628,3 +628,51 @@ fn sweep_outputs_may_not_overwrite_the_files_the_sweep_names() {
     );
     assert!(before == after, "a file the sweep names was overwritten");
 }
+
+/// Moves far below the limits' scale (1e-11 deg under a 5 s ELST, 10 deg in 2e12 s) are solved:
+/// what `validate` accepts, `simulate` delivers with either motion, and `profile` plans them.
+#[test]
+fn validate_and_simulate_agree_on_tiny_moves() {
+    let layer = |e: f64, elst: Option<f64>| {
+        let mut l = serde_json::json!({ "energy_mev": e, "irradiation_time_s": 1.0 });
+        if let Some(s) = elst {
+            l["switching_time_s"] = serde_json::json!(s);
+        }
+        l
+    };
+    let plan = serde_json::json!({
+        "format": "arcsim-plan/1",
+        "name": "tiny",
+        "arcs": [{ "direction": "CW", "control_points": [
+            { "angle_deg": 10.0, "window_deg": 0.0, "layers": [layer(150.0, None)] },
+            { "angle_deg": 10.00000000001, "window_deg": 0.0, "layers": [layer(140.0, Some(5.0))] }
+        ]}]
+    });
+    let path = temp_dir().join("tiny.json");
+    std::fs::write(&path, plan.to_string()).expect("plan");
+    let o = arcsim(&["validate", path_str(&path)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for motion in ["constant", "free"] {
+        let o = arcsim(&["simulate", path_str(&path), "--motion", motion]);
+        assert!(o.status.success(), "{motion}: {}", stderr(&o));
+        assert!(stdout(&o).contains("total delivery time"), "{}", stdout(&o));
+    }
+    let limits = [
+        "--v-start",
+        "0",
+        "--v-end",
+        "0",
+        "--jerk",
+        "0.5",
+        "--accel",
+        "0.5",
+        "--vel",
+        "6",
+    ];
+    for (d, t) in [("1e-10", "60"), ("10", "2e12")] {
+        let mut args = vec!["profile", "--distance", d, "--min-duration", t];
+        args.extend(limits);
+        let o = arcsim(&args);
+        assert!(o.status.success(), "{d} in {t} s: {}", stderr(&o));
+    }
+}

@@ -475,9 +475,13 @@ impl MoveAnalysis {
             *v = f(x_at(i));
         }
         // At the ends of a feasible interval the root sits on a sample (e.g. the valley that
-        // lasts t with no cruise): accept it within rounding.
-        let tol = 1e-12 * (self.tr.d + self.lim.max_vel * t);
-        if let Some(i) = fs.iter().position(|&v| v.abs() <= tol) {
+        // lasts t with no cruise): accept it within the rounding of that sample's own terms (a
+        // tolerance scaled by the speed limit would accept rest for a move of 1e-10 deg in 60 s).
+        let rounding = |x: f64| {
+            let k = self.eval(side, x);
+            1e-12 * (self.tr.d.abs() + k.d.abs() + k.c.abs() * t)
+        };
+        if let Some(i) = (0..fs.len()).find(|&i| fs[i].abs() <= rounding(x_at(i))) {
             return Some(x_at(i));
         }
         // Any sign change between neighbouring samples brackets a root.

@@ -341,3 +341,42 @@ fn shortest_duration_at_least_agrees_with_the_duration_set() {
         "inside {inside}, later {later}, none {none}"
     );
 }
+
+/// Tiny moves stretched over long durations (1e-11 deg in 5 s, 10 deg in 2e12 s): the cruise
+/// speed is far below the speed limit's rounding, and the profile must still cover the distance
+/// (a tolerance scaled by V·T once accepted standing still).
+#[test]
+fn tiny_moves_over_long_durations_reach_their_end() {
+    let lim = arcsim_planner::Limits {
+        max_jerk: 0.5,
+        max_accel: 0.5,
+        max_decel: 0.5,
+        max_vel: 6.0,
+    };
+    for d in [1e-11, 1e-10, 1e-6, 1e-3, 1.0, 10.0, 360.0] {
+        for t in [5.0, 60.0, 1e5, 1e9, 2e12] {
+            let mv = Move {
+                distance: d,
+                v_start: 0.0,
+                v_end: 0.0,
+            };
+            let p = at_least(mv, &lim, t).unwrap_or_else(|e| panic!("d {d} T {t}: {e}"));
+            assert!(
+                p.duration() >= t * (1.0 - 1e-9),
+                "d {d} T {t}: {}",
+                p.duration()
+            );
+            let end = p.state_at(p.duration());
+            assert!(
+                (end.position - d).abs() <= 1e-9 * d,
+                "d {d} T {t}: ends at {} ",
+                end.position
+            );
+            assert!(
+                end.velocity.abs() <= 1e-9 * d / t,
+                "d {d} T {t}: {}",
+                end.velocity
+            );
+        }
+    }
+}
