@@ -253,8 +253,10 @@ fn text_output(flag: &str) -> bool {
 enum Sink {
     /// A temporary file renamed to `target` on commit.
     Temp { temp: PathBuf, target: PathBuf },
-    /// Written in place (standard output, a FIFO, a device).
+    /// Written in place (a FIFO, a device).
     InPlace,
+    /// Standard output: a closed pipe ends the process quietly, as in [`print`].
+    Stdout,
 }
 
 /// An output file under construction: a regular file is written to a temporary file beside it
@@ -271,7 +273,7 @@ impl AtomicFile {
         let cannot =
             |e: std::io::Error| CliError::failed(format!("{}: cannot create: {e}", dest.display()));
         let (sink, out): (Sink, Box<dyn Write + Send>) = match destination(dest).map_err(cannot)? {
-            Destination::Stdout => (Sink::InPlace, Box::new(std::io::stdout())),
+            Destination::Stdout => (Sink::Stdout, Box::new(std::io::stdout())),
             Destination::Direct(p) => {
                 // A regular file reached through a descriptor is rewritten, as `>` does.
                 let regular = std::fs::metadata(&p).is_ok_and(|m| m.is_file());
@@ -307,7 +309,7 @@ impl AtomicFile {
     pub fn temporary(&self) -> Option<&Path> {
         match &self.sink {
             Sink::Temp { temp, .. } => Some(temp),
-            Sink::InPlace => None,
+            Sink::InPlace | Sink::Stdout => None,
         }
     }
 
@@ -318,8 +320,12 @@ impl AtomicFile {
             .expect("an AtomicFile is only written before commit")
     }
 
-    /// An I/O error of this file, as a CLI error naming it.
+    /// An I/O error of this file, as a CLI error naming it. On standard output a closed pipe
+    /// ends the process quietly with exit 0 (its reader has all it wanted).
     pub fn error(&self, e: std::io::Error) -> CliError {
+        if matches!(self.sink, Sink::Stdout) && e.kind() == ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
         CliError::failed(format!("{}: cannot write: {e}", self.dest.display()))
     }
 
@@ -332,7 +338,7 @@ impl AtomicFile {
         drop(w);
         match &self.sink {
             Sink::Temp { temp, target } => std::fs::rename(temp, target).map_err(|e| self.error(e)),
-            Sink::InPlace => Ok(()),
+            Sink::InPlace | Sink::Stdout => Ok(()),
         }
     }
 }
