@@ -133,7 +133,7 @@ fn read_control_point(
     let angle_deg = match (float_at(cp, GANTRY_ANGLE, at)?, prev) {
         // Adding 0 turns -0 into 0.
         (Some(a), _) if (0.0..360.0).contains(&a) => a + 0.0,
-        (Some(a), _) if a == 360.0 => {
+        (Some(360.0), _) => {
             warnings.push(ImportWarning::GantryAngle360 { at });
             0.0
         }
