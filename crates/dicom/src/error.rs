@@ -70,6 +70,18 @@ pub enum DicomImportError {
     Unreadable { reason: String },
 
     #[error(
+        "unsupported transfer syntax {uid}{}: arcsim reads DICOM data sets that are uncompressed \
+         (Implicit VR Little Endian, Explicit VR Little or Big Endian) or deflated (Deflated \
+         Explicit VR Little Endian, 1.2.840.10008.1.2.1.99); export the plan in one of these",
+        name.map(|n| format!(" ({n})")).unwrap_or_else(|| " (not a known transfer syntax)".into())
+    )]
+    UnsupportedTransferSyntax {
+        uid: String,
+        /// The transfer syntax's name, when it is a known one.
+        name: Option<&'static str>,
+    },
+
+    #[error(
         "refused DICOM file: sequences nested deeper than {limit} levels (level {} is {}{tag}); \
          an RT Ion Plan needs fewer than 10",
         limit + 1,

@@ -1426,3 +1426,26 @@ fn plan_rule_violations_are_located_in_the_imported_plan_without_the_plan_name()
     );
     assert!(!e.contains("HOT"), "{e}");
 }
+
+#[test]
+fn an_unknown_transfer_syntax_is_named_as_unsupported() {
+    let bytes = dicom::two_arc_plan().to_bytes();
+    let (plain, unknown) = (b"1.2.840.10008.1.2.1\0", b"1.2.840.99999.1.2.1\0");
+    let at = bytes
+        .windows(plain.len())
+        .position(|w| w == plain)
+        .expect("the meta group names Explicit VR Little Endian");
+    let mut patched = bytes.clone();
+    patched[at..at + unknown.len()].copy_from_slice(unknown);
+    let e = read_rt_ion_plan_from_bytes(&patched)
+        .expect_err("unknown transfer syntax")
+        .to_string();
+    assert!(
+        e.starts_with(
+            "unsupported transfer syntax 1.2.840.99999.1.2.1 (not a known transfer syntax): \
+             arcsim reads DICOM data sets that are uncompressed"
+        ),
+        "{e}"
+    );
+    assert!(!e.contains("feature"), "{e}");
+}
