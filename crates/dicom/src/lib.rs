@@ -3,7 +3,10 @@
 //! [`read_rt_ion_plan`] reads an RT Ion Plan file (SOP class 1.2.840.10008.5.1.4.1.1.481.8) with
 //! dicom-object and converts it into an [`ArcPlan`]; [`is_dicom_file`] recognises a DICOM file by its
 //! content (128-byte preamble + "DICM"), whatever its extension. Failures are [`DicomImportError`]s
-//! that name the attribute keyword, its (gggg,eeee) tag and the beam / control-point index.
+//! that name the attribute keyword, its (gggg,eeee) tag and the beam / control-point index;
+//! [`import_rt_ion_plan_from_bytes`] also returns the [`ImportWarning`]s (a GantryAngle of 360,
+//! fraction groups left out), which the other functions drop. Uncompressed and deflated
+//! (1.2.840.10008.1.2.1.99) data sets are read.
 //!
 //! # Conversion rules
 //!
@@ -12,10 +15,17 @@
 //!   NumberOfScanSpotPositions (300A,0392) must equal the number of weights. GantryAngle (300A,011E),
 //!   GantryRotationDirection (300A,011F), NominalBeamEnergy (300A,0114) and NumberOfPaintings
 //!   (300A,039A) are inherited from earlier control points of the same beam when absent.
+//!   GantryAngle must be in [0, 360) (360 is read as 0 with a warning), and each step between
+//!   control points must go the way GantryRotationDirection says (CW: increasing).
+//! - **Fraction groups.** Only the beams of the first item of FractionGroupSequence (300A,0070) are
+//!   imported; beams only other groups reference are left out with a warning. Every
+//!   ReferencedBeamNumber must be the BeamNumber of a beam.
 //! - **MU.** Spot MU = weight x BeamMeterset / FinalCumulativeMetersetWeight, BeamMeterset (300A,0086)
 //!   taken from the first FractionGroupSequence > ReferencedBeamSequence item whose
 //!   ReferencedBeamNumber is the beam's number; rounded to [`MU_RESOLUTION`] (1e-9 MU) so the JSON
 //!   written from the plan reads back to exactly the same numbers. One native spot per DICOM spot.
+//!   FinalCumulativeMetersetWeight must equal the sum of the beam's weights within
+//!   [`CUMULATIVE_WEIGHT_TOLERANCE`] (relative).
 //! - **Positions.** ScanSpotPositionMap (300A,0394), x, y in mm per spot, becomes `spots.positions_mm`
 //!   in the file's spot order, rounded to [`POSITION_RESOLUTION_MM`] (1e-6 mm). It must hold 2 finite
 //!   values per spot, within 10,000 mm ([`arcsim_plan::MAX_SPOT_POSITION_MM`]). A layer whose control
