@@ -43,18 +43,38 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// The plan in `bytes`, read from the input called `name` in messages. A DICOM RT Ion Plan
 /// (recognised by content, or by `dicom_extension` so a broken one gets a DICOM message) is
 /// imported and named after `stem` when it has neither RTPlanLabel nor RTPlanName; anything else
-/// must be an `arcsim-plan/1` JSON document.
+/// must be an `arcsim-plan/1` JSON document. The warnings of a DICOM import are dropped: see
+/// [`plan_from_bytes_warned`].
 pub fn plan_from_bytes(
     name: &str,
     stem: Option<&str>,
     dicom_extension: bool,
     bytes: &[u8],
 ) -> Result<ArcPlan, AppError> {
+    plan_from_bytes_warned(name, stem, dicom_extension, bytes).map(|(plan, _)| plan)
+}
+
+/// [`plan_from_bytes`], with the warnings of a DICOM import, each starting with `name` (a JSON
+/// plan has none).
+pub fn plan_from_bytes_warned(
+    name: &str,
+    stem: Option<&str>,
+    dicom_extension: bool,
+    bytes: &[u8],
+) -> Result<(ArcPlan, Vec<String>), AppError> {
     if dicom_extension || arcsim_dicom::has_dicom_magic(bytes) {
-        return arcsim_dicom::read_rt_ion_plan_from_bytes_named(
+        return arcsim_dicom::import_rt_ion_plan_from_bytes(
             bytes,
             stem.unwrap_or(arcsim_dicom::DEFAULT_PLAN_NAME),
         )
+        .map(|imported| {
+            let warnings = imported
+                .warnings
+                .iter()
+                .map(|w| format!("{name}: {w}"))
+                .collect();
+            (imported.plan, warnings)
+        })
         .map_err(|source| AppError::Dicom {
             name: name.to_owned(),
             source,
@@ -64,7 +84,7 @@ pub fn plan_from_bytes(
         name: name.to_owned(),
         offset: e.valid_up_to(),
     })?;
-    Ok(arcsim_plan::parse_plan(text, name)?)
+    Ok((arcsim_plan::parse_plan(text, name)?, Vec::new()))
 }
 
 /// Reads the plan file at `path` (named by its path in messages) with [`plan_from_bytes`];

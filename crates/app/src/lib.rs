@@ -19,8 +19,8 @@ mod request;
 
 pub use document::{OptionsOut, Provenance, ResultDocument, Source, RESULT_FORMAT};
 pub use inputs::{
-    builtin_machine, machine_from_text, plan_from_bytes, read_plan_file, sha256_hex, AppError,
-    DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
+    builtin_machine, machine_from_text, plan_from_bytes, plan_from_bytes_warned, read_plan_file,
+    sha256_hex, AppError, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
 };
 pub use moves::{MoveError, MoveRequest, SolvedMove};
 pub use request::{check_period, plausibility, refuse_implausible, SimulateRequest};

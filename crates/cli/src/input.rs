@@ -82,13 +82,23 @@ fn stem(path: &Path) -> Option<String> {
 }
 
 /// The DICOM RT Ion Plan in `bytes` (read from `path`), named after the file's stem when it has
-/// neither RTPlanLabel nor RTPlanName.
+/// neither RTPlanLabel nor RTPlanName. The import's warnings go to standard error.
 pub fn dicom_plan(path: &Path, bytes: &[u8]) -> Result<ArcPlan, CliError> {
-    arcsim_app::plan_from_bytes(&input_name(path), stem(path).as_deref(), true, bytes)
+    arcsim_app::plan_from_bytes_warned(&input_name(path), stem(path).as_deref(), true, bytes)
+        .map(print_import_warnings)
         .map_err(|e| CliError::failed(e.to_string()))
 }
 
-/// [`load_plan`], with the SHA-256 of the bytes read (to tell edited files apart in results).
+/// Prints the warnings of a DICOM import to standard error; returns the plan.
+fn print_import_warnings((plan, warnings): (ArcPlan, Vec<String>)) -> ArcPlan {
+    for w in &warnings {
+        eprintln!("warning: {}", crate::output::printable(w));
+    }
+    plan
+}
+
+/// [`load_plan`], with the SHA-256 of the bytes read (to tell edited files apart in results). The
+/// warnings of a DICOM import go to standard error.
 pub fn load_plan_hashed(path: &Path) -> Result<(ArcPlan, String), CliError> {
     let dicom_extension = path
         .extension()
@@ -96,13 +106,13 @@ pub fn load_plan_hashed(path: &Path) -> Result<(ArcPlan, String), CliError> {
         .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"));
     let bytes = read_input(path)?;
     let digest = sha256_hex(&bytes);
-    arcsim_app::plan_from_bytes(
+    arcsim_app::plan_from_bytes_warned(
         &input_name(path),
         stem(path).as_deref(),
         dicom_extension,
         &bytes,
     )
-    .map(|plan| (plan, digest))
+    .map(|imported| (print_import_warnings(imported), digest))
     .map_err(|e| CliError::failed(e.to_string()))
 }
 

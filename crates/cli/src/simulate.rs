@@ -126,6 +126,13 @@ pub struct Args {
     strict: bool,
 }
 
+/// `x` with `decimals` decimals, right-aligned in `width` characters; a zero is never signed
+/// ("-0.00" is written "0.00").
+fn fixed(x: f64, decimals: usize, width: usize) -> String {
+    let text = arcsim_plan::without_zero_sign(format!("{x:.decimals$}"));
+    format!("{text:>width$}")
+}
+
 fn min_sec(t: f64) -> String {
     let m = (t / 60.0).floor();
     format!("{}:{:04.1}", m as u64, t - 60.0 * m)
@@ -176,35 +183,35 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
     );
     let _ = writeln!(
         s,
-        "  beam on            {:9.2} s  {:5.1} %",
-        b.beam_on_s,
-        pct(b.beam_on_s)
+        "  beam on            {} s  {} %",
+        fixed(b.beam_on_s, 2, 9),
+        fixed(pct(b.beam_on_s), 1, 5)
     );
     if b.scanning_s > 0.0 {
         let _ = writeln!(
             s,
-            "    spot irradiation {:9.2} s  {:5.1} %",
-            b.spot_irradiation_s,
-            pct(b.spot_irradiation_s)
+            "    spot irradiation {} s  {} %",
+            fixed(b.spot_irradiation_s, 2, 9),
+            fixed(pct(b.spot_irradiation_s), 1, 5)
         );
         let _ = writeln!(
             s,
-            "    between spots    {:9.2} s  {:5.1} %  (scanning, settling, layer overhead)",
-            b.scanning_s,
-            pct(b.scanning_s)
+            "    between spots    {} s  {} %  (scanning, settling, layer overhead)",
+            fixed(b.scanning_s, 2, 9),
+            fixed(pct(b.scanning_s), 1, 5)
         );
     }
     let _ = writeln!(
         s,
-        "  energy switching   {:9.2} s  {:5.1} %",
-        b.energy_switching_s,
-        pct(b.energy_switching_s)
+        "  energy switching   {} s  {} %",
+        fixed(b.energy_switching_s, 2, 9),
+        fixed(pct(b.energy_switching_s), 1, 5)
     );
     let _ = writeln!(
         s,
-        "  lost (gantry)      {:9.2} s  {:5.1} %",
-        b.lost_s,
-        pct(b.lost_s)
+        "  lost (gantry)      {} s  {} %",
+        fixed(b.lost_s, 2, 9),
+        fixed(pct(b.lost_s), 1, 5)
     );
     if let Some(ts) = d.servo_period_s {
         let _ = writeln!(
@@ -217,8 +224,9 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
         let saved = c - d.total_s;
         let _ = writeln!(
             s,
-            "free motion saves {saved:.2} s ({:.1} %) against constant speed per layer ({c:.2} s)",
-            if c > 0.0 { 100.0 * saved / c } else { 0.0 }
+            "free motion saves {} s ({} %) against constant speed per layer ({c:.2} s)",
+            fixed(saved, 2, 0),
+            fixed(if c > 0.0 { 100.0 * saved / c } else { 0.0 }, 1, 0)
         );
     }
     let c = d.limiter_counts;
@@ -636,4 +644,17 @@ pub fn run(args: Args) -> Result<(), CliError> {
         args.spawn,
         args.connect.as_deref(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fixed;
+
+    #[test]
+    fn summary_numbers_never_show_a_signed_zero() {
+        assert_eq!(fixed(-0.0, 2, 9), "     0.00");
+        assert_eq!(fixed(-1e-12, 1, 5), "  0.0");
+        assert_eq!(fixed(-0.5, 2, 0), "-0.50");
+        assert_eq!(fixed(12.345, 2, 9), "    12.35");
+    }
 }

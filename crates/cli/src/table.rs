@@ -9,7 +9,8 @@ pub(crate) struct Column<R> {
     pub get: fn(&R) -> String,
 }
 
-/// `rows` as CSV: the columns' names, then one line per row (fields quoted where needed).
+/// `rows` as CSV: the columns' names, then one line per row (fields quoted where needed; a number
+/// field of -0 is written 0).
 pub(crate) fn csv_table<R, T: Borrow<R>>(
     columns: &[Column<R>],
     rows: impl IntoIterator<Item = T>,
@@ -18,7 +19,11 @@ pub(crate) fn csv_table<R, T: Borrow<R>>(
     // Writing to memory does not fail.
     let _ = w.write_record(columns.iter().map(|c| c.name));
     for r in rows {
-        let _ = w.write_record(columns.iter().map(|c| (c.get)(r.borrow())));
+        let _ = w.write_record(
+            columns
+                .iter()
+                .map(|c| arcsim_plan::without_zero_sign((c.get)(r.borrow()))),
+        );
     }
     w.into_inner().unwrap_or_default()
 }

@@ -194,7 +194,7 @@ fn step_delta(from: f64, to: f64, rotation: Rotation) -> f64 {
 }
 
 /// Signed shortest rotation from `from` to `to`, in (-180, 180] degrees.
-fn shortest_delta(from: f64, to: f64) -> f64 {
+pub(crate) fn shortest_delta(from: f64, to: f64) -> f64 {
     let d = (to - from).rem_euclid(360.0);
     if d > 180.0 {
         d - 360.0

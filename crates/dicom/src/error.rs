@@ -70,6 +70,18 @@ pub enum DicomImportError {
     Unreadable { reason: String },
 
     #[error(
+        "unsupported transfer syntax {uid}{}: arcsim reads DICOM data sets that are uncompressed \
+         (Implicit VR Little Endian, Explicit VR Little or Big Endian) or deflated (Deflated \
+         Explicit VR Little Endian, 1.2.840.10008.1.2.1.99); export the plan in one of these",
+        name.map(|n| format!(" ({n})")).unwrap_or_else(|| " (not a known transfer syntax)".into())
+    )]
+    UnsupportedTransferSyntax {
+        uid: String,
+        /// The transfer syntax's name, when it is a known one.
+        name: Option<&'static str>,
+    },
+
+    #[error(
         "refused DICOM file: sequences nested deeper than {limit} levels (level {} is {}{tag}); \
          an RT Ion Plan needs fewer than 10",
         limit + 1,
@@ -168,6 +180,70 @@ pub enum DicomImportError {
     #[error("the plan has no ion beam to import: {reason}")]
     NoIonBeams { reason: String },
 
-    #[error("the imported plan breaks the arcsim plan rules: {}", issues.join("; "))]
+    #[error(
+        "{keyword} {tag} in {at} is {number}, but no item of IonBeamSequence (300A,03A2) has \
+         BeamNumber {number} (the beams are {}); expected the number of a beam of this plan",
+        beams.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
+    )]
+    UnknownBeamReference {
+        keyword: &'static str,
+        tag: Tag,
+        at: Location,
+        number: i64,
+        /// The BeamNumbers of the plan's beams, in file order.
+        beams: Vec<i64>,
+    },
+
+    #[error(
+        "the imported plan breaks the arcsim plan rules (arcs, control points and layers counted \
+         as imported, from 0): {}",
+        issues.join("; ")
+    )]
     InvalidPlan { issues: Vec<String> },
+}
+
+/// Something the import did that the user should know of, though the plan was imported. Each names
+/// the attribute and where in the file it was found.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ImportWarning {
+    /// GantryAngle (300A,011E) 360, outside DICOM's [0, 360), read as 0.
+    GantryAngle360 { at: Location },
+    /// The plan has several fraction groups: only the first one's beams were imported.
+    OtherFractionGroups {
+        /// FractionGroupNumber (300A,0071) of the imported group (its index when absent).
+        imported: String,
+        /// The other groups: FractionGroupNumber (or index) and the BeamNumbers they reference.
+        left_out: Vec<(String, Vec<i64>)>,
+    },
+}
+
+impl fmt::Display for ImportWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ImportWarning::GantryAngle360 { at } => write!(
+                f,
+                "GantryAngle (300A,011E) 360 in {at} read as 0 (DICOM angles are in [0, 360))"
+            ),
+            ImportWarning::OtherFractionGroups { imported, left_out } => {
+                let others: Vec<String> = left_out
+                    .iter()
+                    .map(|(group, beams)| {
+                        let beams: Vec<String> = beams.iter().map(ToString::to_string).collect();
+                        if beams.is_empty() {
+                            format!("fraction group {group} (no beams)")
+                        } else {
+                            format!("fraction group {group} (beams {})", beams.join(", "))
+                        }
+                    })
+                    .collect();
+                write!(
+                    f,
+                    "FractionGroupSequence (300A,0070) has {} fraction groups: imported only the \
+                     first, fraction group {imported}; left out {}",
+                    left_out.len() + 1,
+                    others.join(", ")
+                )
+            }
+        }
+    }
 }

@@ -3,7 +3,10 @@
 //! [`read_rt_ion_plan`] reads an RT Ion Plan file (SOP class 1.2.840.10008.5.1.4.1.1.481.8) with
 //! dicom-object and converts it into an [`ArcPlan`]; [`is_dicom_file`] recognises a DICOM file by its
 //! content (128-byte preamble + "DICM"), whatever its extension. Failures are [`DicomImportError`]s
-//! that name the attribute keyword, its (gggg,eeee) tag and the beam / control-point index.
+//! that name the attribute keyword, its (gggg,eeee) tag and the beam / control-point index;
+//! [`import_rt_ion_plan_from_bytes`] also returns the [`ImportWarning`]s (a GantryAngle of 360,
+//! fraction groups left out), which the other functions drop. Uncompressed and deflated
+//! (1.2.840.10008.1.2.1.99) data sets are read.
 //!
 //! # Conversion rules
 //!
@@ -12,10 +15,17 @@
 //!   NumberOfScanSpotPositions (300A,0392) must equal the number of weights. GantryAngle (300A,011E),
 //!   GantryRotationDirection (300A,011F), NominalBeamEnergy (300A,0114) and NumberOfPaintings
 //!   (300A,039A) are inherited from earlier control points of the same beam when absent.
+//!   GantryAngle must be in [0, 360) (360 is read as 0 with a warning), and each step between
+//!   control points must go the way GantryRotationDirection says (CW: increasing).
+//! - **Fraction groups.** Only the beams of the first item of FractionGroupSequence (300A,0070) are
+//!   imported; beams only other groups reference are left out with a warning. Every
+//!   ReferencedBeamNumber must be the BeamNumber of a beam.
 //! - **MU.** Spot MU = weight x BeamMeterset / FinalCumulativeMetersetWeight, BeamMeterset (300A,0086)
 //!   taken from the first FractionGroupSequence > ReferencedBeamSequence item whose
 //!   ReferencedBeamNumber is the beam's number; rounded to [`MU_RESOLUTION`] (1e-9 MU) so the JSON
 //!   written from the plan reads back to exactly the same numbers. One native spot per DICOM spot.
+//!   FinalCumulativeMetersetWeight must equal the sum of the beam's weights within
+//!   [`CUMULATIVE_WEIGHT_TOLERANCE`] (relative).
 //! - **Positions.** ScanSpotPositionMap (300A,0394), x, y in mm per spot, becomes `spots.positions_mm`
 //!   in the file's spot order, rounded to [`POSITION_RESOLUTION_MM`] (1e-6 mm). It must hold 2 finite
 //!   values per spot, within 10,000 mm ([`arcsim_plan::MAX_SPOT_POSITION_MM`]). A layer whose control
@@ -60,17 +70,25 @@ use arcsim_plan::ArcPlan;
 use dicom_object::{DefaultDicomObject, InMemDicomObject};
 
 pub use convert::{MU_RESOLUTION, POSITION_RESOLUTION_MM, SAME_ANGLE_TOLERANCE_DEG};
-pub use error::{DicomImportError, Location};
+pub use error::{DicomImportError, ImportWarning, Location};
 pub use read::{
-    has_dicom_magic, is_dicom_file, MAX_NESTING, MAX_PAINTINGS, MAX_SPOTS, RT_ION_PLAN_STORAGE,
-    RT_PLAN_STORAGE,
+    has_dicom_magic, is_dicom_file, CUMULATIVE_WEIGHT_TOLERANCE, MAX_NESTING, MAX_PAINTINGS,
+    MAX_SPOTS, RT_ION_PLAN_STORAGE, RT_PLAN_STORAGE,
 };
 
 /// Name given to a plan whose file has neither RTPlanLabel nor RTPlanName (and no file name).
 pub const DEFAULT_PLAN_NAME: &str = "dicom-rt-ion-plan";
 
+/// An imported plan with the warnings of its import (see [`ImportWarning`]).
+#[derive(Debug, Clone)]
+pub struct Imported {
+    pub plan: ArcPlan,
+    pub warnings: Vec<ImportWarning>,
+}
+
 /// Reads the RT Ion Plan file at `path` and converts it into an arc plan. The plan is named after
-/// RTPlanLabel, else RTPlanName, else the file stem.
+/// RTPlanLabel, else RTPlanName, else the file stem. The warnings of the import are dropped: use
+/// [`import_rt_ion_plan_from_bytes`] to get them.
 pub fn read_rt_ion_plan(path: impl AsRef<Path>) -> Result<ArcPlan, DicomImportError> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| DicomImportError::Io {
@@ -78,27 +96,37 @@ pub fn read_rt_ion_plan(path: impl AsRef<Path>) -> Result<ArcPlan, DicomImportEr
         source,
     })?;
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-    import(&bytes, stem.as_deref().unwrap_or(DEFAULT_PLAN_NAME))
+    import(&bytes, stem.as_deref().unwrap_or(DEFAULT_PLAN_NAME)).map(|i| i.plan)
 }
 
 /// Converts a complete RT Ion Plan file held in memory (preamble, "DICM", meta group, data set).
+/// The warnings of the import are dropped.
 pub fn read_rt_ion_plan_from_bytes(bytes: &[u8]) -> Result<ArcPlan, DicomImportError> {
-    import(bytes, DEFAULT_PLAN_NAME)
+    import(bytes, DEFAULT_PLAN_NAME).map(|i| i.plan)
 }
 
 /// As [`read_rt_ion_plan_from_bytes`], naming the plan `fallback_name` (usually the file stem) when
 /// the file has neither RTPlanLabel nor RTPlanName; for callers that read the file themselves.
+/// The warnings of the import are dropped.
 pub fn read_rt_ion_plan_from_bytes_named(
     bytes: &[u8],
     fallback_name: &str,
 ) -> Result<ArcPlan, DicomImportError> {
+    import(bytes, fallback_name).map(|i| i.plan)
+}
+
+/// As [`read_rt_ion_plan_from_bytes_named`], with the warnings of the import.
+pub fn import_rt_ion_plan_from_bytes(
+    bytes: &[u8],
+    fallback_name: &str,
+) -> Result<Imported, DicomImportError> {
     import(bytes, fallback_name)
 }
 
 /// Converts an RT Ion Plan already opened with dicom-object.
 pub fn rt_ion_plan_from_object(obj: &DefaultDicomObject) -> Result<ArcPlan, DicomImportError> {
     read::check_sop_class(read::sop_class_of(obj).as_deref())?;
-    convert_dataset(obj, DEFAULT_PLAN_NAME)
+    convert_dataset(obj, DEFAULT_PLAN_NAME).map(|i| i.plan)
 }
 
 /// Converts an RT Ion Plan data set (no file meta group); its SOPClassUID (0008,0016) must be present.
@@ -108,10 +136,10 @@ pub fn rt_ion_plan_from_dataset(ds: &InMemDicomObject) -> Result<ArcPlan, DicomI
             .and_then(|e| e.to_str().ok())
             .as_deref(),
     )?;
-    convert_dataset(ds, DEFAULT_PLAN_NAME)
+    convert_dataset(ds, DEFAULT_PLAN_NAME).map(|i| i.plan)
 }
 
-fn import(bytes: &[u8], fallback_name: &str) -> Result<ArcPlan, DicomImportError> {
+fn import(bytes: &[u8], fallback_name: &str) -> Result<Imported, DicomImportError> {
     let obj = read::parse_bytes(bytes)?;
     read::check_sop_class(read::sop_class_of(&obj).as_deref())?;
     convert_dataset(&obj, fallback_name)
@@ -120,15 +148,20 @@ fn import(bytes: &[u8], fallback_name: &str) -> Result<ArcPlan, DicomImportError
 fn convert_dataset(
     ds: &InMemDicomObject,
     fallback_name: &str,
-) -> Result<ArcPlan, DicomImportError> {
-    let ion_plan = read::read_ion_plan(ds)?;
+) -> Result<Imported, DicomImportError> {
+    let mut warnings = Vec::new();
+    let ion_plan = read::read_ion_plan(ds, &mut warnings)?;
     let plan = convert::to_arc_plan(&ion_plan, fallback_name);
-    let issues = arcsim_plan::validate_plan(&plan, &plan.name);
+    // The caller names the file; an issue is located in the imported plan (arc, control point, layer).
+    let issues = arcsim_plan::validate_plan(&plan, "");
     if issues.is_empty() {
-        Ok(plan)
+        Ok(Imported { plan, warnings })
     } else {
         Err(DicomImportError::InvalidPlan {
-            issues: issues.iter().map(ToString::to_string).collect(),
+            issues: issues
+                .iter()
+                .map(|i| format!("{}: {}", i.location(), i.message))
+                .collect(),
         })
     }
 }

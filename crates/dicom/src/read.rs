@@ -23,6 +23,6 @@ pub use file::{
 };
 pub(crate) use ion_plan::{BeamKind, IonBeam, IonLayer, IonPlan, Rotation};
 pub(crate) use plan::read_ion_plan;
-pub use plan::MAX_SPOTS;
+pub use plan::{CUMULATIVE_WEIGHT_TOLERANCE, MAX_SPOTS};
 
 type Result<T, E = crate::error::DicomImportError> = std::result::Result<T, E>;

@@ -1167,3 +1167,285 @@ fn spots_per_layer_are_bounded_not_spots_times_paintings() {
     assert_eq!((spots.count, spots.paintings), (1_000_000, Some(5)));
     assert_eq!(MAX_SPOTS, 5 * u64::from(spots.count));
 }
+
+// ---- consistency of the file: meterset weights, fraction groups, angles, position maps -----------
+
+/// The import of `bytes` with its warnings.
+fn import_warned(bytes: &[u8]) -> arcsim_dicom::Imported {
+    match arcsim_dicom::import_rt_ion_plan_from_bytes(bytes, "fallback") {
+        Ok(imported) => imported,
+        Err(e) => panic!("import failed: {e}"),
+    }
+}
+
+#[test]
+fn a_final_cumulative_weight_that_is_not_the_sum_of_the_weights_is_an_error() {
+    let mut spec = static_beams(&[10.0, 20.0]);
+    let sum = spec.beams[1].final_weight();
+    // Twice the weights: the MU would silently be halved (50 instead of the BeamMeterset's 100).
+    spec.beams[1].final_weight = Some(2.0 * sum);
+    let e = import_err(&spec).to_string();
+    for part in [
+        "FinalCumulativeMetersetWeight (300A,010E)",
+        "IonBeamSequence[1] (BeamNumber 2)",
+        &dicom::ds(2.0 * sum),
+        &format!("sum to {sum}"),
+    ] {
+        assert!(e.contains(part), "missing {part:?} in: {e}");
+    }
+    // Within the tolerance (single-precision weights, a decimal-string total) it imports.
+    spec.beams[1].final_weight =
+        Some(sum * (1.0 + 0.1 * arcsim_dicom::CUMULATIVE_WEIGHT_TOLERANCE));
+    let plan = read_rt_ion_plan_from_bytes(&spec.to_bytes()).expect("within tolerance");
+    let mu: f64 = spots_of(&plan, 0, 1, 0).mu.iter().flatten().sum();
+    assert!(
+        (mu - 50.0).abs() < 50.0 * 1e-4,
+        "beam 2 delivers its 50 MU: {mu}"
+    );
+}
+
+/// `spec`'s data set with FractionGroupSequence replaced by `groups`: (FractionGroupNumber, the
+/// BeamNumbers it references, each with BeamMeterset 100).
+fn with_fraction_groups(spec: &PlanSpec, groups: &[(i64, &[i64])]) -> Vec<u8> {
+    use dicom_core::value::DataSetSequence;
+    use dicom_object::InMemDicomObject;
+    let items: Vec<InMemDicomObject> = groups
+        .iter()
+        .map(|(number, beams)| {
+            let refs: Vec<InMemDicomObject> = beams
+                .iter()
+                .map(|b| {
+                    let mut item = InMemDicomObject::new_empty();
+                    item.put(DataElement::new(
+                        tags::REFERENCED_BEAM_NUMBER,
+                        VR::IS,
+                        b.to_string(),
+                    ));
+                    item.put(DataElement::new(tags::BEAM_METERSET, VR::DS, "100"));
+                    item
+                })
+                .collect();
+            let mut group = InMemDicomObject::new_empty();
+            group.put(DataElement::new(
+                tags::FRACTION_GROUP_NUMBER,
+                VR::IS,
+                number.to_string(),
+            ));
+            group.put(DataElement::new(
+                tags::REFERENCED_BEAM_SEQUENCE,
+                VR::SQ,
+                DataSetSequence::from(refs),
+            ));
+            group
+        })
+        .collect();
+    let mut ds = spec.dataset();
+    ds.put(DataElement::new(
+        tags::FRACTION_GROUP_SEQUENCE,
+        VR::SQ,
+        DataSetSequence::from(items),
+    ));
+    dicom::file_bytes(ds)
+}
+
+#[test]
+fn only_the_first_fraction_group_is_imported_with_a_warning_naming_the_others() {
+    let spec = static_beams(&[10.0, 20.0, 30.0]);
+    let bytes = with_fraction_groups(&spec, &[(1, &[1, 2]), (2, &[3])]);
+    let imported = import_warned(&bytes);
+    let plan = &imported.plan;
+    assert_eq!(angles(plan, 0), vec![10.0, 20.0], "beams 1 and 2 only");
+    assert_eq!(plan.arcs.len(), 1);
+    let description = plan.description.as_deref().unwrap_or_default();
+    assert!(
+        description.contains("left out beam 3 (fraction group 2)"),
+        "{description}"
+    );
+    assert_eq!(imported.warnings.len(), 1, "{:?}", imported.warnings);
+    let w = imported.warnings[0].to_string();
+    assert!(
+        w.contains("FractionGroupSequence (300A,0070) has 2 fraction groups")
+            && w.contains("fraction group 1")
+            && w.contains("fraction group 2 (beams 3)"),
+        "{w}"
+    );
+    // One fraction group: no warning.
+    let one = import_warned(&with_fraction_groups(&spec, &[(1, &[1, 2, 3])]));
+    assert!(one.warnings.is_empty(), "{:?}", one.warnings);
+    assert_eq!(angles(&one.plan, 0), vec![10.0, 20.0, 30.0]);
+}
+
+#[test]
+fn a_fraction_group_reference_to_a_missing_beam_is_an_error() {
+    let spec = static_beams(&[10.0, 20.0]);
+    let bytes = with_fraction_groups(&spec, &[(1, &[1, 2, 7])]);
+    let e = read_rt_ion_plan_from_bytes(&bytes)
+        .expect_err("beam 7 does not exist")
+        .to_string();
+    assert!(
+        e.starts_with(
+            "ReferencedBeamNumber (300C,0006) in FractionGroupSequence[0] > \
+             ReferencedBeamSequence[2] is 7, but no item of IonBeamSequence (300A,03A2) has \
+             BeamNumber 7 (the beams are 1, 2)"
+        ),
+        "{e}"
+    );
+    // Also in a group that is not imported.
+    let bytes = with_fraction_groups(&spec, &[(1, &[1, 2]), (2, &[9])]);
+    let e = read_rt_ion_plan_from_bytes(&bytes)
+        .expect_err("beam 9 does not exist")
+        .to_string();
+    assert!(
+        e.contains("FractionGroupSequence[1] > ReferencedBeamSequence[0] is 9"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_step_against_the_declared_rotation_is_an_error() {
+    let layers = |angles: &[f64]| -> Vec<Layer> {
+        angles
+            .iter()
+            .enumerate()
+            .map(|(i, &angle)| Layer {
+                angle,
+                energy: dicom::energy_of(i),
+                weights: dicom::weights_of(i),
+            })
+            .collect()
+    };
+    // CW with decreasing angles would otherwise be a 716-degree arc.
+    let cw = BeamSpec::from_layers(1, "DYNAMIC", "CW", 100.0, &layers(&[10.0, 8.0, 6.0]));
+    let e = import_err(&PlanSpec::ion("BACK", vec![cw])).to_string();
+    assert!(
+        e.starts_with(
+            "inconsistent GantryAngle (300A,011E) in IonBeamSequence[0] (BeamNumber 1) > \
+             IonControlPointSequence[2]: goes from 10 (IonControlPointSequence[1]) to 8, against \
+             the GantryRotationDirection (300A,011F) CW (increasing angle)"
+        ),
+        "{e}"
+    );
+    let cc = BeamSpec::from_layers(1, "DYNAMIC", "CC", 100.0, &layers(&[6.0, 8.0]));
+    let e = import_err(&PlanSpec::ion("BACK", vec![cc])).to_string();
+    assert!(
+        e.contains("IonControlPointSequence[2]: goes from 6") && e.contains("CC (decreasing"),
+        "{e}"
+    );
+    // Across 0 each way is a short step the declared way.
+    let cw = BeamSpec::from_layers(1, "DYNAMIC", "CW", 100.0, &layers(&[358.0, 0.0, 2.0]));
+    let plan = read_rt_ion_plan_from_bytes(&PlanSpec::ion("OK", vec![cw]).to_bytes())
+        .expect("CW across 0");
+    assert_eq!(angles(&plan, 0), vec![358.0, 360.0, 362.0]);
+    let cc = BeamSpec::from_layers(1, "DYNAMIC", "CC", 100.0, &layers(&[2.0, 0.0, 358.0]));
+    let plan = read_rt_ion_plan_from_bytes(&PlanSpec::ion("OK", vec![cc]).to_bytes())
+        .expect("CC across 0");
+    assert_eq!(angles(&plan, 0), vec![362.0, 360.0, 358.0]);
+}
+
+#[test]
+fn gantry_angles_outside_0_to_360_are_errors_and_360_is_0_with_a_warning() {
+    for bad in [362.0, -2.0, 720.0] {
+        let e = import_err(&static_beams(&[10.0, bad])).to_string();
+        assert!(
+            e.starts_with(&format!(
+                "invalid GantryAngle (300A,011E) in IonBeamSequence[1] (BeamNumber 2) > \
+                 IonControlPointSequence[0]: {bad}; expected an angle from 0 up to (not \
+                 including) 360 degrees"
+            )),
+            "{bad}: {e}"
+        );
+    }
+    let imported = import_warned(&static_beams(&[350.0, 360.0, 10.0]).to_bytes());
+    assert_eq!(angles(&imported.plan, 0), vec![350.0, 360.0, 370.0]);
+    let warnings: Vec<String> = imported.warnings.iter().map(ToString::to_string).collect();
+    assert_eq!(
+        warnings,
+        vec![
+            "GantryAngle (300A,011E) 360 in IonBeamSequence[1] (BeamNumber 2) > \
+             IonControlPointSequence[0] read as 0 (DICOM angles are in [0, 360))"
+        ]
+    );
+}
+
+#[test]
+fn a_negative_zero_gantry_angle_is_imported_as_0() {
+    let plan = import(&static_beams(&[-0.0, 10.0]), "negzero.dcm");
+    assert_eq!(angles(&plan, 0), vec![0.0, 10.0]);
+    assert!(plan.arcs[0].control_points[0].angle_deg.is_sign_positive());
+    let json = arcsim_plan::to_json(&plan);
+    assert!(!json.contains("-0.0"), "{json}");
+}
+
+#[test]
+fn an_empty_scan_spot_position_map_is_an_error() {
+    let mut spec = static_beams(&[10.0, 20.0]);
+    spec.beams[1].set_layer_map(0, SpotMap::Values(Vec::new()));
+    let e = import_err(&spec).to_string();
+    let spots = dicom::weights_of(1).len();
+    assert!(
+        e.starts_with(&format!(
+            "inconsistent ScanSpotPositionMap (300A,0394) in IonBeamSequence[1] (BeamNumber 2) > \
+             IonControlPointSequence[0]: 0 values for {spots} spots; expected 2 per spot (x, y)"
+        )),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_deflated_file_is_read() {
+    let spec = dicom::two_arc_plan();
+    let deflated = dicom::file_bytes_ts(
+        spec.dataset(),
+        dicom_dictionary_std::uids::DEFLATED_EXPLICIT_VR_LITTLE_ENDIAN,
+    );
+    assert!(
+        deflated.len() < spec.to_bytes().len(),
+        "the fixture is compressed"
+    );
+    let plan = read_rt_ion_plan_from_bytes(&deflated).expect("deflated file");
+    let plain = read_rt_ion_plan_from_bytes(&spec.to_bytes()).expect("plain file");
+    assert_eq!(plan, plain);
+}
+
+#[test]
+fn plan_rule_violations_are_located_in_the_imported_plan_without_the_plan_name() {
+    let layers = [Layer {
+        angle: 10.0,
+        energy: 9999.0,
+        weights: dicom::weights_of(0),
+    }];
+    let beam = BeamSpec::from_layers(1, "STATIC", "NONE", 50.0, &layers);
+    let e = import_err(&PlanSpec::ion("HOT", vec![beam])).to_string();
+    assert!(
+        e.starts_with(
+            "the imported plan breaks the arcsim plan rules (arcs, control points and layers \
+             counted as imported, from 0): arc 0, control point 0, layer 0, field `energy_mev`: \
+             expected an energy in"
+        ),
+        "{e}"
+    );
+    assert!(!e.contains("HOT"), "{e}");
+}
+
+#[test]
+fn an_unknown_transfer_syntax_is_named_as_unsupported() {
+    let bytes = dicom::two_arc_plan().to_bytes();
+    let (plain, unknown) = (b"1.2.840.10008.1.2.1\0", b"1.2.840.99999.1.2.1\0");
+    let at = bytes
+        .windows(plain.len())
+        .position(|w| w == plain)
+        .expect("the meta group names Explicit VR Little Endian");
+    let mut patched = bytes.clone();
+    patched[at..at + unknown.len()].copy_from_slice(unknown);
+    let e = read_rt_ion_plan_from_bytes(&patched)
+        .expect_err("unknown transfer syntax")
+        .to_string();
+    assert!(
+        e.starts_with(
+            "unsupported transfer syntax 1.2.840.99999.1.2.1 (not a known transfer syntax): \
+             arcsim reads DICOM data sets that are uncompressed"
+        ),
+        "{e}"
+    );
+    assert!(!e.contains("feature"), "{e}");
+}

@@ -376,19 +376,20 @@ pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
     write_records(out, [fields.iter().map(String::as_str)])
 }
 
-/// The text of one field of `r`.
+/// The text of one field of `r`; numbers are written without the sign of a zero.
 fn field_text(field: Field, r: &Row) -> String {
     let outcome = |f: &dyn Fn(&Outcome) -> Option<String>| r.outcome.as_ref().and_then(f);
+    let number = |x: f64| arcsim_plan::without_zero_sign(x.to_string());
     let text = match field {
         Field::Index => Some(r.index.to_string()),
         Field::Combinations => Some(r.combinations.to_string()),
         Field::Name(get) => Some(one_line(&get(r))),
-        Field::Limit(axis) => r.setting.get_or(axis, &r.defaults).map(|v| v.to_string()),
+        Field::Limit(axis) => r.setting.get_or(axis, &r.defaults).map(number),
         Field::Status => Some(r.status.name().to_string()),
-        Field::Number(get, _) => outcome(&|o| Some(get(o).to_string())),
-        Field::Optional(get, _) => outcome(&|o| get(o).map(|v| v.to_string())),
+        Field::Number(get, _) => outcome(&|o| Some(number(get(o)))),
+        Field::Optional(get, _) => outcome(&|o| get(o).map(number)),
         Field::Count(get, _) => outcome(&|o| Some(get(o).to_string())),
-        Field::Margin(get) => outcome(&|o| o.margins.as_ref().map(|m| get(m).to_string())),
+        Field::Margin(get) => outcome(&|o| o.margins.as_ref().map(|m| number(get(m)))),
         Field::Message => Some(one_line(&r.message)),
     };
     text.unwrap_or_default()

@@ -253,21 +253,29 @@ pub fn parse_sweep_file(text: &str, file: &str) -> Result<SweepFile, EvalError> 
     Ok(sweep)
 }
 
+/// A JSON error located as `FILE: FIELD: message (line L, column C)`: the position left out when
+/// serde_json does not know it, the field cut before the first part of the path that
+/// serde_path_to_error could not name (it writes `?` there, as in a syntax error inside an object).
 fn json_error(file: &str, path: &str, e: &serde_json::Error) -> EvalError {
     let msg = e.to_string();
     let msg = msg.rfind(" at line ").map_or(msg.as_str(), |i| &msg[..i]);
-    let field = if path == "." { "" } else { path };
+    let known: Vec<&str> = path
+        .split('.')
+        .take_while(|part| !part.is_empty() && !part.starts_with('?'))
+        .collect();
+    let field = known.join(".");
     let kind = match e.classify() {
         serde_json::error::Category::Syntax | serde_json::error::Category::Eof => {
             "malformed JSON: "
         }
         _ => "",
     };
-    EvalError::sweep(
-        file,
-        field,
-        format!("{kind}{msg} (line {}, column {})", e.line(), e.column()),
-    )
+    let position = if e.line() > 0 {
+        format!(" (line {}, column {})", e.line(), e.column())
+    } else {
+        String::new()
+    };
+    EvalError::sweep(file, field, format!("{kind}{msg}{position}"))
 }
 
 fn wrong_format(text: &str, file: &str) -> Option<EvalError> {
@@ -496,6 +504,30 @@ mod tests {
         "machine": "m.json", "axes": {"jerk_deg_per_s3": [0.5, 1], "accel_deg_per_s2": {"from": 0.25, "to": 1, "steps": 3},
         "speed_deg_per_s": 5, "window_deg": {"values": [1]}},
         "schedules": ["scan", {"schedule": "optimal", "axes": {"jerk_deg_per_s3": {"from": 0.1, "to": 10, "steps": 3, "scale": "log"}}}]}"#;
+
+    #[test]
+    fn malformed_json_is_located_by_line_and_column_not_by_an_unknown_path() {
+        // A syntax error inside an object: serde_path_to_error's path is "?".
+        assert_eq!(
+            err("{,"),
+            "s.json: malformed JSON: key must be a string (line 1, column 2)"
+        );
+        assert_eq!(
+            err("{\"format\": \"arcsim-sweep/1\" \"x\"}"),
+            "s.json: malformed JSON: expected `,` or `}` (line 1, column 29)"
+        );
+        // A known path is kept after the position.
+        assert_eq!(
+            err("{\"format\": \"arcsim-sweep/1\",\n \"plans\": [1]}"),
+            "s.json: plans[0]: invalid type: integer `1`, expected a plan path or glob, \
+             {\"path\": PATH, \"name\": NAME} or {\"atom_case\": NAME, \"reference\": PATH} \
+             (line 2, column 12)"
+        );
+        assert_eq!(
+            err("{\"axes\": {,"),
+            "s.json: axes: malformed JSON: key must be a string (line 1, column 11)"
+        );
+    }
 
     #[test]
     fn parses_every_shape() {

@@ -15,6 +15,7 @@ pub mod model;
 mod plausible;
 mod resolve;
 mod validate;
+mod zero;
 
 pub use atom::{atom_case_plan, ATOM_PLACEHOLDER_MIN_ENERGY_MEV};
 pub use beam::{layer_beam_time, time_spots, LayerBeamTime, SpotEvent, SpotTimingError};
@@ -32,3 +33,4 @@ pub use validate::{
     validate_plan, ENERGY_RANGE_MEV, MAX_ANGLE_DEG, MAX_LAYER_TIME_S, MAX_PAINTINGS,
     MAX_SPEED_DEG_PER_S, MAX_SPOTS_PER_LAYER, MAX_SPOT_MU, MAX_SPOT_POSITION_MM,
 };
+pub use zero::{unsigned_zero, without_zero_sign};

@@ -80,7 +80,14 @@ impl Timeline {
             None => GantryState::default(),
             Some(i) => {
                 let p = &self.pieces[i];
-                p.state_after((t - p.t_start_s).clamp(0.0, p.duration_s))
+                let s = p.state_after((t - p.t_start_s).clamp(0.0, p.duration_s));
+                // At rest in the CC direction the signed speed (and acceleration, jerk) is -0.
+                GantryState {
+                    angle_deg: arcsim_plan::unsigned_zero(s.angle_deg),
+                    speed_deg_per_s: arcsim_plan::unsigned_zero(s.speed_deg_per_s),
+                    accel_deg_per_s2: arcsim_plan::unsigned_zero(s.accel_deg_per_s2),
+                    jerk_deg_per_s3: arcsim_plan::unsigned_zero(s.jerk_deg_per_s3),
+                }
             }
         }
     }

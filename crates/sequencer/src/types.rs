@@ -290,12 +290,14 @@ impl Breakdown {
     /// and `lost_s` as computed from the transitions.
     pub(crate) fn of(arcs: &[ResolvedArc], energy_switching_s: f64, lost_s: f64) -> Breakdown {
         let layers = || arcs.iter().flat_map(|a| &a.layers);
+        // An empty sum is -0 (no transitions, no layers): written 0.
+        let sum = |x: f64| arcsim_plan::unsigned_zero(x);
         Breakdown {
-            beam_on_s: layers().map(|l| l.irradiation_s).sum(),
-            spot_irradiation_s: layers().map(|l| l.spot_irradiation_s).sum(),
-            scanning_s: layers().map(|l| l.scanning_s).sum(),
-            energy_switching_s,
-            lost_s,
+            beam_on_s: sum(layers().map(|l| l.irradiation_s).sum()),
+            spot_irradiation_s: sum(layers().map(|l| l.spot_irradiation_s).sum()),
+            scanning_s: sum(layers().map(|l| l.scanning_s).sum()),
+            energy_switching_s: sum(energy_switching_s),
+            lost_s: sum(lost_s),
         }
     }
 }

@@ -22,6 +22,7 @@ attrs! {
     RT_PLAN_LABEL = "RTPlanLabel",
     RT_PLAN_NAME = "RTPlanName",
     FRACTION_GROUP_SEQUENCE = "FractionGroupSequence",
+    FRACTION_GROUP_NUMBER = "FractionGroupNumber",
     REFERENCED_BEAM_SEQUENCE = "ReferencedBeamSequence",
     REFERENCED_BEAM_NUMBER = "ReferencedBeamNumber",
     BEAM_METERSET = "BeamMeterset",

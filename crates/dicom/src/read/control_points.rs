@@ -13,7 +13,8 @@ use super::attr::{
 };
 use super::ion_plan::{IonControlPoint, IonLayer, Rotation};
 use super::Result;
-use crate::error::{DicomImportError, Location};
+use crate::convert::SAME_ANGLE_TOLERANCE_DEG;
+use crate::error::{DicomImportError, ImportWarning, Location};
 
 /// Largest NumberOfPaintings (300A,039A) accepted, the native format's limit
 /// ([`arcsim_plan::MAX_PAINTINGS`]). Delivery systems repaint a layer a few to a few dozen times;
@@ -22,10 +23,12 @@ use crate::error::{DicomImportError, Location};
 pub const MAX_PAINTINGS: u32 = arcsim_plan::MAX_PAINTINGS;
 
 /// Reads IonControlPointSequence of one beam, inheriting angle, direction, energy and paintings.
+/// Each step between control points must go the way the earlier one's GantryRotationDirection says.
 pub(super) fn read_control_points(
     beam: &InMemDicomObject,
     index: usize,
     number: i64,
+    warnings: &mut Vec<ImportWarning>,
 ) -> Result<Vec<IonControlPoint>> {
     let beam_at = Location::Beam {
         beam: index,
@@ -45,10 +48,52 @@ pub(super) fn read_control_points(
             number: Some(number),
             control_point: c,
         };
-        let point = read_control_point(cp, at, out.last(), &mut inherited)?;
+        let point = read_control_point(cp, at, out.last(), &mut inherited, warnings)?;
+        if let Some(prev) = out.last() {
+            check_step(prev, &point, at)?;
+        }
         out.push(point);
     }
     Ok(out)
+}
+
+/// The step from `prev` to `point` (at `at`) must go the way `prev`'s GantryRotationDirection
+/// says: CW increases the angle, CC decreases it (across 0 either way). A step of exactly 180
+/// degrees goes either way.
+fn check_step(prev: &IonControlPoint, point: &IonControlPoint, at: Location) -> Result<()> {
+    let (from, to) = (prev.angle_deg, point.angle_deg);
+    let shortest = crate::convert::shortest_delta(from, to);
+    let (name, against) = match prev.rotation {
+        Rotation::Cw => (
+            "CW (increasing angle)",
+            shortest < -SAME_ANGLE_TOLERANCE_DEG,
+        ),
+        Rotation::Cc => (
+            "CC (decreasing angle)",
+            shortest > SAME_ANGLE_TOLERANCE_DEG && shortest < 180.0,
+        ),
+        Rotation::None => return Ok(()),
+    };
+    if against {
+        let Location::ControlPoint { control_point, .. } = at else {
+            return Ok(());
+        };
+        return Err(DicomImportError::Inconsistent {
+            keyword: GANTRY_ANGLE.keyword,
+            tag: GANTRY_ANGLE.tag,
+            at,
+            problem: format!(
+                "goes from {from} (IonControlPointSequence[{}]) to {to}, against the \
+                 GantryRotationDirection (300A,011F) {name} of IonControlPointSequence[{}]; \
+                 expected the angle to move that way (the other way round is a turn of {:.6} \
+                 degrees)",
+                control_point - 1,
+                control_point - 1,
+                360.0 - shortest.abs()
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// NumberOfControlPoints, when present, must count the items of IonControlPointSequence.
@@ -76,20 +121,27 @@ struct Inherited {
     paintings: u32,
 }
 
-/// Reads one control point; `prev` is the one before it in the same beam, if any.
+/// Reads one control point; `prev` is the one before it in the same beam, if any. GantryAngle
+/// must be in [0, 360) degrees; 360 is read as 0 with a warning.
 fn read_control_point(
     cp: &InMemDicomObject,
     at: Location,
     prev: Option<&IonControlPoint>,
     inherited: &mut Inherited,
+    warnings: &mut Vec<ImportWarning>,
 ) -> Result<IonControlPoint> {
     let angle_deg = match (float_at(cp, GANTRY_ANGLE, at)?, prev) {
-        (Some(a), _) if a.is_finite() => a,
+        // Adding 0 turns -0 into 0.
+        (Some(a), _) if (0.0..360.0).contains(&a) => a + 0.0,
+        (Some(360.0), _) => {
+            warnings.push(ImportWarning::GantryAngle360 { at });
+            0.0
+        }
         (Some(a), _) => {
             return Err(invalid(
                 GANTRY_ANGLE,
                 at,
-                format!("{a}; expected a finite angle"),
+                format!("{a}; expected an angle from 0 up to (not including) 360 degrees"),
             ))
         }
         (None, Some(p)) => p.angle_deg,
@@ -211,9 +263,12 @@ fn read_spots(cp: &InMemDicomObject, at: Location) -> Result<SpotList> {
             spots,
         });
     }
-    let positions_mm = floats_at(cp, SCAN_SPOT_POSITION_MAP, at)?
-        .map(|map| positions(&map, spots, at))
-        .transpose()?;
+    // A map that is present but empty holds 0 values: refused when there are spots.
+    let map = match floats_at(cp, SCAN_SPOT_POSITION_MAP, at)? {
+        None if cp.get(SCAN_SPOT_POSITION_MAP.tag).is_some() => Some(Vec::new()),
+        map => map,
+    };
+    let positions_mm = map.map(|map| positions(&map, spots, at)).transpose()?;
     if let Some((i, w)) = weights
         .iter()
         .enumerate()

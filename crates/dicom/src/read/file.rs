@@ -70,10 +70,11 @@ pub fn parse_bytes(bytes: &[u8]) -> Result<DefaultDicomObject> {
         })
 }
 
-/// Refuses a file whose sequences nest deeper than [`MAX_NESTING`], before dicom-object (which
-/// recurses once per level) parses it. The scan walks the data set's tokens with dicom-parser's
-/// iterative reader (values read as raw bytes, not decoded). Whatever the scan cannot read (meta
-/// group, transfer syntax, a corrupt element) ends it without error: the parser then reports it.
+/// Refuses a file whose data set is in a transfer syntax that cannot be read, and a file whose
+/// sequences nest deeper than [`MAX_NESTING`], before dicom-object (which recurses once per level)
+/// parses it. The scan walks the data set's tokens with dicom-parser's iterative reader (values
+/// read as raw bytes, not decoded). Whatever the scan cannot read (meta group, a corrupt element)
+/// ends it without error: the parser then reports it.
 fn check_nesting(bytes: &[u8]) -> Result<()> {
     let Some(mut rest) = bytes.get(PREAMBLE_LEN..) else {
         return Ok(());
@@ -82,12 +83,21 @@ fn check_nesting(bytes: &[u8]) -> Result<()> {
     let Ok(meta) = FileMetaTable::from_reader(&mut rest) else {
         return Ok(());
     };
-    let Some(ts) = TransferSyntaxRegistry.get(meta.transfer_syntax()) else {
-        return Ok(());
+    let uid = meta.transfer_syntax().trim_end_matches(['\0', ' ']);
+    let Some(ts) = TransferSyntaxRegistry.get(uid) else {
+        return Err(DicomImportError::UnsupportedTransferSyntax {
+            uid: uid.to_string(),
+            name: None,
+        });
     };
     let source: Box<dyn Read + '_> = match ts.codec() {
         Codec::Dataset(Some(adapter)) => adapter.adapt_reader(Box::new(rest)),
-        Codec::Dataset(None) => return Ok(()),
+        Codec::Dataset(None) => {
+            return Err(DicomImportError::UnsupportedTransferSyntax {
+                uid: uid.to_string(),
+                name: Some(ts.name()),
+            })
+        }
         Codec::None | Codec::EncapsulatedPixelData(..) => Box::new(rest),
     };
     let options = DataSetReaderOptions::default().value_read(ValueReadStrategy::Raw);

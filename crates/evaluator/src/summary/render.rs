@@ -7,7 +7,7 @@ use crate::sweep_file::Target;
 
 /// A number with at most 4 decimals, trailing zeros dropped ("0.25", "1", "0.1468").
 pub fn short(x: f64) -> String {
-    let s = format!("{x:.4}");
+    let s = arcsim_plan::without_zero_sign(format!("{x:.4}"));
     if s.contains('.') {
         s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
@@ -17,7 +17,10 @@ pub fn short(x: f64) -> String {
 
 /// `x` with `decimals` decimals; "-" when there is none (e.g. an infeasible total).
 fn opt(x: Option<f64>, decimals: usize) -> String {
-    x.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
+    x.map_or_else(
+        || "-".to_string(),
+        |v| arcsim_plan::without_zero_sign(format!("{v:.decimals$}")),
+    )
 }
 
 /// "J 0.5 -> 1 deg/s^3, A 0.5 -> 0.75 deg/s^2".
@@ -271,8 +274,8 @@ fn cheapest_row(e: &Entry) -> Vec<String> {
     row.extend(match &e.cheapest {
         Some(c) => [
             describe_steps(&c.steps),
-            format!("{:.1}", c.total_s),
-            format!("{:.1}", c.saving_s),
+            arcsim_plan::without_zero_sign(format!("{:.1}", c.total_s)),
+            arcsim_plan::without_zero_sign(format!("{:.1}", c.saving_s)),
         ],
         None => [
             "not reached by any evaluated setting".into(),
