@@ -350,6 +350,8 @@ def test_machine_limits_check_every_number():
         atom.with_limits(speed=True)
     with pytest.raises(TypeError, match=r"decel: expected a number, got str"):
         atom.with_limits(decel="1")
+    with pytest.raises(ValueError, match=r"jerk: expected a finite number, got an integer too large"):
+        atom.with_limits(jerk=10**400)
     with pytest.raises(arcsim.PlanError, match=r"speed \(max_speed_deg_per_s\): expected a number > 0, got 0"):
         atom.with_limits(speed=0)
     with pytest.raises(arcsim.PlanError, match=r"decel \(max_decel_deg_per_s2\): expected a number > 0, got -1"):

@@ -7,7 +7,7 @@ use arcsim_plan::{ArcPlan, ControlPoint, EnergyLayer, RotationDirection};
 use numpy::PyReadonlyArray1;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyAny, PyBool, PyString};
+use pyo3::types::{PyAny, PyBool, PyInt, PyString};
 
 use crate::PlanError;
 
@@ -58,7 +58,13 @@ pub(crate) fn number(name: &str, x: &Bound<'_, PyAny>) -> PyResult<f64> {
         )));
     }
     let v = x.extract::<f64>().map_err(|_| {
-        PyTypeError::new_err(format!("{name}: expected a number, got {}", type_name(x)))
+        if x.is_instance_of::<PyInt>() {
+            PyValueError::new_err(format!(
+                "{name}: expected a finite number, got an integer too large for a float"
+            ))
+        } else {
+            PyTypeError::new_err(format!("{name}: expected a number, got {}", type_name(x)))
+        }
     })?;
     if !v.is_finite() {
         return Err(PyValueError::new_err(format!(
