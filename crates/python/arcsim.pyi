@@ -146,11 +146,13 @@ class Delivery:
         t_start_s, t_end_s, angle_start_deg, angle_end_deg; as `simulate --spots` writes them."""
     def to_pandas(self, table: str = "layers") -> Any:
         """`layers`, `transitions` or `spots` as a pandas DataFrame (needs pandas)."""
-    def timeline(self, dt: float = 0.01) -> Dict[str, npt.NDArray[Any]]:
+    def timeline(self, dt: Optional[float] = None) -> Dict[str, npt.NDArray[Any]]:
         """t_s, angle_deg, speed_deg_per_s, accel_deg_per_s2, jerk_deg_per_s3, energy_mev (NaN
-        with the beam off), beam_on (bool), layer (-1 with the beam off), every dt s."""
-    def save_rrd(self, path: _Path, dt: float = 0.02) -> None:
-        """The delivery for the Rerun viewer, as `simulate --rrd` writes it."""
+        with the beam off), beam_on (bool), layer (-1 with the beam off), every dt s (None:
+        0.01 s)."""
+    def save_rrd(self, path: _Path, dt: Optional[float] = None) -> None:
+        """The delivery for the Rerun viewer, as `simulate --rrd` writes it, sampled every dt s
+        (None: 0.02 s)."""
     def to_json(self) -> str:
         """The result document, equal to `arcsim simulate --json` for the same inputs."""
 

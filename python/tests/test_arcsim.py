@@ -11,6 +11,7 @@ import json
 import os
 import signal
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -290,6 +291,182 @@ def test_plan_from_arrays():
     assert d.breakdown["energy_switching_s"] == pytest.approx(0.6 + 0.6 + 2.0)
 
 
+NAN = float("nan")
+INF = float("inf")
+
+
+def test_plan_from_arrays_checks_every_number():
+    def plan(**kw):
+        args = dict(angles_deg=[0, 2, 4], irradiation_times_s=[1.0, 1.0, 1.0],
+                    energies_mev=[120, 118, 116])
+        args.update(kw)
+        return arcsim.Plan.from_arrays(**args)
+
+    # NaN or inf: a ValueError naming the argument and the index, never a fallback to the
+    # machine's ELST or default window.
+    with pytest.raises(ValueError, match=r"switching_times_s\[1\]: expected a finite number, got nan"):
+        plan(switching_times_s=[0.5, NAN])
+    with pytest.raises(ValueError, match=r"switching_times_s\[0\]: expected a finite number, got inf"):
+        plan(switching_times_s=np.array([INF, 0.5]))
+    with pytest.raises(ValueError, match=r"window_deg\[2\]: expected a finite number, got nan"):
+        plan(window_deg=[1.0, 1.0, NAN])
+    with pytest.raises(ValueError, match=r"window_deg: expected a finite number, got inf"):
+        plan(window_deg=INF)
+    with pytest.raises(ValueError, match=r"angles_deg\[1\]: expected a finite number, got nan"):
+        plan(angles_deg=[0, NAN, 4])
+    with pytest.raises(ValueError, match=r"irradiation_times_s\[2\]: expected a finite number, got inf"):
+        plan(irradiation_times_s=np.array([1.0, 1.0, INF]))
+    with pytest.raises(ValueError, match=r"energies_mev: expected a finite number, got nan"):
+        plan(energies_mev=NAN)
+    # Booleans are not numbers.
+    with pytest.raises(TypeError, match=r"angles_deg\[1\]: expected a number, got a bool"):
+        plan(angles_deg=[0, True, 4])
+    with pytest.raises(TypeError, match=r"irradiation_times_s: expected a number, got a bool"):
+        plan(irradiation_times_s=True)
+    with pytest.raises(TypeError, match=r"window_deg: expected numbers, got an array of bools"):
+        plan(window_deg=np.array([True, True, False]))
+    with pytest.raises(TypeError, match=r"energies_mev\[0\]: expected a number, got str"):
+        plan(energies_mev=["120", 118, 116])
+    # Zero or negative where a positive value is needed: the argument and the index.
+    with pytest.raises(ValueError, match=r"irradiation_times_s\[1\]: expected a time > 0 s, got -1"):
+        plan(irradiation_times_s=[1.0, -1.0, 1.0])
+    with pytest.raises(ValueError, match=r"window_deg\[0\]: expected a window > 0 deg, got 0"):
+        plan(window_deg=0)
+    with pytest.raises(ValueError, match=r"switching_times_s\[0\]: expected a time >= 0 s, got -0.5"):
+        plan(switching_times_s=[-0.5, 1.0])
+    with pytest.raises(ValueError, match=r"energies_mev\[2\]: expected an energy > 0 MeV"):
+        plan(energies_mev=[120, 118, 0])
+    # Integer arrays and numpy scalars are numbers.
+    assert plan(angles_deg=np.array([0, 2, 4]), window_deg=np.float64(1.5)).layers == 3
+
+
+def test_machine_limits_check_every_number():
+    atom = arcsim.Machine.atom()
+    with pytest.raises(ValueError, match=r"jerk: expected a finite number, got nan"):
+        atom.with_limits(jerk=NAN)
+    with pytest.raises(ValueError, match=r"accel: expected a finite number, got inf"):
+        atom.with_limits(accel=INF)
+    with pytest.raises(TypeError, match=r"speed: expected a number, got a bool"):
+        atom.with_limits(speed=True)
+    with pytest.raises(TypeError, match=r"decel: expected a number, got str"):
+        atom.with_limits(decel="1")
+    with pytest.raises(ValueError, match=r"jerk: expected a finite number, got an integer too large"):
+        atom.with_limits(jerk=10**400)
+    with pytest.raises(arcsim.PlanError, match=r"speed \(max_speed_deg_per_s\): expected a number > 0, got 0"):
+        atom.with_limits(speed=0)
+    with pytest.raises(arcsim.PlanError, match=r"decel \(max_decel_deg_per_s2\): expected a number > 0, got -1"):
+        atom.with_limits(decel=-1)
+    assert atom.with_limits(jerk=np.float64(2), speed=4).speed == 4.0
+
+
+def test_simulate_and_delivery_check_their_numbers(tmp_path):
+    plan = arcsim.load_plan("plans/lung.json")
+    with pytest.raises(TypeError, match=r"period_s: expected a number, got a bool"):
+        arcsim.simulate(plan, period_s=True)
+    with pytest.raises(ValueError, match=r"period_s: expected a finite number, got nan"):
+        arcsim.simulate(plan, period_s=NAN)
+    d = arcsim.simulate(plan, schedule="scan", motion="constant")
+    with pytest.raises(TypeError, match=r"dt: expected a number, got a bool"):
+        d.save_rrd(tmp_path / "x.rrd", dt=True)
+    with pytest.raises(ValueError, match=r"dt: expected a number > 0, got 0"):
+        d.save_rrd(tmp_path / "x.rrd", dt=0)
+    with pytest.raises(ValueError, match=r"dt: expected a finite number, got inf"):
+        d.save_rrd(tmp_path / "x.rrd", dt=INF)
+    assert not (tmp_path / "x.rrd").exists()
+    with pytest.raises(TypeError, match=r"dt: expected a number, got a bool"):
+        d.timeline(dt=True)
+    with pytest.raises(ValueError, match=r"dt: expected a finite number, got nan"):
+        d.timeline(dt=NAN)
+    assert d.timeline()["t_s"][1] == pytest.approx(0.01)
+
+
+def test_schedule_arrays_checks_every_number():
+    def run(times=(1.0, 1.0, 1.0), switching=(0.5, 0.5), **kw):
+        args = dict(spacing_deg=2.0, max_window_deg=1.0, jerk=0.5, accel=0.5, speed=5.0)
+        args.update(kw)
+        return arcsim.schedule_arrays(list(times), list(switching), **args)
+
+    with pytest.raises(ValueError, match=r"irradiation_times_s\[1\]: expected a finite number, got nan"):
+        run(times=(1.0, NAN, 1.0))
+    with pytest.raises(ValueError, match=r"switching_times_s\[1\]: expected a finite number, got inf"):
+        run(switching=(0.5, INF))
+    with pytest.raises(ValueError, match=r"max_window_deg: expected a finite number, got nan"):
+        run(max_window_deg=NAN)
+    with pytest.raises(ValueError, match=r"max_window_deg: expected a number > 0, got 0"):
+        run(max_window_deg=0)
+    with pytest.raises(TypeError, match=r"jerk: expected a number, got a bool"):
+        run(jerk=True)
+    with pytest.raises(ValueError, match=r"speed: expected a number > 0, got -5"):
+        run(speed=-5)
+    with pytest.raises(ValueError, match=r"decel: expected a finite number, got inf"):
+        run(decel=INF)
+    with pytest.raises(ValueError, match=r"irradiation_times_s\[0\]: expected a time > 0 s, got 0"):
+        run(times=(0.0, 1.0, 1.0))
+    total, speeds = run()
+    assert total > 3.0 and speeds.shape == (3,)
+
+
+def test_profiles_check_every_number():
+    args = dict(distance=10.0, v_start=0.0, v_end=0.0, jerk=0.5, accel=0.5, vel=5.0)
+
+    def one(**kw):
+        return arcsim.profile(**dict(args, **kw))
+
+    with pytest.raises(ValueError, match=r"distance: expected a finite number, got nan"):
+        one(distance=NAN)
+    with pytest.raises(ValueError, match=r"vel: expected a finite number, got inf"):
+        one(vel=INF)
+    with pytest.raises(TypeError, match=r"jerk: expected a number, got a bool"):
+        one(jerk=True)
+    with pytest.raises(ValueError, match=r"accel: expected a number > 0, got -0.5"):
+        one(accel=-0.5)
+    with pytest.raises(ValueError, match=r"min_duration: expected a number >= 0, got -1"):
+        one(min_duration=-1)
+    with pytest.raises(ValueError, match=r"min_duration: expected a finite number, got nan"):
+        one(min_duration=NAN)
+    with pytest.raises(ValueError, match=r"period_s: expected a finite number, got inf"):
+        one(period_s=INF)
+    p = one()
+    with pytest.raises(ValueError, match=r"t\[1\]: expected a finite number, got nan"):
+        p.sample(np.array([0.0, NAN]))
+    with pytest.raises(TypeError, match=r"t: expected a number, got a bool"):
+        p.sample(True)
+
+    def batch(**kw):
+        return arcsim.profile_batch(**dict(args, **kw))
+
+    with pytest.raises(ValueError, match=r"distance\[1\]: expected a finite number, got nan"):
+        batch(distance=np.array([1.0, NAN, 3.0]))
+    with pytest.raises(ValueError, match=r"jerk\[1\]: expected a number > 0, got -1"):
+        batch(distance=np.ones(2), jerk=np.array([0.5, -1.0]))
+    with pytest.raises(ValueError, match=r"vel: expected a number > 0, got 0"):
+        batch(distance=np.ones(2), vel=0)
+    with pytest.raises(TypeError, match=r"accel: expected a number, got a bool"):
+        batch(distance=np.ones(2), accel=False)
+    with pytest.raises(TypeError, match=r"v_end: expected numbers, got an array of bools"):
+        batch(distance=np.ones(2), v_end=np.zeros(2, dtype=bool))
+    with pytest.raises(ValueError, match=r"period_s: expected a finite number, got nan"):
+        batch(period_s=NAN)
+    assert batch(distance=np.array([10, 20]))["ok"].all()  # integer arrays are numbers
+
+
+def test_sweep_checks_its_numbers():
+    spec = sweep_dict(3)
+    spec["axes"]["jerk_deg_per_s3"]["from"] = NAN
+    with pytest.raises(arcsim.SweepError, match=r"axes\.jerk_deg_per_s3\.from: expected a finite number, got nan"):
+        arcsim.sweep(spec, progress=False)
+    spec = sweep_dict(3)
+    spec["axes"]["accel_deg_per_s2"] = [0.5, INF]
+    with pytest.raises(arcsim.SweepError, match=r"axes\.accel_deg_per_s2\[1\]: expected a finite number, got inf"):
+        arcsim.sweep(spec, progress=False)
+    with pytest.raises(TypeError, match=r"threads: expected an integer, got a bool"):
+        arcsim.sweep(sweep_dict(3), threads=True, progress=False)
+    with pytest.raises(TypeError, match=r"threads: expected an integer, got float"):
+        arcsim.sweep(sweep_dict(3), threads=2.0, progress=False)
+    with pytest.raises(ValueError, match=r"threads: expected 1 to 256, got -1"):
+        arcsim.sweep(sweep_dict(3), threads=-1, progress=False)
+
+
 def test_schedule_arrays_atom_cases():
     if not ATOM_REFERENCE.exists():
         if os.environ.get("CI"):
@@ -380,6 +557,61 @@ def test_ctrl_c_stops_a_sweep_and_keeps_finished_rows():
     assert n < 1600
     assert result.rows["index"].tolist() == list(range(n))  # in order, none lost
     assert elapsed < 30
+
+
+SIGINT_AFTER_SWEEP = r"""
+import os, signal, sys, threading, time
+import arcsim
+
+spec = {
+    "format": "arcsim-sweep/1", "name": "py", "plans": ["plans/prostate.json", "plans/lung.json"],
+    "machine": "scenarios/machine-atom.json", "schedules": ["optimal"],
+}
+
+def own_handler(signum, frame):
+    raise KeyboardInterrupt("own handler")
+
+# The interpreter may start with SIGINT ignored (in the background of a shell): install one.
+signal.signal(signal.SIGINT, own_handler)
+
+def later_ctrl_c_raises():
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(100):
+            time.sleep(0.01)
+    except KeyboardInterrupt:
+        return True
+    return False
+
+PATH = sys.argv[1]
+if PATH == "complete":
+    r = arcsim.sweep(dict(spec, axes={"jerk_deg_per_s3": [0.5]}), threads=1, progress=False)
+    assert r.complete
+elif PATH == "error":
+    try:
+        arcsim.sweep({"format": "nope"}, progress=False)
+        raise SystemExit("no SweepError")
+    except arcsim.SweepError:
+        pass
+elif PATH == "interrupt":
+    threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT)).start()
+    try:
+        arcsim.sweep(dict(spec, axes={"jerk_deg_per_s3": {"from": 0.25, "to": 2, "steps": 800}}),
+                     threads=1, progress=False)
+        raise SystemExit("no SweepInterrupted")
+    except arcsim.SweepInterrupted:
+        pass
+assert signal.getsignal(signal.SIGINT) is own_handler, signal.getsignal(signal.SIGINT)
+assert later_ctrl_c_raises(), "a Ctrl-C after the sweep was lost"
+print("handler restored")
+"""
+
+
+@pytest.mark.parametrize("path", ["complete", "error", "interrupt"])
+def test_sigint_handler_is_restored_after_a_sweep(path):
+    p = subprocess.run([sys.executable, "-c", SIGINT_AFTER_SWEEP, path], capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0 and "handler restored" in p.stdout, p.stdout + p.stderr
 
 
 def test_dask_maps_simulate_over_plans_and_settings():

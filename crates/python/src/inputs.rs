@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use arcsim_app::{sha256_hex, Source, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE};
 use arcsim_plan::{ArcPlan, ControlPoint, EnergyLayer, RotationDirection};
 use numpy::PyReadonlyArray1;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyAny;
+use pyo3::types::{PyAny, PyBool, PyInt, PyString};
 
 use crate::PlanError;
 
@@ -22,22 +22,143 @@ pub struct Plan {
     pub source: Source,
 }
 
-/// An array argument as a Vec: a numpy float array or any sequence of numbers.
-pub(crate) fn floats(name: &str, x: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-    if let Ok(a) = x.extract::<PyReadonlyArray1<'_, f64>>() {
-        return Ok(a.as_array().to_vec());
+/// Whether `x` is a Python or numpy boolean (both convert to 1.0 or 0.0 silently).
+fn is_bool(x: &Bound<'_, PyAny>) -> bool {
+    x.is_instance_of::<PyBool>()
+        || x.get_type()
+            .name()
+            .is_ok_and(|n| n == "bool" || n == "bool_")
+}
+
+fn type_name(x: &Bound<'_, PyAny>) -> String {
+    x.get_type()
+        .name()
+        .map_or_else(|_| "?".to_string(), |n| n.to_string())
+}
+
+/// A number as Python writes it (`nan`, `inf`, `-inf`, `0.5`).
+pub(crate) fn show(v: f64) -> String {
+    if v.is_nan() {
+        "nan".to_string()
+    } else if v.is_infinite() {
+        if v > 0.0 { "inf" } else { "-inf" }.to_string()
+    } else {
+        v.to_string()
     }
-    x.extract::<Vec<f64>>().map_err(|_| {
-        PyValueError::new_err(format!(
-            "{name}: expected a 1-D array or sequence of numbers"
-        ))
-    })
+}
+
+/// A number argument: a Python or numpy int or float (not a bool), finite. TypeError for
+/// anything else, ValueError for NaN or ±inf; both name the argument (`name`, with its index for
+/// an array element).
+pub(crate) fn number(name: &str, x: &Bound<'_, PyAny>) -> PyResult<f64> {
+    if is_bool(x) {
+        return Err(PyTypeError::new_err(format!(
+            "{name}: expected a number, got a bool ({})",
+            x.repr().map_or_else(|_| "?".to_string(), |r| r.to_string())
+        )));
+    }
+    let v = x.extract::<f64>().map_err(|_| {
+        if x.is_instance_of::<PyInt>() {
+            PyValueError::new_err(format!(
+                "{name}: expected a finite number, got an integer too large for a float"
+            ))
+        } else {
+            PyTypeError::new_err(format!("{name}: expected a number, got {}", type_name(x)))
+        }
+    })?;
+    if !v.is_finite() {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected a finite number, got {}",
+            show(v)
+        )));
+    }
+    Ok(v)
+}
+
+/// An optional number argument ([`number`]); None stays None.
+pub(crate) fn opt_number(name: &str, x: Option<&Bound<'_, PyAny>>) -> PyResult<Option<f64>> {
+    x.map(|x| number(name, x)).transpose()
+}
+
+/// A number argument that must be > 0.
+pub(crate) fn positive(name: &str, x: &Bound<'_, PyAny>) -> PyResult<f64> {
+    let v = number(name, x)?;
+    check_positive(name, v)?;
+    Ok(v)
+}
+
+/// ValueError naming `name` unless `v > 0`.
+pub(crate) fn check_positive(name: &str, v: f64) -> PyResult<()> {
+    if v > 0.0 {
+        Ok(())
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{name}: expected a number > 0, got {v}"
+        )))
+    }
+}
+
+/// ValueError naming `name[k]` unless every value passes `ok` (`what` says what is expected).
+pub(crate) fn check_each(
+    name: &str,
+    v: &[f64],
+    what: &str,
+    ok: impl Fn(f64) -> bool,
+) -> PyResult<()> {
+    match v.iter().position(|&x| !ok(x)) {
+        Some(k) => Err(PyValueError::new_err(format!(
+            "{name}[{k}]: expected {what}, got {}",
+            show(v[k])
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Whether `x` is a single value (a number, a bool, a 0-d array) rather than a sequence.
+pub(crate) fn is_scalar(x: &Bound<'_, PyAny>) -> bool {
+    x.try_iter().is_err() && !x.is_instance_of::<PyString>()
+}
+
+/// An array argument as a Vec: a 1-D numpy array or any sequence of numbers, each finite (not a
+/// bool); errors name the argument and the index of the first bad element.
+pub(crate) fn floats(name: &str, x: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    let values = if let Ok(a) = x.extract::<PyReadonlyArray1<'_, f64>>() {
+        a.as_array().to_vec()
+    } else {
+        if let Ok(kind) = x
+            .getattr("dtype")
+            .and_then(|d| d.getattr("kind"))
+            .and_then(|k| k.extract::<String>())
+        {
+            if kind == "b" {
+                return Err(PyTypeError::new_err(format!(
+                    "{name}: expected numbers, got an array of bools"
+                )));
+            }
+        }
+        let iter = match x.try_iter() {
+            Ok(it) if !x.is_instance_of::<PyString>() => it,
+            _ => {
+                return Err(PyTypeError::new_err(format!(
+                    "{name}: expected a 1-D array or sequence of numbers, got {}",
+                    type_name(x)
+                )))
+            }
+        };
+        let mut v = Vec::new();
+        for (k, item) in iter.enumerate() {
+            v.push(number(&format!("{name}[{k}]"), &item?)?);
+        }
+        v
+    };
+    check_each(name, &values, "a finite number", f64::is_finite)?;
+    Ok(values)
 }
 
 /// One value for every layer, or one per layer.
 fn per_layer(name: &str, x: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>> {
-    if let Ok(v) = x.extract::<f64>() {
-        return Ok(vec![v; n]);
+    if is_scalar(x) {
+        return Ok(vec![number(name, x)?; n]);
     }
     let v = floats(name, x)?;
     if v.len() != n {
@@ -81,6 +202,14 @@ impl Plan {
         let switching = switching_times_s
             .map(|s| floats("switching_times_s", s))
             .transpose()?;
+        check_each("irradiation_times_s", &times, "a time > 0 s", |t| t > 0.0)?;
+        check_each("energies_mev", &energies, "an energy > 0 MeV", |e| e > 0.0)?;
+        if let Some(w) = &windows {
+            check_each("window_deg", w, "a window > 0 deg", |w| w > 0.0)?;
+        }
+        if let Some(s) = &switching {
+            check_each("switching_times_s", s, "a time >= 0 s", |t| t >= 0.0)?;
+        }
         if let Some(s) = &switching {
             if s.len() + 1 != n {
                 return Err(PyValueError::new_err(format!(
@@ -238,11 +367,25 @@ impl Machine {
     #[pyo3(signature = (jerk=None, accel=None, speed=None, decel=None))]
     fn with_limits(
         &self,
-        jerk: Option<f64>,
-        accel: Option<f64>,
-        speed: Option<f64>,
-        decel: Option<f64>,
+        jerk: Option<&Bound<'_, PyAny>>,
+        accel: Option<&Bound<'_, PyAny>>,
+        speed: Option<&Bound<'_, PyAny>>,
+        decel: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Machine> {
+        let limit =
+            |name: &str, field: &str, x: Option<&Bound<'_, PyAny>>| -> PyResult<Option<f64>> {
+                let v = opt_number(name, x)?;
+                match v {
+                    Some(v) if v <= 0.0 => Err(PlanError::new_err(format!(
+                        "with_limits: {name} ({field}): expected a number > 0, got {v}"
+                    ))),
+                    _ => Ok(v),
+                }
+            };
+        let jerk = limit("jerk", "max_jerk_deg_per_s3", jerk)?;
+        let accel = limit("accel", "max_accel_deg_per_s2", accel)?;
+        let speed = limit("speed", "max_speed_deg_per_s", speed)?;
+        let decel = limit("decel", "max_decel_deg_per_s2", decel)?;
         let mut m = self.machine.clone();
         let g = &mut m.gantry;
         if let Some(j) = jerk {

@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyAny, PyDict, PyList};
 use rayon::prelude::*;
 
-use crate::inputs::floats;
+use crate::inputs::{check_each, check_positive, floats, is_scalar, number, opt_number, positive};
 use crate::ProfileError;
 
 fn reversal(name: &str) -> PyResult<Reversal> {
@@ -107,17 +107,37 @@ impl Profile {
 // Each Python keyword argument of the signature above is one Rust parameter: pyo3 needs them all.
 #[allow(clippy::too_many_arguments)]
 pub fn profile(
-    distance: f64,
-    v_start: f64,
-    v_end: f64,
-    jerk: f64,
-    accel: f64,
-    vel: f64,
-    decel: Option<f64>,
-    min_duration: Option<f64>,
-    period_s: Option<f64>,
+    distance: &Bound<'_, PyAny>,
+    v_start: &Bound<'_, PyAny>,
+    v_end: &Bound<'_, PyAny>,
+    jerk: &Bound<'_, PyAny>,
+    accel: &Bound<'_, PyAny>,
+    vel: &Bound<'_, PyAny>,
+    decel: Option<&Bound<'_, PyAny>>,
+    min_duration: Option<&Bound<'_, PyAny>>,
+    period_s: Option<&Bound<'_, PyAny>>,
     reverse: &str,
 ) -> PyResult<Profile> {
+    let distance = number("distance", distance)?;
+    let v_start = number("v_start", v_start)?;
+    let v_end = number("v_end", v_end)?;
+    let jerk = positive("jerk", jerk)?;
+    let accel = positive("accel", accel)?;
+    let vel = positive("vel", vel)?;
+    let decel = opt_number("decel", decel)?;
+    if let Some(d) = decel {
+        check_positive("decel", d)?;
+    }
+    let min_duration = opt_number("min_duration", min_duration)?;
+    if let Some(t) = min_duration.filter(|&t| t < 0.0) {
+        return Err(PyValueError::new_err(format!(
+            "min_duration: expected a number >= 0, got {t}"
+        )));
+    }
+    let period_s = opt_number("period_s", period_s)?;
+    if let Some(ts) = period_s {
+        check_positive("period_s", ts)?;
+    }
     let request = MoveRequest {
         mv: Move {
             distance,
@@ -146,8 +166,8 @@ fn solve(request: &MoveRequest) -> Result<SolvedMove, String> {
 
 /// A numpy array or a number, broadcast to `n`.
 fn broadcast(name: &str, x: &Bound<'_, PyAny>, n: Option<usize>) -> PyResult<Vec<f64>> {
-    if let Ok(v) = x.extract::<f64>() {
-        return Ok(vec![v; n.unwrap_or(1)]);
+    if is_scalar(x) {
+        return Ok(vec![number(name, x)?; n.unwrap_or(1)]);
     }
     let v = floats(name, x)?;
     match n {
@@ -177,10 +197,14 @@ pub fn profile_batch<'py>(
     vel: &Bound<'py, PyAny>,
     decel: Option<&Bound<'py, PyAny>>,
     min_duration: Option<&Bound<'py, PyAny>>,
-    period_s: Option<f64>,
+    period_s: Option<&Bound<'py, PyAny>>,
     reverse: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let reverse = reversal(reverse)?;
+    let period_s = opt_number("period_s", period_s)?;
+    if let Some(ts) = period_s {
+        check_positive("period_s", ts)?;
+    }
     let mut inputs: Vec<(&str, &Bound<'py, PyAny>)> = vec![
         ("distance", distance),
         ("v_start", v_start),
@@ -194,13 +218,28 @@ pub fn profile_batch<'py>(
     // The length: that of the first array given.
     let n = inputs
         .iter()
-        .find_map(|(_, x)| {
-            (x.extract::<f64>().is_err()).then(|| broadcast("", x, None).ok().map(|v| v.len()))
-        })
+        .find_map(|(_, x)| (!is_scalar(x)).then(|| broadcast("", x, None).ok().map(|v| v.len())))
         .flatten();
     let mut cols = Vec::with_capacity(inputs.len());
     for (name, x) in &inputs {
         cols.push(broadcast(name, x, n)?);
+    }
+    for ((name, x), col) in inputs.iter().zip(&cols) {
+        let (what, ok): (&str, fn(f64) -> bool) = match *name {
+            "jerk" | "accel" | "vel" | "decel" => ("a number > 0", |x| x > 0.0),
+            "min_duration" => ("a number >= 0", |x| x >= 0.0),
+            _ => continue,
+        };
+        match col.iter().position(|&v| !ok(v)) {
+            Some(_) if is_scalar(x) => {
+                return Err(PyValueError::new_err(format!(
+                    "{name}: expected {what}, got {}",
+                    col[0]
+                )))
+            }
+            Some(_) => check_each(name, col, what, ok)?,
+            None => {}
+        }
     }
     let len = n.unwrap_or(1);
     let get = |name: &str| -> Option<&Vec<f64>> {

@@ -15,7 +15,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyAny, PyDict};
 
 use crate::convert::{columns, data_frame, serde_to_py};
-use crate::inputs::{Machine, Plan};
+use crate::inputs::{check_each, check_positive, floats, opt_number, positive, Machine, Plan};
 use crate::{PlanError, SimulationError};
 
 fn schedule_of(name: &str) -> PyResult<Schedule> {
@@ -188,11 +188,16 @@ impl Delivery {
         data_frame(py, cols)
     }
 
-    /// The gantry sampled every `dt` s (and at the end): numpy arrays `t_s`, `angle_deg`,
+    /// The gantry sampled every `dt` s (default 0.01 s; and at the end): numpy arrays `t_s`, `angle_deg`,
     /// `speed_deg_per_s`, `accel_deg_per_s2`, `jerk_deg_per_s3`, `energy_mev` (NaN while the
     /// beam is off), `beam_on` (bool), `layer` (delivery-order index, -1 while the beam is off).
-    #[pyo3(signature = (dt=0.01))]
-    fn timeline<'py>(&self, py: Python<'py>, dt: f64) -> PyResult<Bound<'py, PyDict>> {
+    #[pyo3(signature = (dt=None))]
+    fn timeline<'py>(
+        &self,
+        py: Python<'py>,
+        dt: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let dt = dt.map_or(Ok(0.01), |dt| positive("dt", dt))?;
         let tl = self
             .delivery
             .timeline
@@ -242,10 +247,16 @@ impl Delivery {
         Ok(d)
     }
 
-    /// Writes the delivery for the Rerun viewer (.rrd), sampled every `dt` s, as
-    /// `simulate --rrd` does.
-    #[pyo3(signature = (path, dt=0.02))]
-    fn save_rrd(&self, py: Python<'_>, path: PathBuf, dt: f64) -> PyResult<()> {
+    /// Writes the delivery for the Rerun viewer (.rrd), sampled every `dt` s (default 0.02 s),
+    /// as `simulate --rrd` does.
+    #[pyo3(signature = (path, dt=None))]
+    fn save_rrd(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        dt: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let dt = dt.map_or(Ok(0.02), |dt| positive("dt", dt))?;
         let opts = arcsim_viewer::ViewerOptions { sample_dt_s: dt };
         let spots = self.spot_rows(py)?;
         py.detach(|| {
@@ -331,11 +342,12 @@ pub fn simulate(
     plan: &Bound<'_, Plan>,
     machine: Option<&Bound<'_, Machine>>,
     schedule: &str,
-    period_s: Option<f64>,
+    period_s: Option<&Bound<'_, PyAny>>,
     motion: Option<&str>,
     arc_ends: &str,
     strict: bool,
 ) -> PyResult<Delivery> {
+    let period_s = opt_number("period_s", period_s)?;
     let plan = plan.get();
     let builtin;
     let machine = match machine {
@@ -401,19 +413,24 @@ pub fn schedule_arrays<'py>(
     py: Python<'py>,
     irradiation_times_s: &Bound<'py, PyAny>,
     switching_times_s: &Bound<'py, PyAny>,
-    spacing_deg: f64,
-    max_window_deg: f64,
-    jerk: f64,
-    accel: f64,
-    speed: f64,
-    decel: Option<f64>,
+    spacing_deg: &Bound<'py, PyAny>,
+    max_window_deg: &Bound<'py, PyAny>,
+    jerk: &Bound<'py, PyAny>,
+    accel: &Bound<'py, PyAny>,
+    speed: &Bound<'py, PyAny>,
+    decel: Option<&Bound<'py, PyAny>>,
     schedule: &str,
 ) -> PyResult<(f64, Bound<'py, numpy::PyArray1<f64>>)> {
-    let times = crate::inputs::floats("irradiation_times_s", irradiation_times_s)?;
-    if !(spacing_deg.is_finite() && spacing_deg > 0.0) {
-        return Err(PyValueError::new_err(format!(
-            "spacing_deg {spacing_deg}: expected a finite number > 0"
-        )));
+    let times = floats("irradiation_times_s", irradiation_times_s)?;
+    check_each("irradiation_times_s", &times, "a time > 0 s", |t| t > 0.0)?;
+    let spacing_deg = positive("spacing_deg", spacing_deg)?;
+    let max_window_deg = positive("max_window_deg", max_window_deg)?;
+    let jerk = positive("jerk", jerk)?;
+    let accel = positive("accel", accel)?;
+    let speed = positive("speed", speed)?;
+    let decel = opt_number("decel", decel)?;
+    if let Some(d) = decel {
+        check_positive("decel", d)?;
     }
     let angles: Vec<f64> = (0..times.len()).map(|k| k as f64 * spacing_deg).collect();
     let plan = Plan::from_arrays_impl(&angles, &times, max_window_deg, switching_times_s)?;

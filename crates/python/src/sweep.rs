@@ -6,9 +6,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use arcsim_evaluator::{Evaluator, Results, Row, Summary, Sweep, RESULTS_FORMAT};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyAny, PyDict};
+use pyo3::types::{PyAny, PyBool, PyDict, PyFloat, PyList, PyModule, PyTuple};
 
 use crate::convert::{columns, data_frame, serde_to_py};
 use crate::{SweepError, SweepInterrupted};
@@ -128,6 +128,37 @@ fn plan_loader(p: &Path) -> Result<arcsim_plan::ArcPlan, String> {
         .map_err(|e| e.to_string())
 }
 
+/// SweepError naming the key path (`axes.jerk_deg_per_s3.from`, `plans[1]`) of the first NaN
+/// or ±inf in a sweep dict: JSON has no such numbers.
+fn finite_numbers(key: &str, x: &Bound<'_, PyAny>) -> PyResult<()> {
+    let join = |k: &str| {
+        if key.is_empty() {
+            k.to_string()
+        } else {
+            format!("{key}.{k}")
+        }
+    };
+    if let Ok(d) = x.cast::<PyDict>() {
+        for (k, v) in d.iter() {
+            let k = k.str().map_or_else(|_| "?".to_string(), |k| k.to_string());
+            finite_numbers(&join(&k), &v)?;
+        }
+    } else if x.is_instance_of::<PyList>() || x.is_instance_of::<PyTuple>() {
+        for (i, v) in x.try_iter()?.enumerate() {
+            finite_numbers(&format!("{key}[{i}]"), &v?)?;
+        }
+    } else if x.is_instance_of::<PyFloat>() {
+        let v: f64 = x.extract()?;
+        if !v.is_finite() {
+            return Err(SweepError::new_err(format!(
+                "sweep dict: {key}: expected a finite number, got {}",
+                crate::inputs::show(v)
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Loads a sweep from a path, or from a dict in the sweep-file format (paths in it relative to
 /// the current directory).
 fn load(spec: &Bound<'_, PyAny>) -> PyResult<Sweep> {
@@ -135,6 +166,7 @@ fn load(spec: &Bound<'_, PyAny>) -> PyResult<Sweep> {
     let sweep = if let Ok(path) = spec.extract::<PathBuf>() {
         Sweep::load_with(&path, &plan_loader)
     } else if spec.is_instance_of::<PyDict>() {
+        finite_numbers("", spec)?;
         let text: String = py
             .import("json")?
             .call_method1("dumps", (spec,))?
@@ -149,6 +181,61 @@ fn load(spec: &Bound<'_, PyAny>) -> PyResult<Sweep> {
     sweep.map_err(|e| SweepError::new_err(e.to_string()))
 }
 
+/// The `threads` argument: an int (not a bool) from 1 to 256.
+fn thread_count(x: &Bound<'_, PyAny>) -> PyResult<usize> {
+    if x.is_instance_of::<PyBool>() {
+        return Err(PyTypeError::new_err(
+            "threads: expected an integer, got a bool",
+        ));
+    }
+    let n = x.extract::<i64>().map_err(|_| {
+        PyTypeError::new_err(format!(
+            "threads: expected an integer, got {}",
+            x.get_type()
+                .name()
+                .map_or_else(|_| "?".to_string(), |n| n.to_string())
+        ))
+    })?;
+    usize::try_from(n)
+        .ok()
+        .filter(|n| (1..=256).contains(n))
+        .ok_or_else(|| PyValueError::new_err(format!("threads: expected 1 to 256, got {n}")))
+}
+
+/// The Python-level SIGINT handler when a sweep starts, put back when the sweep returns, raises
+/// or unwinds: Ctrl-C keeps working in the interpreter after the sweep whatever ran in between.
+struct SigintHandler<'py> {
+    signal: Bound<'py, PyModule>,
+    handler: Bound<'py, PyAny>,
+}
+
+impl<'py> SigintHandler<'py> {
+    fn save(py: Python<'py>) -> PyResult<Self> {
+        let signal = py.import("signal")?;
+        let handler = signal.call_method1("getsignal", (signal.getattr("SIGINT")?,))?;
+        Ok(SigintHandler { signal, handler })
+    }
+
+    fn restore(&self) -> PyResult<()> {
+        let sigint = self.signal.getattr("SIGINT")?;
+        let now = self.signal.call_method1("getsignal", (&sigint,))?;
+        if !now.is(&self.handler) && !self.handler.is_none() {
+            self.signal
+                .call_method1("signal", (sigint, &self.handler))?;
+        }
+        Ok(())
+    }
+}
+
+impl Drop for SigintHandler<'_> {
+    fn drop(&mut self) {
+        if let Err(e) = self.restore() {
+            // Drop cannot raise: Python reports the failure as unraisable.
+            e.write_unraisable(self.signal.py(), None);
+        }
+    }
+}
+
 /// Evaluates a sweep (a path to an arcsim-sweep/1 file, or the same as a dict) on `threads`
 /// worker threads (default: one per core), with a progress bar on a terminal when `progress`.
 /// The GIL is released while it runs. Ctrl-C stops after the rows in progress and raises
@@ -158,13 +245,12 @@ fn load(spec: &Bound<'_, PyAny>) -> PyResult<Sweep> {
 pub fn sweep(
     py: Python<'_>,
     sweep: &Bound<'_, PyAny>,
-    threads: Option<usize>,
+    threads: Option<&Bound<'_, PyAny>>,
     progress: bool,
 ) -> PyResult<SweepResult> {
+    let threads = threads.map(thread_count).transpose()?;
     let spec = load(sweep)?;
-    if threads.is_some_and(|n| !(1..=256).contains(&n)) {
-        return Err(PyValueError::new_err("threads: expected 1 to 256"));
-    }
+    let _sigint = SigintHandler::save(py)?;
     let n_threads = threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
         .min(spec.combinations().max(1));
