@@ -413,3 +413,39 @@ pub fn check_output_dir(flag: &str, dir: Option<&Path>) -> Result<(), CliError> 
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn destinations_follow_links_and_leave_special_files_in_place() {
+        for p in ["-", "/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"] {
+            assert_eq!(
+                destination(Path::new(p)).ok(),
+                Some(Destination::Stdout),
+                "{p}"
+            );
+        }
+        assert_eq!(
+            destination(Path::new("/dev/null")).ok(),
+            Some(Destination::Direct(PathBuf::from("/dev/null")))
+        );
+        assert_eq!(
+            destination(Path::new("/dev/stderr")).ok(),
+            Some(Destination::Direct(PathBuf::from("/dev/stderr")))
+        );
+        let dir = std::env::temp_dir().join(format!("arcsim-output-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("real")).expect("dir");
+        let link = dir.join("link.json");
+        let _ = std::fs::remove_file(&link);
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink("real/out.json", &link).expect("symlink");
+            let real = dir.canonicalize().expect("dir").join("real/out.json");
+            assert_eq!(destination(&link).ok(), Some(Destination::Replace(real)));
+        }
+        assert!(destination(&dir).is_err(), "a directory is no output");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -9,8 +9,8 @@
 //! The output-path probe (`outputs_bounded`, `outputs_long`) runs `simulate` with seeded sets of
 //! outputs inside a temporary directory: symlinks (to files, dangling, chained), files whose
 //! temporary-looking names (`NAME.partial`) are symlinks to a victim file, FIFOs or directories,
-//! outputs that are FIFOs (with a reader), `/dev/null`, outputs that alias each other or the
-//! input. After each run no file other than the named outputs' targets may have changed, and
+//! outputs that are FIFOs or symlinks to FIFOs (with a reader), outputs that alias each other or
+//! the input; never a system path. After each run no file other than the named outputs' targets may have changed, and
 //! each named output is complete or as it was.
 
 mod common;
@@ -423,7 +423,13 @@ fn output_case(rng: &mut Rng, case: usize) -> Result<(), String> {
                     .map_err(|e| e.to_string())?;
                 name
             }
-            7 => PathBuf::from("/dev/null"),
+            7 => {
+                // A symlink to a FIFO (read to its end by a thread, below).
+                mkfifo(&dir.join(format!("sub/fifo{i}")));
+                std::os::unix::fs::symlink(format!("sub/fifo{i}"), &name)
+                    .map_err(|e| e.to_string())?;
+                name
+            }
             8 => {
                 std::os::unix::fs::symlink(format!("sub/chain{i}"), dir.join(format!("l{i}")))
                     .map_err(|e| e.to_string())?;
@@ -437,7 +443,7 @@ fn output_case(rng: &mut Rng, case: usize) -> Result<(), String> {
             }
             10 => match outputs.last() {
                 // The name an earlier output's fixed temporary file once had.
-                Some((_, earlier)) if earlier != Path::new("/dev/null") => {
+                Some((_, earlier)) => {
                     let mut n = earlier.clone().into_os_string();
                     n.push(".partial");
                     // A directory of that name (case 6) is no file to write.
@@ -447,7 +453,7 @@ fn output_case(rng: &mut Rng, case: usize) -> Result<(), String> {
                 _ => name,
             },
             _ => match (rng.below(2), outputs.last()) {
-                (0, Some((_, earlier))) if earlier != Path::new("/dev/null") => {
+                (0, Some((_, earlier))) => {
                     refused = true;
                     earlier.clone()
                 }
@@ -516,9 +522,6 @@ fn output_case(rng: &mut Rng, case: usize) -> Result<(), String> {
     // The files each output may change: its final target (symlinks followed).
     let mut allowed = Vec::new();
     for (flag, path) in &outputs {
-        if path == Path::new("/dev/null") {
-            continue;
-        }
         let target = path
             .canonicalize()
             .map_err(|e| format!("{shown}: {flag} {}: {e}", path.display()))?;
