@@ -8,8 +8,8 @@ mod common;
 use arcsim_plan::{parse_plan, resolve, ArcPlan};
 use arcsim_planner::{Limits, Move, MoveAnalysis, Reversal};
 use arcsim_sequencer::{
-    machine_limits, raised_limits, simulate_resolved, Delivery, Limiter, Motion, Options, Schedule,
-    LIMIT_RAISE_FACTOR,
+    machine_limits, move_duration, raised_limits, simulate_resolved, Delivery, Limiter, Motion,
+    Options, Schedule, LIMIT_RAISE_FACTOR,
 };
 
 const GANTRY: [Limiter; 3] = [Limiter::Jerk, Limiter::Accel, Limiter::Speed];
@@ -144,5 +144,54 @@ fn labels_rank_limits_as_whole_plan_resimulation_free_motion() {
         "J saves {}, A {}",
         rows[0].1,
         rows[1].1
+    );
+}
+
+/// Every constant-speed transition of the plan, re-planned on its own with each limit doubled:
+/// the labelled limit saves at least as much as any other (and something); ELST-labelled ones
+/// are saved nothing by any raise.
+#[test]
+fn each_transition_label_matches_its_own_replans() {
+    let machine = common::machine("machine-atom.json");
+    let arcs = resolve(&two_arc_slow_layers(), &machine).expect("resolve");
+    let lim = machine_limits(&machine).expect("limits");
+    let opts = Options {
+        build_timeline: false,
+        ..Options::new(Schedule::Optimal)
+    };
+    let d = simulate_resolved(&arcs, &lim, &opts).expect("simulate");
+    let mut seen = Vec::new();
+    for t in &d.transitions {
+        let mv = Move {
+            distance: t.gap_deg,
+            v_start: t.v_start_deg_per_s,
+            v_end: t.v_end_deg_per_s,
+        };
+        let base = move_duration(&mv, t.elst_s, &lim).expect("move");
+        assert!((base - t.duration_s).abs() < 1e-9, "transition {}", t.index);
+        let saving = |l: Limiter| {
+            base - move_duration(&mv, t.elst_s, &raised_limits(&lim, l, LIMIT_RAISE_FACTOR))
+                .expect("raised move")
+        };
+        let best = GANTRY.iter().map(|&l| saving(l)).fold(0.0f64, f64::max);
+        match t.limited_by {
+            Limiter::Elst => assert!(best <= 1e-9, "transition {}: ELST, saves {best}", t.index),
+            Limiter::None => assert!(t.duration_s <= 0.0, "transition {}", t.index),
+            l => {
+                let own = saving(l);
+                assert!(
+                    own > 0.0 && own >= best - 1e-12,
+                    "transition {}: {l:?} saves {own}, best {best}",
+                    t.index
+                );
+            }
+        }
+        if !seen.contains(&t.limited_by) {
+            seen.push(t.limited_by);
+        }
+    }
+    assert!(
+        seen.contains(&Limiter::Jerk) && seen.contains(&Limiter::Elst),
+        "{seen:?}"
     );
 }

@@ -178,7 +178,7 @@ pub(crate) fn assemble(
                 } else {
                     let floor = (elst - lead).max(0.0);
                     label_by_raise(mv.duration(), elst, lim, |l| {
-                        Mover::new(l, true).duration(from, to, floor)
+                        fastest_at_least(l, true, from, to, floor)
                     })
                 },
                 lost_s: (duration - elst).max(0.0),
@@ -377,11 +377,29 @@ fn limiter_between(
     } else if duration <= elst * (1.0 + 1e-9) + 1e-12 {
         Limiter::Elst
     } else {
-        match Mover::new(lim, false).duration(from, to, elst) {
+        match fastest_at_least(lim, false, from, to, elst) {
             Some(base) => label_by_raise(base, elst, lim, |l| {
-                Mover::new(l, false).duration(from, to, elst)
+                fastest_at_least(l, false, from, to, elst)
             }),
             None => Limiter::None,
         }
     }
+}
+
+/// Duration of the fastest move `from → to` under `lim` lasting at least `floor`. Ruckig may fail
+/// to synchronise to a floor equal to the fastest move's own duration (to rounding); the fastest
+/// move without the floor, if it lasts the floor, is then the answer.
+fn fastest_at_least(
+    lim: &Limits,
+    reversible: bool,
+    from: FullState,
+    to: FullState,
+    floor: f64,
+) -> Option<f64> {
+    let mut mover = Mover::new(lim, reversible);
+    mover.duration(from, to, floor).or_else(|| {
+        mover
+            .duration(from, to, 0.0)
+            .filter(|&d| d >= floor - 1e-12 * (1.0 + floor))
+    })
 }
