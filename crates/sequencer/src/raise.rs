@@ -4,8 +4,8 @@
 //! exactly (same gap, boundary speeds and ELST floor) with one limit at a time raised by
 //! [`LIMIT_RAISE_FACTOR`]: J alone, A and D together, or V alone. The label is the limit whose raise
 //! shortens the move most. A transition that no raise shortens lasts its ELST ([`Limiter::Elst`]),
-//! or does not move at all ([`Limiter::None`]). Equal savings (within 1e-9 s) go to J, then A,
-//! then V.
+//! or does not move at all ([`Limiter::None`]). A saving counts from 1e-9 s; equal savings go to J,
+//! then A, then V.
 
 use arcsim_planner::{Limits, Move, MoveAnalysis, Reversal};
 
