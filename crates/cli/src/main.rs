@@ -86,10 +86,15 @@ The summary, term by term (docs/results.md describes every output field):
                        plus the run-up before the first beam). 0 s: the gantry never waits.
   free motion saves    Free motion against one constant speed per layer, same schedule.
   transitions limited by
-                       What set each transition's duration: ELST (the energy switch; the gantry
-                       was fast enough), V (the gantry cruised at its speed limit), A (it reached
-                       its acceleration or deceleration limit), J (only its jerk limit), none (no
-                       motion, zero time).
+                       Which gantry limit, raised, would shorten each transition most: the
+                       transition is re-planned exactly (same gap, boundary speeds and ELST) with
+                       J alone, A and D together, or V alone doubled, and labelled with the limit
+                       whose doubling saves most (ties: J, then A, then V). ELST: no doubling
+                       shortens it (it lasts its energy switch; the gantry was fast enough);
+                       none: no motion, zero time. A move that reaches A but spends most of its
+                       time in jerk ramps is J. Doubling the limit with most lost time is a first
+                       guess at the change that buys most; a whole-plan re-simulation (sweep)
+                       gives the exact saving.
   tightest margins     Over the whole timeline, with when it occurs and the nearest layer:
     speed / acceleration / jerk
                        The highest use of V, of A (D while braking) and of J, in % of the limit;

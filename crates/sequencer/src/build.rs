@@ -1,10 +1,11 @@
 //! Entry points: resolve, schedule, then build, measure and verify one delivery.
 
 use arcsim_plan::{ArcPlan, Machine, ResolvedArc};
-use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal, SevenPhases};
+use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal};
 
 use crate::free;
 use crate::optimal::{optimal, speed_free_scan};
+use crate::raise::{label_by_raise, move_duration};
 use crate::scan::{moving_time, moving_time_on, polished_scan, scan, scan_converged, ArcProblem};
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
@@ -510,18 +511,6 @@ struct Solved {
     limiter: Limiter,
 }
 
-fn limiter_of(shape: &SevenPhases, lim: &Limits) -> Limiter {
-    if shape.duration() <= 0.0 {
-        Limiter::None
-    } else if shape.t3 > 0.0 && shape.v_peak.abs() >= lim.max_vel * (1.0 - 1e-9) {
-        Limiter::Speed
-    } else if shape.t2 > 0.0 || shape.t5 > 0.0 {
-        Limiter::Accel
-    } else {
-        Limiter::Jerk
-    }
-}
-
 /// Where a move sits (for errors) and what to build of it.
 struct MoveContext {
     /// The servo period every transition is put on, if any (s).
@@ -550,13 +539,17 @@ fn solve_move(
     let analysis = MoveAnalysis::new(&mv, lim, Reversal::Forbid).map_err(planner)?;
     let shape = analysis.min_time_phases();
     let min_time = shape.duration();
-    let (limiter, duration) = if elst > min_time {
-        let at_least = analysis
+    let duration = if elst > min_time {
+        analysis
             .shortest_duration_at_least(elst)
-            .ok_or_else(|| infeasible(Infeasibility::CannotLastElst { elst_s: elst }))?;
-        (Limiter::Elst, at_least)
+            .ok_or_else(|| infeasible(Infeasibility::CannotLastElst { elst_s: elst }))?
     } else {
-        (limiter_of(&shape, lim), min_time)
+        min_time
+    };
+    let limiter = if duration > 0.0 {
+        label_by_raise(duration, elst, lim, |l| move_duration(&mv, elst, l))
+    } else {
+        Limiter::None
     };
     let duration = match at.period {
         Some(ts) => grid_duration(mv, lim, duration, ts)

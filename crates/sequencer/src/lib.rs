@@ -19,6 +19,7 @@ mod error;
 mod free;
 mod lost;
 mod optimal;
+mod raise;
 mod scan;
 mod servo;
 mod spots;
@@ -28,6 +29,7 @@ mod verify;
 
 pub use error::{Infeasibility, SequenceError};
 pub use lost::{GapClass, LostGroup, LostTime, LostTransition, SwitchKind};
+pub use raise::{limiter_by_raise, move_duration, raised_limits, LIMIT_RAISE_FACTOR};
 pub use spots::{spot_timeline, SpotRow};
 pub use timeline::{GantryState, Piece, PieceKind, Timeline};
 pub use types::*;

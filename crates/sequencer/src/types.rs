@@ -188,17 +188,19 @@ pub enum SpeedBound {
     Free,
 }
 
-/// What set a transition's duration.
+/// What limits a transition: the gantry limit whose raise by [`crate::LIMIT_RAISE_FACTOR`]
+/// shortens it most, or the ELST when no raise shortens it ([`crate::limiter_by_raise`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Limiter {
-    /// The energy-layer switching time (the gantry could have been faster).
+    /// The energy-layer switching time: no raise shortens the move (the gantry could have been
+    /// faster).
     Elst,
-    /// The gantry: it cruised at V.
+    /// Raising V shortens the move most.
     Speed,
-    /// The gantry: acceleration reached A (or the deceleration limit).
+    /// Raising A and D together shortens the move most.
     Accel,
-    /// The gantry: only the jerk limit was reached.
+    /// Raising J shortens the move most.
     Jerk,
     /// No motion (zero-length, zero-time transition).
     None,

@@ -408,7 +408,7 @@ fn log_layer_text(
             String::new()
         } else {
             format!(
-                "; transition in {:.2} s, limited by {}",
+                "; transition in {:.2} s, limited by {} (the limit whose raise shortens it most)",
                 l.transition_in_s,
                 limiter_name(l.transition_limited_by)
             )

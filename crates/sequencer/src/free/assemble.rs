@@ -6,6 +6,7 @@ use arcsim_planner::{Limits, Segment};
 
 use super::mover::{FullMove, FullState, Mover};
 use super::solve::FreeArc;
+use crate::raise::label_by_raise;
 use crate::scan::ArcProblem;
 use crate::timeline::{Piece, PieceKind};
 use crate::{Infeasibility, LayerRow, Limiter, SequenceError, SpeedBound, TransitionRow};
@@ -172,7 +173,14 @@ pub(crate) fn assemble(
                 gap_deg: (to.pos - from.pos).abs(),
                 v_start_deg_per_s: from.vel.abs(),
                 v_end_deg_per_s: 0.0,
-                limited_by: classify(&mv, duration, elst, lim),
+                limited_by: if duration <= elst * (1.0 + 1e-9) + 1e-12 {
+                    Limiter::Elst
+                } else {
+                    let floor = (elst - lead).max(0.0);
+                    label_by_raise(mv.duration(), elst, lim, |l| {
+                        fastest_at_least(l, true, from, to, floor)
+                    })
+                },
                 lost_s: (duration - elst).max(0.0),
             });
             t += mv.duration();
@@ -198,6 +206,8 @@ pub(crate) fn assemble(
         let on: Vec<f64> = fa.beam_on.iter().map(|b| t_arc + b).collect();
         let off: Vec<f64> = (0..n).map(|k| on[k] + p.irradiation_s[k]).collect();
         let tr0 = out.transitions.len();
+        // Each beam-off move's boundary states (along the arc), for its label.
+        let mut ends: Vec<(FullState, FullState)> = Vec::with_capacity(n.saturating_sub(1));
         for k in 0..n {
             let s_on = track.state_at(on[k] - t_arc);
             let s_off = track.state_at(off[k] - t_arc);
@@ -237,6 +247,7 @@ pub(crate) fn assemble(
             if k + 1 < n {
                 let s_next = track.state_at(on[k + 1] - t_arc);
                 let duration = on[k + 1] - off[k];
+                ends.push((s_off, s_next));
                 out.transitions.push(TransitionRow {
                     index: tr0 + k,
                     from_layer: first_layer + k,
@@ -306,17 +317,11 @@ pub(crate) fn assemble(
                 tm = end;
             }
         }
-        // What limited each transition: the ELST, or the peak speed / acceleration reached.
-        for k in 0..n.saturating_sub(1) {
+        // What limits each transition: the ELST when it lasts no longer, else the gantry limit
+        // whose raise shortens the fastest move between the same boundary states most.
+        for (k, &(from, to)) in ends.iter().enumerate() {
             let tr = &mut out.transitions[tr0 + k];
-            tr.limited_by = classify_span(
-                &out.pieces,
-                tr.t_start_s,
-                tr.t_start_s + tr.duration_s,
-                tr.duration_s,
-                tr.elst_s,
-                lim,
-            );
+            tr.limited_by = limiter_between(from, to, tr.duration_s, tr.elst_s, lim);
             out.layers[first_layer + k + 1].transition_limited_by = tr.limited_by;
         }
         t = t_arc + fa.total - lead;
@@ -356,11 +361,13 @@ fn push_move(
     }
 }
 
-/// ELST when the transition lasts no longer than it; else the highest limit the motion reached.
-fn limiter_from(
-    peak_v: f64,
-    peak_up: f64,
-    peak_down: f64,
+/// The label of a beam-off move of free motion lasting `duration` between the boundary states
+/// `from` and `to`: the ELST when it lasts no longer, else the gantry limit whose raise by
+/// [`crate::LIMIT_RAISE_FACTOR`] shortens the fastest move between the same states (lasting at
+/// least the ELST) most; none for a move that does not take time.
+fn limiter_between(
+    from: FullState,
+    to: FullState,
     duration: f64,
     elst: f64,
     lim: &Limits,
@@ -369,54 +376,30 @@ fn limiter_from(
         Limiter::None
     } else if duration <= elst * (1.0 + 1e-9) + 1e-12 {
         Limiter::Elst
-    } else if peak_v >= lim.max_vel * (1.0 - 1e-6) {
-        Limiter::Speed
-    } else if peak_up >= lim.max_accel * (1.0 - 1e-6) || peak_down >= lim.max_decel * (1.0 - 1e-6) {
-        Limiter::Accel
     } else {
-        Limiter::Jerk
-    }
-}
-
-fn classify(mv: &FullMove, duration: f64, elst: f64, lim: &Limits) -> Limiter {
-    let (mut v, mut up, mut down) = (0.0f64, 0.0f64, 0.0f64);
-    let mut s = mv.start;
-    for seg in &mv.segments {
-        let e = s.after(seg.duration, seg.jerk);
-        v = v.max(s.vel.abs()).max(e.vel.abs());
-        for x in [s, e] {
-            // Along the motion: speeding up or braking.
-            if x.acc * x.vel >= 0.0 {
-                up = up.max(x.acc.abs());
-            } else {
-                down = down.max(x.acc.abs());
-            }
+        match fastest_at_least(lim, false, from, to, elst) {
+            Some(base) => label_by_raise(base, elst, lim, |l| {
+                fastest_at_least(l, false, from, to, elst)
+            }),
+            None => Limiter::None,
         }
-        s = e;
     }
-    limiter_from(v, up, down, duration, elst, lim)
 }
 
-fn classify_span(
-    pieces: &[Piece],
-    t0: f64,
-    t1: f64,
-    duration: f64,
-    elst: f64,
+/// Duration of the fastest move `from → to` under `lim` lasting at least `floor`. Ruckig may fail
+/// to synchronise to a floor equal to the fastest move's own duration (to rounding); the fastest
+/// move without the floor, if it lasts the floor, is then the answer.
+fn fastest_at_least(
     lim: &Limits,
-) -> Limiter {
-    let (mut v, mut up, mut down) = (0.0f64, 0.0f64, 0.0f64);
-    let i0 = pieces.partition_point(|p| p.t_start_s + p.duration_s <= t0);
-    for p in pieces[i0..].iter().take_while(|p| p.t_start_s < t1) {
-        for dt in [0.0, p.duration_s] {
-            let s = p.state_after(dt);
-            v = v.max(s.speed_deg_per_s.abs());
-            if s.accel_deg_per_s2 * s.speed_deg_per_s >= 0.0 {
-                up = up.max(s.accel_deg_per_s2.abs());
-            } else {
-                down = down.max(s.accel_deg_per_s2.abs());
-            }
-        }
-    }
-    limiter_from(v, up, down, duration, elst, lim)
+    reversible: bool,
+    from: FullState,
+    to: FullState,
+    floor: f64,
+) -> Option<f64> {
+    let mut mover = Mover::new(lim, reversible);
+    mover.duration(from, to, floor).or_else(|| {
+        mover
+            .duration(from, to, 0.0)
+            .filter(|&d| d >= floor - 1e-12 * (1.0 + floor))
+    })
 }
