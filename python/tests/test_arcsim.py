@@ -3,7 +3,8 @@ columns, the GIL released, Ctrl-C in sweeps.
 
 Run from the repository root with the wheel installed: ARCSIM_BIN names the `arcsim` binary to
 compare with (the Rust test `crates/cli/tests/python.rs` builds both and runs this suite);
-ARCSIM_TEST_DICOM an RT Ion Plan file to import.
+ARCSIM_TEST_DICOM an RT Ion Plan file to import, ARCSIM_TEST_DICOM_WARNED one whose import warns
+(a GantryAngle of 360).
 """
 
 import _thread
@@ -115,6 +116,20 @@ def test_machine_file_period_and_limits_equal_the_cli(tmp_path):
                         "--schedule", "scan", "--motion", "constant")
     d = arcsim.simulate(arcsim.load_plan("plans/prostate.json"), faster, "scan", motion="constant")
     assert d.total_s == pytest.approx(expected["total_s"], rel=1e-12)
+
+
+def test_dicom_import_warnings_are_python_warnings():
+    dcm = os.environ.get("ARCSIM_TEST_DICOM_WARNED")
+    if not dcm:
+        pytest.skip("ARCSIM_TEST_DICOM_WARNED not set (the Rust runner writes a fixture)")
+    with pytest.warns(UserWarning, match=r"GantryAngle \(300A,011E\) 360 .* read as 0") as caught:
+        plan = arcsim.load_plan(dcm)
+    # The warning names the file, as the CLI's does.
+    assert any(dcm in str(w.message) for w in caught)
+    code, _, err = cli("validate", dcm)
+    assert code == 0, err
+    assert "read as 0" in err
+    assert plan.layers == 3
 
 
 def test_dicom_round_trip(tmp_path):

@@ -90,6 +90,13 @@ pub fn plan_from_bytes_warned(
 /// Reads the plan file at `path` (named by its path in messages) with [`plan_from_bytes`];
 /// returns it with the SHA-256 of its bytes.
 pub fn read_plan_file(path: &std::path::Path) -> Result<(ArcPlan, String), AppError> {
+    read_plan_file_warned(path).map(|(plan, sha256, _)| (plan, sha256))
+}
+
+/// [`read_plan_file`], with the warnings of a DICOM import ([`plan_from_bytes_warned`]).
+pub fn read_plan_file_warned(
+    path: &std::path::Path,
+) -> Result<(ArcPlan, String, Vec<String>), AppError> {
     let name = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| AppError::Read {
         name: name.clone(),
@@ -100,8 +107,8 @@ pub fn read_plan_file(path: &std::path::Path) -> Result<(ArcPlan, String), AppEr
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"));
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-    let plan = plan_from_bytes(&name, stem.as_deref(), dicom_extension, &bytes)?;
-    Ok((plan, sha256_hex(&bytes)))
+    let (plan, warnings) = plan_from_bytes_warned(&name, stem.as_deref(), dicom_extension, &bytes)?;
+    Ok((plan, sha256_hex(&bytes), warnings))
 }
 
 /// The machine model in `text`, from the input called `name` in messages.

@@ -20,7 +20,7 @@ mod request;
 pub use document::{OptionsOut, Provenance, ResultDocument, Source, RESULT_FORMAT};
 pub use inputs::{
     builtin_machine, machine_from_text, plan_from_bytes, plan_from_bytes_warned, read_plan_file,
-    sha256_hex, AppError, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
+    read_plan_file_warned, sha256_hex, AppError, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
 };
 pub use moves::{MoveError, MoveRequest, SolvedMove};
 pub use request::{check_period, plausibility, refuse_implausible, SimulateRequest};

@@ -98,11 +98,29 @@ fn python_package_passes_its_pytest_suite() {
     pip(&["--no-deps", wheel.to_str().expect("utf-8 path")]).unwrap_or_else(|e| panic!("{e}"));
 
     let dcm = temp_file("python-arc.dcm", &dicom::dynamic_arc_plan().to_bytes());
+    // Static beams at 350, 360 and 10 deg: the import warns that 360 is read as 0.
+    let beams = [350.0, 360.0, 10.0]
+        .iter()
+        .enumerate()
+        .map(|(i, &angle)| {
+            let layer = dicom::Layer {
+                angle,
+                energy: 100.0 + i as f64,
+                weights: dicom::weights_of(i),
+            };
+            dicom::BeamSpec::from_layers(i as i64 + 1, "STATIC", "NONE", 50.0, &[layer])
+        })
+        .collect();
+    let warned = temp_file(
+        "python-warned.dcm",
+        &dicom::PlanSpec::ion("STATIC", beams).to_bytes(),
+    );
     let out = Command::new(bin.join("python"))
         .current_dir(&repo)
         .args(["-m", "pytest", "-q", "-rs", "python/tests"])
         .env("ARCSIM_BIN", env!("CARGO_BIN_EXE_arcsim"))
         .env("ARCSIM_TEST_DICOM", &dcm)
+        .env("ARCSIM_TEST_DICOM_WARNED", &warned)
         .output()
         .expect("run pytest");
     let text = format!(

@@ -322,10 +322,18 @@ impl Plan {
 }
 
 /// Reads a plan: arcsim-plan/1 JSON or a DICOM RT Ion Plan (recognised by content, as the CLI
-/// does). Raises PlanError with the located problems.
+/// does). Raises PlanError with the located problems; a DICOM import's warnings (a GantryAngle of
+/// 360, fraction groups left out) are Python `UserWarning`s, as the CLI prints them.
 #[pyfunction]
-pub fn load_plan(path: PathBuf) -> PyResult<Plan> {
-    let (plan, sha256) = arcsim_app::read_plan_file(&path).map_err(plan_err)?;
+pub fn load_plan(py: Python<'_>, path: PathBuf) -> PyResult<Plan> {
+    let (plan, sha256, warnings) = arcsim_app::read_plan_file_warned(&path).map_err(plan_err)?;
+    if !warnings.is_empty() {
+        let module = py.import("warnings")?;
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        for w in &warnings {
+            module.call_method1("warn", (w.as_str(), &category, 2))?;
+        }
+    }
     Ok(Plan {
         plan,
         source: Source {
