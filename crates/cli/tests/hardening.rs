@@ -198,23 +198,27 @@ fn sweep_checks_outputs_and_threads_before_the_work() {
     assert!(started.elapsed() < Duration::from_secs(30));
 }
 
+/// Runs shard `shard` (K/N) of `sweep` into `out`.
+fn run_shard(sweep: &Path, shard: &str, out: &Path) {
+    let o = arcsim(&[
+        "sweep",
+        path_str(sweep),
+        "--shard",
+        shard,
+        "--out",
+        path_str(out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn sweep_merge_leaves_no_bad_output() {
     let dir = temp_dir();
     let a = small_sweep(&dir, "a", &[0.5, 1.0]);
     let b = small_sweep(&dir, "b", &[2.0, 4.0]);
     let (s1, s2) = (dir.join("s1.csv"), dir.join("s2.csv"));
-    for (sweep, shard, out) in [(&a, "1/2", &s1), (&b, "2/2", &s2)] {
-        let o = arcsim(&[
-            "sweep",
-            path_str(sweep),
-            "--shard",
-            shard,
-            "--out",
-            path_str(out),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
+    run_shard(&a, "1/2", &s1);
+    run_shard(&b, "2/2", &s2);
     let merged = dir.join("merged.csv");
     let o = arcsim(&[
         "sweep-merge",
@@ -233,17 +237,8 @@ fn sweep_merge_leaves_no_bad_output() {
 
     // Without the sweep file: a shard that lost its last row is found from the rows' own count.
     let (t1, t2) = (dir.join("t1.csv"), dir.join("t2.csv"));
-    for (shard, out) in [("1/2", &t1), ("2/2", &t2)] {
-        let o = arcsim(&[
-            "sweep",
-            path_str(&a),
-            "--shard",
-            shard,
-            "--out",
-            path_str(out),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
+    run_shard(&a, "1/2", &t1);
+    run_shard(&a, "2/2", &t2);
     let whole = dir.join("whole.csv");
     let o = arcsim(&[
         "sweep-merge",
