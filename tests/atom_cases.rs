@@ -291,9 +291,9 @@ fn scan_and_optimal_sweeps_give_the_same_sensitivities() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Issue 8: `scan` within 0.5 % of `optimal` on the ATOM cases, checked at the low-jerk settings
-/// where it was furthest (the first three were 4.8 %, 0.65 % and 0.58 % above before the scan
-/// lowered end speeds alone before a braking chain, `rebalance` in `scan.rs`).
+/// `scan` within 0.5 % of `optimal` on the ATOM cases, checked at low-jerk settings where a scan
+/// that does not lower end speeds alone before a braking chain (`rebalance` in `scan.rs`) comes
+/// out up to 4.8 % above.
 #[test]
 fn scan_stays_within_half_a_percent_of_optimal_at_low_jerk() {
     for (j, a, v) in [

@@ -1,12 +1,11 @@
-//! Issue 30: raising a gantry limit only admits more schedules, so the constant-speed `optimal`
-//! total must never grow when J, A, D or V grows. One-axis sweeps (10 values each, the others at
-//! the ATOM machine's) on the three ATOM cases (`plans/atom/`, committed: no reference file is
-//! needed) and the bundled plans (`plans/*.json`), on the ATOM machine, `--motion constant`:
-//! along each sweep no total may exceed the least total of a lower setting by more than 1e-6
-//! relative. `scan` (the seed of `optimal`) is held to the same. Before the fix (grids and seed
-//! scaled by each setting's own V) 30 of the 280 `optimal` settings failed, worst bundled
-//! head-neck V 1.3 → 1.93: 757.871 → 757.885 s (+0.014 s), and 12 `scan` settings, worst
-//! prostate V 3.1 → 4.4: +0.0031 s. About 20 s in the test profile on 2 cores.
+//! Raising a gantry limit only admits more schedules, so the constant-speed `optimal` total must
+//! never grow when J, A, D or V grows. One-axis sweeps (10 values each, the others at the ATOM
+//! machine's) on the three ATOM cases (`plans/atom/`, committed: no reference file is needed) and
+//! the bundled plans (`plans/*.json`), on the ATOM machine, `--motion constant`: along each sweep
+//! no total may exceed the least total of a lower setting by more than 1e-6 relative. `scan` (the
+//! seed of `optimal`) is held to the same. Grids and seeds scaled by each setting's own V fail
+//! here (30 of the 280 `optimal` settings, worst bundled head-neck V 1.3 → 1.93: +0.014 s).
+//! About 20 s in the test profile on 2 cores.
 
 use arcsim_plan::{load_machine, load_plan, resolve, Machine, ResolvedArc};
 use arcsim_planner::Limits;

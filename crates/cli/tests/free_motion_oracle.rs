@@ -1,4 +1,4 @@
-//! Free motion against an independent optimiser (issue 30, item 2): `tests/oracle/free_motion_ipopt.py`
+//! Free motion against an independent optimiser: `tests/oracle/free_motion_ipopt.py`
 //! solves each case's free-motion problem on its own (direct multiple shooting, CasADi + IPOPT,
 //! started from arcsim's timeline; the formulation is in the script's docstring), checks its answer
 //! by dense re-integration against every limit, window, irradiation time and ELST, and the test
@@ -24,10 +24,10 @@ const PACKAGES: &[&str] = &["casadi==3.8.2", "numpy"];
 /// Largest relative shortening of arcsim's total that the oracle may find (the script's `GAP`).
 const GAP: f64 = 5e-4;
 
-/// Known gaps, larger than [`GAP`] (issue 30 stays open for them): on these plans the refinement
+/// Known gaps, larger than [`GAP`] (an open issue): on these plans the refinement
 /// stops in another local optimum, where most control points hold two layers and the long
 /// upward switches between them leave the exact build (Ruckig's moves between the transcript's
-/// states) failing for many steps. Measured 2026-12-04: lung −0.42 %, head-neck −0.29 %.
+/// states) failing for many steps. Measured: lung −0.42 %, head-neck −0.29 %.
 const KNOWN_GAPS: &[(&str, f64)] = &[("lung", 6e-3), ("head-neck", 5e-3)];
 
 fn skip_or_fail(why: &str) {

@@ -241,7 +241,8 @@ fn a_bad_number_names_line_and_column() {
     );
 }
 
-/// A table of arcsim before the certificate (no lower_bound_s, gap_s) reads back, uncertified.
+/// A table without the certificate's columns (lower_bound_s, gap_s: header version 2) reads back,
+/// uncertified.
 #[test]
 fn a_table_without_the_certificate_reads_back() {
     let ev = evaluator();

@@ -951,7 +951,7 @@ fn csv_writes_the_limit_used_in_every_column() {
         ev.summarize(&back).to_table(),
         ev.summarize(&rows).to_table()
     );
-    // A table with the old empty columns is another combination, and the error says so.
+    // A table with those columns empty is another combination, and the error says so.
     let old = single.replace(",5,0.5,1,,1,ok,", ",,0.5,,,1,ok,");
     assert_ne!(old, single);
     let err = ev

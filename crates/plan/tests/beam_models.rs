@@ -114,9 +114,9 @@ fn paintings_repeat_the_spot_list() {
     assert!(close(irr, irr2) && close(scan, scan2));
 }
 
-/// The per_mu model is unchanged: Σ max(MU × s/MU, minimum) + (n − 1) × switch.
+/// The per_mu model is Σ max(MU × s/MU, minimum) + (n − 1) × switch, summed here directly.
 #[test]
-fn per_mu_matches_the_old_formula() {
+fn per_mu_is_the_sum_of_spot_times_and_switches() {
     let b = PerMuBeam {
         s_per_mu: 0.005,
         spot_switch_time_s: 0.002,
@@ -124,7 +124,7 @@ fn per_mu_matches_the_old_formula() {
     };
     let mu = [0.3, 1.2, 0.5, 2.0];
     let s = spots(&mu, &[[0.0; 2]; 4]);
-    let old: f64 = mu
+    let direct: f64 = mu
         .iter()
         .map(|m| (m * b.s_per_mu).max(b.min_spot_time_s))
         .sum::<f64>()
@@ -136,7 +136,7 @@ fn per_mu_matches_the_old_formula() {
         switching_time_s: None,
     };
     let t = layer_beam_time(&layer, &BeamModel::PerMu(b)).expect("timed");
-    assert_eq!(t.total_s(), old);
+    assert_eq!(t.total_s(), direct);
 }
 
 /// Random spot maps against a direct sum written independently of the model's loop: the spots'

@@ -142,8 +142,8 @@ fn polynomial_elst_is_validated() {
 /// (a narrow dip of depth 0.2 s around 100.5 MeV) is found by the exact minimum.
 #[test]
 fn polynomial_elst_dip_between_samples_is_refused() {
-    // t(x) = 1.2·(x − 100.5)² − 0.2 ≥ 0 except for |x − 100.5| < 0.408; the old check sampled
-    // x = i·399/399 = i (and 1e-3), all outside the dip... at 100 and 101 it is +0.1.
+    // t(x) = 1.2·(x − 100.5)² − 0.2 ≥ 0 except for |x − 100.5| < 0.408; a check that samples the
+    // 400 steps x = i·399/399 = i (and 1e-3) misses the dip: at 100 and 101 it is +0.1.
     let (c, r) = (1.2, 100.5);
     let coeffs = [c * r * r - 0.2, -2.0 * c * r, c];
     for x in [100.0, 101.0] {

@@ -327,9 +327,8 @@ fn time_atom_free() {
 /// never grows. Free motion is a local optimum: along one-axis sweeps of J, A, D and V (10 values
 /// each, rest ends) on the ATOM cases and the bundled prostate and two-arc plans, its total may
 /// rise only by solver noise, at most `NOISE` (relative) above the best total at any lower value
-/// (measured: at most 4.1e-5). (The pattern search before it rose by up to 0.8 % on such sweeps;
-/// on the bundled lung plan, where long switches at shared control points make the problem
-/// rugged, free motion still rises by up to 0.33 %: see the README.)
+/// (measured: at most 4.1e-5). (On the bundled lung plan, where long switches at shared control
+/// points make the problem rugged, free motion rises by up to 0.33 %: see the README.)
 #[test]
 fn raising_a_gantry_limit_never_costs_more_than_noise() {
     use rayon::prelude::*;

@@ -19,8 +19,8 @@ const SPEEDS: usize = 201;
 /// How far (relative) the exhaustive search may come out below `optimal`: the search's last grid
 /// is about 1e-4 of a layer's speed range apart, and where the cost jumps (an ELST that stops
 /// fitting without a stop) its best point can lie one spacing short of the edge. A wrong basin
-/// costs more: before the search spanned each layer's provable speed bound, one case here was 3 %
-/// above this grid.
+/// costs far more: a search that does not span each layer's provable speed bound comes out 3 %
+/// above this grid on one case here.
 const TOLERANCE: f64 = 1e-4;
 
 /// 3–7 layers, 0.5–3° apart, beams of 0.05–1 s, windows of 0.3–3°.
@@ -202,8 +202,8 @@ fn no_speed_grid_beats_optimal_on_small_arcs() {
 /// On a servo period (0.5–20 ms), `optimal` searches the grid-timed problem itself: no path
 /// through the 201-speed grid, every transition timed in whole periods, beats it by more than
 /// [`TOLERANCE`]; it is never worse than `scan` on the same period, and the certificate for the
-/// period is never above the grid's best nor above `optimal`. (Before the search ran on the
-/// grid-timed problem, case 3 here came out 2.5 % above the grid.)
+/// period is never above the grid's best nor above `optimal`. (A search in continuous time, timed on
+/// the period only afterwards, comes out 2.5 % above the grid on case 3 here.)
 #[test]
 fn no_speed_grid_beats_optimal_on_a_servo_period() {
     let mut rng = Rng::new(0x5eed_7e57);
