@@ -53,14 +53,11 @@ fn reference_plan(text: &str, json: &serde_json::Value, name: &str) -> ArcPlan {
 /// The committed plans are the reference data, exactly (fails under CI without the reference).
 #[test]
 fn committed_plans_equal_the_reference_data() {
-    let Some(path) = arcsim_suite::atom_cases_path() else {
-        if std::env::var_os("CI").is_some() {
-            panic!("CI: ../shared/reference/atom-article-cases.json is missing");
-        }
-        eprintln!("NOTICE: ../shared/reference/atom-article-cases.json not found; plans/atom not checked against it");
+    let Some(text) =
+        arcsim_test_support::atom_reference("the check of plans/atom/ against the reference data")
+    else {
         return;
     };
-    let text = std::fs::read_to_string(&path).expect("read reference");
     let json: serde_json::Value = serde_json::from_str(&text).expect("reference JSON");
     for (name, _) in ATOM_TOTALS_S {
         let plan = reference_plan(&text, &json, name);
@@ -228,8 +225,7 @@ fn free_motion_beats_constant_speed_and_atom_local_search() {
 fn scan_and_optimal_sweeps_give_the_same_sensitivities() {
     use arcsim_evaluator::{Evaluator, Sweep};
     let root = arcsim_suite::repo_root();
-    let dir = std::env::temp_dir().join(format!("arcsim-sensitivity-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = arcsim_test_support::temp_dir();
     for (j, a, v) in [(0.5, 0.5, 5.0), (2.0, 0.5, 5.0), (1.0, 1.0, 6.0)] {
         let mut machine: serde_json::Value = serde_json::from_str(
             &std::fs::read_to_string(root.join("scenarios/machine-atom.json")).expect("machine"),
@@ -288,7 +284,6 @@ fn scan_and_optimal_sweeps_give_the_same_sensitivities() {
             }
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `scan` within 0.5 % of `optimal` on the ATOM cases, checked at low-jerk settings where a scan

@@ -2,7 +2,7 @@
 //! warnings for likely unit slips, one message per kind of problem, and results that say what
 //! produced them. Run on the bundled plans and a DICOM fixture, as a user would.
 
-mod common;
+use crate::util;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -10,7 +10,7 @@ use std::path::Path;
 use arcsim_test_support::{dicom, temp_dir, temp_file};
 use serde_json::Value;
 
-use common::{arcsim, path_str as s, repo, text as out};
+use crate::util::{arcsim, path_str as s, repo, text as out};
 
 fn json_of(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).expect("result")).expect("json")
@@ -336,7 +336,7 @@ fn one_cause_one_message() {
 #[test]
 fn sweep_ties_no_effect_and_limit_columns() {
     let dir = temp_dir();
-    let path = common::sweep_file(
+    let path = util::sweep_file(
         &dir,
         "ties",
         "plans/lung.json",

@@ -1,11 +1,11 @@
 //! End-to-end tests of the `arcsim` binary, run as a user would: exit codes, located messages,
 //! outputs with units, and the DICOM round trip.
 
-mod common;
+use crate::util;
 
 use arcsim_test_support::{dicom, temp_dir};
 
-use common::{arcsim, repo, text};
+use crate::util::{arcsim, repo, text};
 
 fn total_of(stdout: &str) -> f64 {
     let line = stdout
@@ -239,7 +239,7 @@ fn dicom_round_trip_gives_the_same_total() {
 /// JSON, every transition a whole number of periods, never faster than continuous time.
 #[test]
 fn simulate_on_a_servo_period() {
-    let out = std::env::temp_dir().join(format!("arcsim-servo-{}.json", std::process::id()));
+    let out = temp_dir().join("servo.json");
     let cont = arcsim(&["simulate", "plans/lung.json"]);
     let o = arcsim(&[
         "simulate",
@@ -265,7 +265,6 @@ fn simulate_on_a_servo_period() {
         let n = t["duration_s"].as_f64().expect("duration") / 0.004;
         assert!((n - n.round()).abs() <= 1e-6, "{t}");
     }
-    let _ = std::fs::remove_file(out);
 }
 
 /// `simulate` runs free motion by default and says what it saved; `--motion constant` is ATOM's
@@ -345,7 +344,7 @@ fn simulate_free_and_constant_motion() {
         "free",
     ]);
     assert_eq!(bad.status.code(), Some(1));
-    assert!(common::stderr(&bad).contains("free arc ends need free motion"));
+    assert!(util::stderr(&bad).contains("free arc ends need free motion"));
 }
 
 /// `--help` explains the summaries' terms (issue "Answers a physicist can read").
@@ -440,7 +439,7 @@ fn generate_plan_to_a_file_says_what_it_wrote() {
 #[test]
 fn one_plan_sweep_banner_is_singular() {
     let dir = temp_dir();
-    let sweep = common::sweep_file(
+    let sweep = util::sweep_file(
         &dir,
         "one",
         "plans/prostate.json",
@@ -463,7 +462,7 @@ fn one_plan_sweep_banner_is_singular() {
 #[test]
 fn certified_sweep_writes_the_columns_and_the_largest_gap() {
     let dir = temp_dir();
-    let sweep = common::sweep_file(
+    let sweep = util::sweep_file(
         &dir,
         "certified",
         "plans/lung.json",

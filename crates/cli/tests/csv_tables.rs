@@ -3,14 +3,12 @@
 //! quoted fields, columns in any order) and names the line and column of a bad value;
 //! `simulate --spots` and `--csv` write tables that read back by column name.
 
-mod common;
-
 use std::path::Path;
 
 use arcsim_test_support::temp_dir;
 use serde_json::Value;
 
-use common::{arcsim, path_str, text};
+use crate::util::{arcsim, path_str, text};
 
 /// The moves of the batch tests: infeasible, ok, a bad number, ok with reversal allowed.
 const MOVES: &str = "distance,v_start,v_end,jerk,accel,vel,min_duration,reverse

@@ -11,12 +11,12 @@
 //! bundled head-neck alone takes about 80 s of it). Without Python or the package index the test says so and passes,
 //! except under CI (`CI` set), where that is a failure.
 
-mod common;
+use crate::util;
 
 use std::path::Path;
 use std::process::Command;
 
-use common::run;
+use crate::util::run;
 
 /// What the environment installs: CasADi at the version the oracle was written and measured with.
 const PACKAGES: &[&str] = &["casadi==3.8.2", "numpy"];
@@ -31,13 +31,13 @@ const GAP: f64 = 5e-4;
 const KNOWN_GAPS: &[(&str, f64)] = &[("lung", 6e-3), ("head-neck", 5e-3)];
 
 fn skip_or_fail(why: &str) {
-    common::skip_or_fail("the free-motion oracle", why);
+    arcsim_test_support::skip_or_fail("the free-motion oracle", why);
 }
 
 #[test]
 fn no_independent_optimiser_beats_free_motion() {
-    let repo = common::repo();
-    let python = match common::python() {
+    let repo = util::repo();
+    let python = match util::python() {
         Ok(python) => python,
         Err(e) => return skip_or_fail(&e),
     };
@@ -52,7 +52,7 @@ fn no_independent_optimiser_beats_free_motion() {
         }
     }
     let py = venv.join("bin/python");
-    if let Err(e) = common::pip_install(&py, PACKAGES) {
+    if let Err(e) = util::pip_install(&py, PACKAGES) {
         return skip_or_fail(&e);
     }
 

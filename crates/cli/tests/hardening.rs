@@ -2,7 +2,7 @@
 //! alias inputs or cannot be written, interrupted sweeps, absurd arguments and names. Each test
 //! reproduces a failure an adversarial probe found (a panic, a hang, a lost or overwritten file).
 
-mod common;
+use crate::util;
 
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use arcsim_test_support::temp_dir;
 
-use common::{arcsim, bin, path_str, repo, stderr, stdout};
+use crate::util::{arcsim, bin, path_str, repo, stderr, stdout};
 
 /// A sweep file of the prostate plan with `scan` over the given jerks (× accelerations).
 fn small_sweep(dir: &Path, name: &str, jerks: &[f64]) -> PathBuf {
@@ -19,7 +19,7 @@ fn small_sweep(dir: &Path, name: &str, jerks: &[f64]) -> PathBuf {
 }
 
 fn sweep_file(dir: &Path, name: &str, jerks: &[f64], accels: &[f64]) -> PathBuf {
-    common::sweep_file(
+    util::sweep_file(
         dir,
         name,
         "plans/prostate.json",

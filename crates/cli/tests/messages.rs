@@ -2,14 +2,12 @@
 //! standard error, DICOM and sweep-file errors name the file and a usable place in it, and a
 //! deflated DICOM file imports.
 
-mod common;
-
 use std::path::Path;
 
 use arcsim_test_support::dicom::{self, BeamSpec, Layer, PlanSpec};
 use arcsim_test_support::{temp_dir, temp_file};
 
-use common::{arcsim, path_str, repo, stderr, stdout};
+use crate::util::{arcsim, path_str, repo, stderr, stdout};
 
 /// The numbers in `text` written as a negative zero ("-0", "-0.0", "-0.00"), with their line.
 fn negative_zeros(text: &str) -> Vec<String> {

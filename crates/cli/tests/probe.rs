@@ -4,7 +4,7 @@
 //! infinity, finish within its time limit and stay under 1 GiB of address space.
 //!
 //! `probe_bounded` runs for `ARCSIM_PROBE_SECONDS` (default 45 s) in the normal test suite;
-//! `probe_long` (ignored) runs for 20 minutes: `cargo test -p arcsim --test probe -- --ignored`.
+//! `probe_long` (ignored) runs for 20 minutes: `cargo test -p arcsim --test integration -- --ignored probe::`.
 //!
 //! The output-path probe (`outputs_bounded`, `outputs_long`) runs `simulate` with seeded sets of
 //! outputs inside a temporary directory: symlinks (to files, dangling, chained), files whose
@@ -13,7 +13,7 @@
 //! the input; never a system path. After each run no file other than the named outputs' targets may have changed, and
 //! each named output is complete or as it was.
 
-mod common;
+use crate::util;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use arcsim_test_support::{dicom, temp_dir, Rng};
 
-use common::{path_str, repo};
+use crate::util::{path_str, repo};
 
 /// Numbers a careless or hostile file might hold.
 const EXTREMES: &[&str] = &[
@@ -494,7 +494,7 @@ fn output_case(rng: &mut Rng, case: usize) -> Result<(), String> {
         args.push(path_str(path).to_string());
     }
     let shown = format!("case {case}: arcsim {}", args.join(" "));
-    let o = common::bin()
+    let o = util::bin()
         .args(&args)
         .output()
         .map_err(|e| e.to_string())?;

@@ -2,10 +2,8 @@
 //! minimum, and a minimum duration with `--reverse allow` is solved (the shortest duration of at
 //! least that long), while `--reverse forbid` keeps reporting a duration the move cannot last.
 
-mod common;
-
+use crate::util::{arcsim, text};
 use arcsim_test_support::temp_dir;
-use common::{arcsim, text};
 
 /// `arcsim profile --json` on the ATOM gantry (J = A = 0.5, V = 5) with extra options.
 fn profile_json(distance: &str, v: &str, extra: &[&str]) -> Result<serde_json::Value, String> {

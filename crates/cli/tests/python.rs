@@ -3,19 +3,19 @@
 //! `python/tests` against this build of the `arcsim` command. Without Python or the package
 //! index the test says so and passes, except under CI (`CI` set), where that is a failure.
 
-mod common;
+use crate::util;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::util::run;
 use arcsim_test_support::{dicom, temp_file};
-use common::run;
 
 /// What the environment installs: the versions the package is built and tested with.
 const PACKAGES: &[&str] = &["maturin==1.16.0", "numpy", "pandas", "pytest", "dask[bag]"];
 
 fn skip_or_fail(why: &str) {
-    common::skip_or_fail("the Python tests", why);
+    arcsim_test_support::skip_or_fail("the Python tests", why);
 }
 
 fn wheel_in(dir: &Path) -> Option<PathBuf> {
@@ -27,8 +27,8 @@ fn wheel_in(dir: &Path) -> Option<PathBuf> {
 
 #[test]
 fn python_package_passes_its_pytest_suite() {
-    let repo = common::repo();
-    let python = match common::python() {
+    let repo = util::repo();
+    let python = match util::python() {
         Ok(python) => python,
         Err(e) => return skip_or_fail(&e),
     };
@@ -42,7 +42,7 @@ fn python_package_passes_its_pytest_suite() {
         return skip_or_fail(&e);
     }
     let bin = venv.join("bin");
-    let pip = |args: &[&str]| common::pip_install(&bin.join("python"), args);
+    let pip = |args: &[&str]| util::pip_install(&bin.join("python"), args);
     if let Err(e) = pip(PACKAGES) {
         return skip_or_fail(&e);
     }

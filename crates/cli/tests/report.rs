@@ -1,21 +1,12 @@
 //! `sweep --report/--plot` and `sweep-merge --report/--plot/--rrd`: the static report's structure
 //! checked against the sweep's own rows and summary (`--json`), as a user would run it.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 
-use common::{arcsim, path_str, sweep_file, text};
-use serde_json::Value;
+use arcsim_test_support::temp_dir;
 
-fn temp(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("arcsim-report")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
+use crate::util::{arcsim, path_str, sweep_file, text};
+use serde_json::Value;
 
 /// An HTML attribute's value in `tag` (the report writes `name="value"`).
 fn attr(tag: &str, name: &str) -> Option<String> {
@@ -183,7 +174,7 @@ fn check_report(html: &str, results: &Value, base: (f64, f64, f64)) -> usize {
 /// The bundled ATOM sweep: 7 plans, three schedule entries, V swept by `scan` only.
 #[test]
 fn atom_sweep_report_has_a_heatmap_per_plan_and_speed_with_the_base_marked() {
-    let dir = temp("atom");
+    let dir = temp_dir();
     let (html, json, plots) = (dir.join("report.html"), dir.join("r.json"), dir.join("svg"));
     let o = arcsim(&[
         "sweep",
@@ -235,7 +226,7 @@ fn atom_sweep_report_has_a_heatmap_per_plan_and_speed_with_the_base_marked() {
 /// so is its Rerun recording's size class (same rows); flags that need the sweep file say so.
 #[test]
 fn merged_shards_give_the_single_run_report() {
-    let dir = temp("shards");
+    let dir = temp_dir();
     let sweep = sweep_file(
         &dir,
         "pictures",
@@ -325,7 +316,7 @@ fn merged_shards_give_the_single_run_report() {
 /// sweep runs.
 #[test]
 fn plot_dir_is_checked_before_the_sweep() {
-    let dir = temp("plot-dir");
+    let dir = temp_dir();
     let sweep = sweep_file(
         &dir,
         "p",

@@ -1,23 +1,16 @@
 //! `scenarios/slurm/`: the job-array script run once per task id as SLURM would run it, then the
 //! merge script; the merged table must be the single run's, byte for byte.
 
-mod common;
+use crate::util;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
-use common::{path_str, repo, sweep_file, text};
+use arcsim_test_support::{skip_or_fail, temp_dir};
+
+use crate::util::{path_str, repo, sweep_file, text};
 
 const SHARDS: usize = 3;
-
-fn temp(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("arcsim-slurm")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
 
 fn have_bash() -> bool {
     Command::new("bash")
@@ -48,10 +41,9 @@ fn sbatch(script: &str, task: Option<usize>, sweep: &Path, out_dir: &Path) -> Ou
 #[test]
 fn job_array_and_merge_give_the_single_run() {
     if !have_bash() {
-        eprintln!("NOTICE: bash is not available; skipping the SLURM script test");
-        return;
+        return skip_or_fail("the SLURM script test", "bash is not available");
     }
-    let dir = temp("array");
+    let dir = temp_dir();
     let out_dir = dir.join("out");
     let sweep = sweep_file(
         &dir,
@@ -80,7 +72,7 @@ fn job_array_and_merge_give_the_single_run() {
     assert!(o.status.success(), "merge: {out}\n{err}");
 
     let single = dir.join("single.csv");
-    let o = common::arcsim(&["sweep", path_str(&sweep), "--out", path_str(&single)]);
+    let o = util::arcsim(&["sweep", path_str(&sweep), "--out", path_str(&single)]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "single run: {out}\n{err}");
 
@@ -125,10 +117,9 @@ fn job_array_and_merge_give_the_single_run() {
 #[test]
 fn array_task_outside_the_shards_fails_clearly() {
     if !have_bash() {
-        eprintln!("NOTICE: bash is not available; skipping the SLURM script test");
-        return;
+        return skip_or_fail("the SLURM script test", "bash is not available");
     }
-    let dir = temp("outside");
+    let dir = temp_dir();
     let out_dir = dir.join("out");
     let sweep = sweep_file(
         &dir,

@@ -2,15 +2,13 @@
 //! model (`scenarios/machine-opentps-pbs.json`), `simulate --spots` and the JSON checked against
 //! the layer rows, and static beams against the plain sum computed here independently.
 
-mod common;
-
 use std::path::Path;
 
 use arcsim_test_support::dicom::{self, BeamSpec, Layer, PlanSpec};
 use arcsim_test_support::{temp_dir, temp_file, Rng};
 use serde_json::Value;
 
-use common::{arcsim, path_str, repo, text};
+use crate::util::{arcsim, path_str, repo, text};
 
 const MACHINE: &str = "scenarios/machine-opentps-pbs.json";
 

@@ -3,21 +3,12 @@
 //! beam-on time, a scanning-speed axis on that machine is refused with the reason, and an older
 //! arcsim's shard tables (without the new columns) still merge and read back with `--sweep`.
 
-mod common;
+use std::path::Path;
 
-use std::path::{Path, PathBuf};
+use arcsim_test_support::temp_dir;
 
-use common::{arcsim, path_str, sweep_file, text};
+use crate::util::{arcsim, path_str, sweep_file, text};
 use serde_json::Value;
-
-fn temp(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("arcsim-sweep-beam")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
 
 /// The CSV as (header, rows), split at commas (no quoted fields in these tables).
 fn table(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
@@ -37,7 +28,7 @@ fn col(header: &[String], name: &str) -> usize {
 
 #[test]
 fn dose_rate_axis_runs_and_its_columns_are_written() {
-    let dir = temp("dose-rate");
+    let dir = temp_dir();
     let sweep = sweep_file(
         &dir,
         "dose",
@@ -97,7 +88,7 @@ fn dose_rate_axis_runs_and_its_columns_are_written() {
 
 #[test]
 fn scan_speed_axis_on_a_per_mu_machine_is_refused() {
-    let dir = temp("per-mu");
+    let dir = temp_dir();
     let sweep = sweep_file(
         &dir,
         "scan",
@@ -117,7 +108,7 @@ fn scan_speed_axis_on_a_per_mu_machine_is_refused() {
 /// `--sweep` reads them back and prints the summary.
 #[test]
 fn older_shard_tables_still_merge() {
-    let dir = temp("old-shards");
+    let dir = temp_dir();
     let sweep = sweep_file(
         &dir,
         "jerk",

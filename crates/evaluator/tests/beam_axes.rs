@@ -3,15 +3,14 @@
 //! them and the split of the beam-on time (CSV and JSON), the CSV reads back, and an older
 //! arcsim's table without those columns still merges and reads back.
 
-mod common;
-
 use std::path::Path;
 
+use crate::util::{csv, from_text_in, scenarios};
 use arcsim_evaluator::{
     merge_csv, Axis, Evaluator, Outcome, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1,
 };
 use arcsim_plan::{BeamModel, PlanKind, ScanningBeam};
-use common::{csv, from_text_in, scenarios};
+use arcsim_test_support::temp_dir;
 
 /// Prostate under `scan` on the ATOM machine (`per_mu` beam: 0.005 s/MU, 2 ms between spots)
 /// over `axes`.
@@ -218,8 +217,7 @@ fn beam_axis_values_are_checked_at_the_boundary() {
         "{e}"
     );
     // A scale whose s/MU a machine file would refuse (0.05 s/MU / 0.001 = 50 s/MU).
-    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-evaluator-beam-checks");
-    std::fs::create_dir_all(&tmp).expect("temp dir");
+    let tmp = temp_dir();
     let atom = std::fs::read_to_string(dir.join("machine-atom.json")).expect("machine");
     let slow = atom.replacen("\"s_per_mu\": 0.005", "\"s_per_mu\": 0.05", 1);
     assert_ne!(slow, atom);
@@ -288,7 +286,7 @@ fn scanning_setup(dir: &Path, axes: &str) -> String {
 /// merges byte for byte.
 #[test]
 fn scan_speed_and_dose_rate_on_a_scanning_machine() {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-evaluator-scanning");
+    let dir = temp_dir();
     let text = scanning_setup(
         &dir,
         r#"{"scan_speed_mm_per_s": [2000, 20000], "dose_rate_scale": [1, 2]}"#,

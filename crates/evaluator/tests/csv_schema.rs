@@ -3,12 +3,10 @@
 //! CRLF line ends, columns in another order), an older arcsim's table still reads, and bad input
 //! is an error that names the file, the line and the column.
 
-mod common;
-
+use crate::util::{csv, from_text};
 use arcsim_evaluator::{
     merge_csv, Evaluator, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2,
 };
-use common::{csv, from_text};
 
 /// Prostate on the ATOM machine, two jerks, two schedules: four rows.
 const SWEEP: &str = r#"{

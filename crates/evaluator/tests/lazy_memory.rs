@@ -1,12 +1,14 @@
 //! Memory before the first row: a sweep of ten million combinations (and one of a million ELST
 //! variants) loads, prepares and delivers its first chunk without allocating anything the size of
-//! the sweep. Alone in its test binary, so the counting allocator sees only this test.
+//! the sweep. The counting allocator is the test binary's; the test runs alone in a child process
+//! ([`in_own_process`]), so the counts are this test's only.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use arcsim_evaluator::{Evaluator, Shard, Sweep};
+use arcsim_test_support::in_own_process;
 
 struct Counting;
 
@@ -81,6 +83,13 @@ fn first_chunk_peak(axes: &str) -> (usize, usize) {
 
 #[test]
 fn huge_sweeps_allocate_nothing_per_combination_before_the_first_row() {
+    if !in_own_process(
+        module_path!(),
+        "huge_sweeps_allocate_nothing_per_combination_before_the_first_row",
+        &[],
+    ) {
+        return;
+    }
     rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build_global()

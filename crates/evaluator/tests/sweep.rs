@@ -3,35 +3,22 @@
 //! infeasible combinations reported as rows, absurd sweeps refused up front and huge ones run
 //! lazily, every number of a sweep file checked.
 
-mod common;
-
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use crate::util::{csv, from_text, scenarios};
 use arcsim_evaluator::{
     merge_csv, parse_sweep_file, Axis, Evaluator, Row, Shard, Status, Sweep, Target,
     MAX_COMBINATIONS, PROFILE_MAX_POINTS,
 };
-use common::{csv, from_text, scenarios};
+use arcsim_test_support::temp_dir;
 
 /// Whether `../shared/reference/atom-article-cases.json` is beside the repository (the
 /// `atom_case` plan source reads it); CI must have it.
 fn have_atom_reference() -> bool {
-    let path = scenarios().join("../../shared/reference/atom-article-cases.json");
-    let ok = path.exists();
-    if !ok {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI: {} is missing",
-            path.display()
-        );
-        eprintln!(
-            "NOTICE: {} not found; ATOM sweep tests skipped",
-            path.display()
-        );
-    }
-    ok
+    arcsim_test_support::atom_reference("the `atom_case` check against the reference data")
+        .is_some()
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
@@ -762,8 +749,7 @@ fn sweep_numbers_are_checked_at_the_boundary() {
     assert_eq!(sweep.combinations(), 1);
 
     // A machine with an explicit deceleration limit: A scales it, within what a machine accepts.
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-evaluator-decel");
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = temp_dir();
     let atom = std::fs::read_to_string(scenarios().join("machine-atom.json")).expect("machine");
     let decel = atom.replacen(
         "\"max_accel_deg_per_s2\": 0.5,",
@@ -814,8 +800,7 @@ fn sweep_numbers_are_checked_at_the_boundary() {
 /// A reference file that is not the ATOM cases file is named in the error.
 #[test]
 fn wrong_atom_reference_file_is_named() {
-    let dir = std::env::temp_dir().join(format!("arcsim-ref-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("dir");
+    let dir = temp_dir();
     std::fs::write(dir.join("wrong.json"), r#"{"something": "else"}"#).expect("write");
     let text = r#"{"format": "arcsim-sweep/1", "name": "t",
         "plans": [{"atom_case": "liver", "reference": "wrong.json"}], "machine": "m.json",

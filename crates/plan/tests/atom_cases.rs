@@ -4,23 +4,8 @@
 use arcsim_plan::{atom_case_plan, load_machine, resolve, PlanError};
 use serde_json::Value;
 
-const REFERENCE: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/reference/atom-article-cases.json"
-);
-
 fn reference() -> Option<String> {
-    match std::fs::read_to_string(REFERENCE) {
-        Ok(text) => Some(text),
-        Err(e) => {
-            assert!(
-                std::env::var_os("CI").is_none(),
-                "CI: reference data {REFERENCE} not readable ({e})"
-            );
-            println!("skipping: reference data {REFERENCE} not readable ({e})");
-            None
-        }
-    }
+    arcsim_test_support::atom_reference("the conversion of the ATOM article cases")
 }
 
 fn numbers(v: &Value) -> Vec<f64> {

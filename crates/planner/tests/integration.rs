@@ -1,10 +1,8 @@
 //! Independent checks of the profile representation: brute-force integration of the sampled
 //! jerk, continuity of `state_at`, and a fine numerical search over the extreme speed.
 
-mod common;
-
+use crate::util::*;
 use arcsim_planner::{Limits, Move, Reversal};
-use common::*;
 
 #[test]
 fn brute_force_integration_matches_profile_end() {

@@ -1,9 +1,7 @@
 //! Known answers: the paper's Table 3 and the true optima under its stated limits.
 
-mod common;
-
+use crate::util::{min_time, new_ruckig, ruckig_duration};
 use arcsim_planner::{Limits, Move, PlannerError, Reversal};
-use common::{min_time, new_ruckig, ruckig_duration};
 
 fn peak(j: f64, a: f64, v: f64, d: f64, vs: f64, ve: f64) -> (f64, f64) {
     let lim = Limits::new(j, a, v).expect("limits");

@@ -1,9 +1,9 @@
 //! Step 2 (minimum durations) and the servo-period discretisation, on seeded random moves.
 
-mod common;
+use crate::util;
 
+use crate::util::*;
 use arcsim_planner::{plan, LinearGap, Move, MoveAnalysis, MoveOptions, PlannerError, Reversal};
-use common::*;
 
 /// `plan` with a minimum duration, reversal forbidden, continuous time.
 fn at_least(
@@ -207,7 +207,7 @@ fn servo_discretisation_keeps_limits_and_end_state() {
                     "case {case}: jerk {}",
                     e.max_abs_jerk
                 );
-                if let Err(why) = common::check_accel(&e, &mv, &lim, 1e-12) {
+                if let Err(why) = util::check_accel(&e, &mv, &lim, 1e-12) {
                     panic!("case {case}: {why}");
                 }
                 assert!(

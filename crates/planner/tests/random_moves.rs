@@ -1,11 +1,11 @@
 //! Seeded randomized property suite for the minimum-time move: end state, limits, no NaN, and
 //! the duration against Ruckig (rsruckig) as an independent optimality oracle.
-//! `cargo test -p arcsim-planner --release --test random_moves -- --ignored` runs 10^7 cases.
+//! `cargo test -p arcsim-planner --release --test integration -- --ignored random_moves::` runs 10^7 cases.
 
-mod common;
+use crate::util;
 
+use crate::util::*;
 use arcsim_planner::{Move, PlannerError, Reversal};
-use common::*;
 
 #[derive(Default, Debug)]
 struct Tally {
@@ -57,7 +57,7 @@ fn check_case(
     );
     // A bounds the acceleration along the direction of travel, D the one against it (the
     // planner's convention; Ruckig's a_max = A, a_min = -D for a forward move).
-    if let Err(why) = common::check_accel(&e, &mv, &lim, rel) {
+    if let Err(why) = util::check_accel(&e, &mv, &lim, rel) {
         panic!("{}: {why}", ctx());
     }
     assert!(

@@ -2,10 +2,8 @@
 //! random minimum durations, checked by integration, against the limits, against a fine
 //! numerical search over the profile family, and against Ruckig's `minimum_duration`.
 
-mod common;
-
+use crate::util::*;
 use arcsim_planner::{plan, Limits, Move, MoveAnalysis, MoveOptions, Profile, Reversal};
-use common::*;
 use rsruckig::prelude::*;
 
 fn allow(min_duration_s: f64) -> MoveOptions {

@@ -1,12 +1,10 @@
 //! Free motion: timelines checked independently of the sequencer (sampled every millisecond),
 //! never slower than constant speed, and the ATOM article's local-search result beaten.
 
-mod common;
-
+use crate::util::{check_limits_at, machine};
 use arcsim_plan::generate::{generate, PlanKind};
 use arcsim_plan::{parse_machine, ArcPlan, Machine};
 use arcsim_sequencer::{simulate, ArcEnds, Delivery, Motion, Options, PieceKind, Schedule};
-use common::{check_limits_at, machine};
 
 fn free(ends: ArcEnds) -> Options {
     Options {
@@ -129,29 +127,23 @@ impl Xorshift {
     }
 }
 
-fn atom() -> Option<String> {
+/// The ATOM article's case `name` (`prostate`, `head-and-neck`, `liver`): the committed
+/// `plans/atom/NAME.json` (its prescribed speeds are not used by `optimal`).
+fn atom_plan(name: &str) -> ArcPlan {
     let path = format!(
-        "{}/../../../shared/reference/atom-article-cases.json",
+        "{}/../../plans/atom/{name}.json",
         env!("CARGO_MANIFEST_DIR")
     );
-    match std::fs::read_to_string(&path) {
-        Ok(t) => Some(t),
-        Err(_) if std::env::var_os("CI").is_some() => panic!("CI: {path} is missing"),
-        Err(_) => {
-            eprintln!("NOTICE: {path} not found; ATOM free-motion acceptance skipped");
-            None
-        }
-    }
+    arcsim_plan::load_plan(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The ATOM article's local search delivers prostate in 261.67 s (free ends, evaluated with
 /// Ruckig); free motion must do at least as well, and never worse than constant speed.
 #[test]
 fn atom_cases_beat_local_search_and_constant_speed() {
-    let Some(text) = atom() else { return };
     let m = machine("machine-atom.json");
     for case in ["prostate", "head-and-neck", "liver"] {
-        let plan = arcsim_plan::atom_case_plan(&text, case).expect("case");
+        let plan = atom_plan(case);
         let constant = simulate(&plan, &m, &Options::new(Schedule::Optimal)).expect("constant");
         for ends in ArcEnds::ALL {
             let d = simulate(&plan, &m, &free(ends)).expect("free");
@@ -298,10 +290,9 @@ fn incompatible_options_are_refused() {
 #[test]
 #[ignore = "a timing printout, not a check: run with --ignored --nocapture"]
 fn time_atom_free() {
-    let Some(text) = atom() else { return };
     let m = machine("machine-atom.json");
     for case in ["prostate", "head-and-neck", "liver"] {
-        let plan = arcsim_plan::atom_case_plan(&text, case).expect("case");
+        let plan = atom_plan(case);
         for ends in ArcEnds::ALL {
             let t0 = std::time::Instant::now();
             let d = simulate(
@@ -333,7 +324,6 @@ fn time_atom_free() {
 fn raising_a_gantry_limit_never_costs_more_than_noise() {
     use rayon::prelude::*;
     const NOISE: f64 = 1e-4;
-    let Some(text) = atom() else { return };
     let base = machine("machine-atom.json");
     let base_decel = base
         .gantry
@@ -343,7 +333,7 @@ fn raising_a_gantry_limit_never_costs_more_than_noise() {
     let mut plans: Vec<(String, ArcPlan)> = ["prostate", "head-and-neck", "liver"]
         .into_iter()
         .map(|case| {
-            let plan = arcsim_plan::atom_case_plan(&text, case).expect("case");
+            let plan = atom_plan(case);
             (format!("ATOM {case}"), plan)
         })
         .collect();

@@ -9,13 +9,11 @@
 //! a feasible delivery, so free motion (a local optimum over all deliveries) must never be slower
 //! than the grid's best.
 
-mod common;
-
+use crate::util::{random_arc, ArcRanges};
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::Limits;
 use arcsim_sequencer::{simulate_resolved, ArcEnds, Motion, Options, Schedule};
 use arcsim_test_support::Rng;
-use common::{random_arc, ArcRanges};
 use rsruckig::prelude::*;
 
 /// (angle, speed, acceleration).

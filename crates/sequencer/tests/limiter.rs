@@ -3,7 +3,7 @@
 //! delivery time, on the ATOM machine and a two-arc plan with slow layers, where most lost time is
 //! in moves that reach A but spend most of their time in jerk ramps.
 
-mod common;
+use crate::util;
 
 use arcsim_plan::{parse_plan, resolve, ArcPlan};
 use arcsim_planner::{Limits, Move, MoveAnalysis, Reversal};
@@ -83,7 +83,7 @@ fn lost_reaching_a(d: &Delivery, lim: &Limits) -> f64 {
 /// the limits as the whole-plan re-simulations do, and returns (labelled lost s, saving s) per
 /// limit in the order J, A, V.
 fn check_ranking(opts: &Options, what: &str) -> (Delivery, Limits, Vec<(f64, f64)>) {
-    let machine = common::machine("machine-atom.json");
+    let machine = util::machine("machine-atom.json");
     let arcs = resolve(&two_arc_slow_layers(), &machine).expect("resolve");
     let lim = machine_limits(&machine).expect("limits");
     let base = simulate_resolved(&arcs, &lim, opts).expect("simulate");
@@ -152,7 +152,7 @@ fn labels_rank_limits_as_whole_plan_resimulation_free_motion() {
 /// are saved nothing by any raise.
 #[test]
 fn each_transition_label_matches_its_own_replans() {
-    let machine = common::machine("machine-atom.json");
+    let machine = util::machine("machine-atom.json");
     let arcs = resolve(&two_arc_slow_layers(), &machine).expect("resolve");
     let lim = machine_limits(&machine).expect("limits");
     let opts = Options {

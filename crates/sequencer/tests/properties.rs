@@ -2,12 +2,10 @@
 //! checked independently of the sequencer's own verification; `optimal` <= `scan` and
 //! <= `step-and-shoot`; the breakdown adds up to the total.
 
-mod common;
-
+use crate::util::{check_limits_at, machine};
 use arcsim_plan::generate::{generate, PlanKind};
 use arcsim_plan::{ArcPlan, Machine};
 use arcsim_sequencer::{simulate, Delivery, Options, PieceKind, Schedule};
-use common::{check_limits_at, machine};
 
 /// Independent checks by sampling and integrating the timeline.
 fn check(d: &Delivery, m: &Machine, what: &str) {

@@ -6,13 +6,13 @@
 //! above the exhaustive search's best, nor above a random schedule that is feasible. The same on
 //! a servo period, with every transition timed in whole periods.
 
-mod common;
+use crate::util;
 
+use crate::util::ArcRanges;
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::{Limits, Move, MoveAnalysis, Reversal};
 use arcsim_sequencer::{certify, simulate_resolved, Options, Schedule, CERTIFY_ROUNDS};
 use arcsim_test_support::Rng;
-use common::ArcRanges;
 
 /// Speeds per layer in the exhaustive search.
 const SPEEDS: usize = 201;
@@ -26,7 +26,7 @@ const TOLERANCE: f64 = 1e-4;
 /// 3–7 layers, 0.5–3° apart, beams of 0.05–1 s, windows of 0.3–3°.
 fn random_arc(rng: &mut Rng) -> ResolvedArc {
     let n = 3 + rng.below(5);
-    common::random_arc(
+    util::random_arc(
         rng,
         n,
         &ArcRanges {

@@ -2,12 +2,10 @@
 //! models, constant and free motion: every spot delivery listed once, inside its layer's window
 //! and beam-on, in order without overlap, ending where the layer's beam-on ends.
 
-mod common;
-
+use crate::util::machine;
 use arcsim_plan::generate::{generate, PlanKind};
 use arcsim_plan::resolve;
 use arcsim_sequencer::{simulate, spot_timeline, Motion, Options, Schedule};
-use common::machine;
 
 #[test]
 fn spots_lie_in_their_layers_on_generated_plans() {

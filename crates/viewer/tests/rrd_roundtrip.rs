@@ -1,15 +1,13 @@
 //! Writes deliveries to .rrd files, reads them back with Rerun's own decoder (the `rrd` feature)
 //! and checks entity paths, timelines and values against the simulated timeline.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 
+use crate::util::{out_path, read_rrd, Rrd};
 use arcsim_sequencer::{simulate, Delivery, Options, Schedule};
 use arcsim_viewer::rerun::log::Chunk;
 use arcsim_viewer::rerun::{self, TimelineName};
 use arcsim_viewer::{paths, save_delivery, timelines, ViewerError, ViewerOptions};
-use common::{out_path, read_rrd, Rrd};
 
 fn repo_file(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -1,16 +1,14 @@
 //! The beam's-eye view of the spots: written to .rrd files and read back with Rerun's decoder.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 
+use crate::util::{out_path, read_rrd, Rrd};
 use arcsim_sequencer::SpotRow;
 use arcsim_viewer::rerun::log::{Chunk, RowId};
 use arcsim_viewer::rerun::time::TimeInt;
 use arcsim_viewer::rerun::TimelineName;
 use arcsim_viewer::rerun::{self, ComponentIdentifier, RecordingStreamBuilder};
 use arcsim_viewer::{paths, timelines, MAX_SPOT_UPDATES_PER_LAYER};
-use common::{out_path, read_rrd, Rrd};
 
 /// One temporal row of one component: time (ns), row id (order at equal times), values.
 type Row<T> = (TimeInt, RowId, Vec<T>);
@@ -18,7 +16,7 @@ type Row<T> = (TimeInt, RowId, Vec<T>);
 impl Rrd {
     /// Temporal rows of `component` at `path` on the `time` timeline, in logging order;
     /// `slices` reads the component's values of every (non-null) row of a chunk.
-    fn rows<T>(
+    fn logged_rows<T>(
         &self,
         path: &str,
         component: ComponentIdentifier,
@@ -38,7 +36,7 @@ impl Rrd {
 
     fn positions(&self, path: &str) -> Vec<Row<[f32; 2]>> {
         let component = rerun::Points2D::descriptor_positions().component;
-        self.rows(path, component, |c| {
+        self.logged_rows(path, component, |c| {
             c.iter_slices::<[f32; 2]>(component)
                 .map(<[[f32; 2]]>::to_vec)
                 .collect()
@@ -47,7 +45,7 @@ impl Rrd {
 
     fn colors(&self, path: &str) -> Vec<Row<u32>> {
         let component = rerun::Points2D::descriptor_colors().component;
-        self.rows(path, component, |c| {
+        self.logged_rows(path, component, |c| {
             c.iter_slices::<u32>(component)
                 .map(<[u32]>::to_vec)
                 .collect()
@@ -56,7 +54,7 @@ impl Rrd {
 
     fn labels(&self, path: &str) -> Vec<Row<String>> {
         let component = rerun::Boxes2D::descriptor_labels().component;
-        self.rows(path, component, |c| {
+        self.logged_rows(path, component, |c| {
             c.iter_slices::<String>(component)
                 .map(|r| r.iter().map(|s| s.to_string()).collect())
                 .collect()

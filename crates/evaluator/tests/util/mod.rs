@@ -1,6 +1,5 @@
-//! Helpers shared by the evaluator's test binaries: loading a sweep from text, and a table of
-//! rows as the CSV a sweep writes. (Each binary uses a subset.)
-#![allow(dead_code)]
+//! Helpers shared by the evaluator's test modules: loading a sweep from text, and a table of
+//! rows as the CSV a sweep writes.
 
 use std::path::{Path, PathBuf};
 

@@ -1,6 +1,5 @@
 //! Shared test helpers: a seeded generator of moves and limits, the rsruckig oracle, and a
 //! brute-force integrator independent of the planner's own boundary states.
-#![allow(dead_code)]
 
 use arcsim_planner::{plan, Limits, Move, MoveOptions, PlannerError, Profile, Reversal};
 use rsruckig::prelude::*;

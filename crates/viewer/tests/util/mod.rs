@@ -1,6 +1,5 @@
-//! Helpers shared by the viewer's test binaries: where they write .rrd files, and an .rrd file
+//! Helpers shared by the viewer's test modules: where they write .rrd files, and an .rrd file
 //! read back with Rerun's own decoder.
-#![allow(dead_code)]
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -11,13 +10,9 @@ use arcsim_viewer::rerun::external::re_log_encoding::DecoderApp;
 use arcsim_viewer::rerun::log::{Chunk, LogMsg};
 use arcsim_viewer::rerun::{self, StoreKind};
 
-/// A fresh path for an .rrd file under the test target's temporary directory.
+/// A fresh path for an .rrd file, in its own temporary directory.
 pub fn out_path(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcsim-viewer");
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join(name);
-    let _ = std::fs::remove_file(&path);
-    path
+    arcsim_test_support::temp_dir().join(name)
 }
 
 /// What an .rrd file holds: recording chunks by entity path, and the blueprint part.

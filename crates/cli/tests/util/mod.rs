@@ -1,6 +1,5 @@
 //! What the CLI test files share: running the binary from the repository root as a user would,
 //! its output as text, and small sweep files.
-#![allow(dead_code)] // each test file uses its own part
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -51,15 +50,6 @@ pub fn sweep_file(dir: &Path, name: &str, plan: &str, axes: serde_json::Value) -
     let path = dir.join(format!("{name}.json"));
     std::fs::write(&path, text.to_string()).expect("write sweep");
     path
-}
-
-/// A test that needs an outside tool (Python, the package index) and cannot run: says so and
-/// passes, except under CI (`CI` set), where that is a failure.
-pub fn skip_or_fail(what: &str, why: &str) {
-    if std::env::var_os("CI").is_some() {
-        panic!("CI: {what} cannot run: {why}");
-    }
-    eprintln!("NOTICE: {what} skipped: {why}");
 }
 
 /// Runs `cmd` to its end: its standard output and error as text, or (when it cannot start or

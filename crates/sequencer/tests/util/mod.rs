@@ -1,6 +1,5 @@
 //! What the sequencer's test files share: the bundled machines, and the limits checked at one
 //! instant of a timeline, independently of the sequencer's own verification.
-#![allow(dead_code)] // each test file uses its own part
 
 use arcsim_plan::{
     parse_machine, GantryLimitsSpec, Machine, ResolvedArc, ResolvedLayer, RotationDirection,

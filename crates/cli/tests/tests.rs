@@ -1,0 +1,16 @@
+//! The integration tests of `arcsim`, one module per file, linked into one test binary.
+
+mod answers;
+mod cli;
+mod csv_tables;
+mod free_motion_oracle;
+mod hardening;
+mod messages;
+mod probe;
+mod profile_reversal;
+mod python;
+mod report;
+mod slurm;
+mod spots;
+mod sweep_beam;
+mod util;

@@ -1,0 +1,3 @@
+//! The integration tests of `arcsim-dicom`, one module per file, linked into one test binary.
+
+mod import;

@@ -1,0 +1,7 @@
+//! The integration tests of `arcsim-evaluator`, one module per file, linked into one test binary.
+
+mod beam_axes;
+mod csv_schema;
+mod lazy_memory;
+mod sweep;
+mod util;

@@ -1,0 +1,7 @@
+//! The integration tests of `arcsim-plan`, one module per file, linked into one test binary.
+
+mod atom_cases;
+mod beam_models;
+mod bundled;
+mod machine_resolve;
+mod validation;

@@ -1,0 +1,3 @@
+//! The integration tests of `arcsim-report`, one module per file, linked into one test binary.
+
+mod beam_axes;

@@ -1,0 +1,9 @@
+//! The integration tests of `arcsim-sequencer`, one module per file, linked into one test binary.
+
+mod free_motion;
+mod free_optimality;
+mod limiter;
+mod properties;
+mod small_arcs;
+mod spots;
+mod util;

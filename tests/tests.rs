@@ -1,0 +1,5 @@
+//! The integration tests of the workspace (`arcsim-suite`), one module per file, linked into one test binary.
+
+mod atom_cases;
+mod optimal_monotone;
+mod pinned_totals;
