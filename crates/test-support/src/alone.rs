@@ -39,3 +39,27 @@ pub fn in_own_process(module: &str, name: &str, envs: &[(&str, &OsStr)]) -> bool
     eprint!("{stderr}");
     false
 }
+
+#[cfg(test)]
+mod tests {
+    use super::in_own_process;
+
+    #[test]
+    fn a_child_that_runs_no_test_is_a_failure() {
+        let failed = std::panic::catch_unwind(|| {
+            in_own_process(module_path!(), "no_such_test", &[]);
+        });
+        assert!(failed.is_err(), "a child that ran nothing passed");
+    }
+
+    #[test]
+    fn the_child_sees_the_added_environment() {
+        if in_own_process(
+            module_path!(),
+            "the_child_sees_the_added_environment",
+            &[("ARCSIM_ALONE_PROBE", "42".as_ref())],
+        ) {
+            assert_eq!(std::env::var("ARCSIM_ALONE_PROBE").as_deref(), Ok("42"));
+        }
+    }
+}
