@@ -1,6 +1,7 @@
 //! The integration tests of `arcsim`, one module per file, linked into one test binary.
 
 mod answers;
+mod build_reuse;
 mod cli;
 mod csv_tables;
 mod free_motion_oracle;
