@@ -17,20 +17,56 @@ pub fn merge_csv(
     inputs: &[(String, String)],
     expected: Option<usize>,
 ) -> Result<String, EvalError> {
-    // (index, fields in the layout's order, input name)
-    let mut rows: Vec<(usize, Vec<String>, &str)> = Vec::new();
-    // The layout of the first input, and its name.
-    let mut first: Option<(Layout, &str)> = None;
-    // The sweep's size as the first row that says it does, and where.
-    let mut size: Option<(usize, String)> = expected.map(|n| (n, "the sweep file".to_string()));
+    let mut merge = Merge {
+        rows: Vec::new(),
+        first: None,
+        size: expected.map(|n| (n, "the sweep file".to_string())),
+    };
     for (name, text) in inputs {
+        merge.add(name, text)?;
+    }
+    let Merge {
+        mut rows,
+        first,
+        size,
+        ..
+    } = merge;
+    rows.sort_by_key(|r| r.0);
+    check_complete(&rows, size.as_ref().map(|s| s.0), expected)?;
+    let layout = first.map_or(Layout::Current, |f| f.0);
+    let header: Vec<&str> = layout.columns().map(|c| c.name).collect();
+    let lines = rows
+        .iter()
+        .map(|r| r.1.iter().map(String::as_str).collect::<Vec<_>>());
+    let mut out = Vec::with_capacity(inputs.iter().map(|(_, t)| t.len()).sum());
+    write_records(&mut out, std::iter::once(header).chain(lines))?;
+    String::from_utf8(out).map_err(|e| EvalError::Merge {
+        file: "merged shards".into(),
+        message: format!("not UTF-8 text ({e})"),
+    })
+}
+
+/// The shard rows read so far, and what the inputs must agree on.
+struct Merge<'a> {
+    /// (index, fields in the layout's order, input name)
+    rows: Vec<(usize, Vec<String>, &'a str)>,
+    /// The layout of the first input, and its name.
+    first: Option<(Layout, &'a str)>,
+    /// The sweep's size as the first row that says it does, and where.
+    size: Option<(usize, String)>,
+}
+
+impl<'a> Merge<'a> {
+    /// Reads one input's rows: its header must be the first input's, its last line complete, and
+    /// each row's index within the sweep's size that every row agrees on.
+    fn add(&mut self, name: &'a str, text: &str) -> Result<(), EvalError> {
         let merr = |message: String| EvalError::Merge {
-            file: name.clone(),
+            file: name.to_string(),
             message,
         };
         let (header, records) = records(text).map_err(merr)?;
-        match first {
-            None => first = Some((header.layout, name)),
+        match self.first {
+            None => self.first = Some((header.layout, name)),
             Some((layout, first_name)) if layout != header.layout => {
                 return Err(merr(format!(
                     "line 1: {}, but {first_name} has {}; expected the tables of one run",
@@ -62,30 +98,51 @@ pub fn merge_csv(
             };
             let index = count(index_column, "a row index (a count)")?.unwrap_or_default();
             if let Some(n) = count(size_column, "the sweep's number of combinations")? {
-                match &size {
-                    None => size = Some((n, format!("{name} line {line}"))),
-                    Some((m, from)) if *m != n => {
-                        return Err(merr(format!(
-                            "line {line}: a sweep of {n} combinations, but {from} says {m}; expected the tables of one sweep"
-                        )));
-                    }
-                    Some(_) => {}
-                }
-                if index >= n {
-                    return Err(merr(format!(
-                        "line {line}: row {index} of a sweep of {n} combinations"
-                    )));
-                }
+                self.check_size(n, index, name, line).map_err(merr)?;
             }
             let fields = header
                 .order
                 .iter()
                 .map(|&i| record[i].to_string())
                 .collect();
-            rows.push((index, fields, name));
+            self.rows.push((index, fields, name));
         }
+        Ok(())
     }
-    rows.sort_by_key(|r| r.0);
+
+    /// Checks a row's sweep size `n` against the one seen first, and its index against `n`.
+    fn check_size(
+        &mut self,
+        n: usize,
+        index: usize,
+        name: &str,
+        line: usize,
+    ) -> Result<(), String> {
+        match &self.size {
+            None => self.size = Some((n, format!("{name} line {line}"))),
+            Some((m, from)) if *m != n => {
+                return Err(format!(
+                    "line {line}: a sweep of {n} combinations, but {from} says {m}; expected the tables of one sweep"
+                ));
+            }
+            Some(_) => {}
+        }
+        if index >= n {
+            return Err(format!(
+                "line {line}: row {index} of a sweep of {n} combinations"
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Checks that the sorted `rows` hold each index once and every index of `0..total` (or, with
+/// no size known, of `0..rows.len()`), and as many rows as the sweep file's `expected`.
+fn check_complete(
+    rows: &[(usize, Vec<String>, &str)],
+    total: Option<usize>,
+    expected: Option<usize>,
+) -> Result<(), EvalError> {
     for pair in rows.windows(2) {
         if pair[0].0 == pair[1].0 {
             return Err(EvalError::Merge {
@@ -98,7 +155,6 @@ pub fn merge_csv(
         }
     }
     let present = rows.len();
-    let total = size.as_ref().map(|s| s.0);
     let missing = rows
         .iter()
         .enumerate()
@@ -122,15 +178,5 @@ pub fn merge_csv(
             });
         }
     }
-    let layout = first.map_or(Layout::Current, |f| f.0);
-    let header: Vec<&str> = layout.columns().map(|c| c.name).collect();
-    let lines = rows
-        .iter()
-        .map(|r| r.1.iter().map(String::as_str).collect::<Vec<_>>());
-    let mut out = Vec::with_capacity(inputs.iter().map(|(_, t)| t.len()).sum());
-    write_records(&mut out, std::iter::once(header).chain(lines))?;
-    String::from_utf8(out).map_err(|e| EvalError::Merge {
-        file: "merged shards".into(),
-        message: format!("not UTF-8 text ({e})"),
-    })
+    Ok(())
 }
