@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use arcsim_sequencer::{
     certify, machine_limits, simulate, spot_timeline, ArcEnds, Certificate, Delivery, GantryState,
-    Limiter, Motion, Schedule, SpotRow, CERTIFY_ROUNDS,
+    Limiter, Margins, Motion, Schedule, SpotRow, CERTIFY_ROUNDS,
 };
 
 use crate::input::{load_machine_hashed, load_plan_hashed};
@@ -151,14 +151,19 @@ fn limiter_name(l: Limiter) -> &'static str {
 /// The readable summary printed on standard output.
 pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
     let mut s = String::new();
-    let b = d.breakdown;
-    let pct = |x: f64| {
-        if d.total_s > 0.0 {
-            100.0 * x / d.total_s
-        } else {
-            0.0
-        }
-    };
+    heading(&mut s, d, plan, machine);
+    time_breakdown(&mut s, d);
+    motion_notes(&mut s, d);
+    if let Some(m) = d.margins {
+        tightest_margins(&mut s, &m);
+    }
+    where_lost(&mut s, d);
+    speed_violations(&mut s, d);
+    s
+}
+
+/// The plan, machine, schedule and motion, and the counts of layers and transitions.
+fn heading(s: &mut String, d: &Delivery, plan: &str, machine: &str) {
     let _ = writeln!(
         s,
         "plan {plan} on {machine}, schedule {}, motion {}{}",
@@ -175,6 +180,18 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
         crate::count(d.layers.len(), "layer"),
         crate::count(d.transitions.len(), "transition")
     );
+}
+
+/// The total delivery time and its parts, each with its share of the total.
+fn time_breakdown(s: &mut String, d: &Delivery) {
+    let b = d.breakdown;
+    let pct = |x: f64| {
+        if d.total_s > 0.0 {
+            100.0 * x / d.total_s
+        } else {
+            0.0
+        }
+    };
     let _ = writeln!(
         s,
         "total delivery time  {:9.2} s  ({})",
@@ -213,6 +230,10 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
         fixed(b.lost_s, 2, 9),
         fixed(pct(b.lost_s), 1, 5)
     );
+}
+
+/// The servo period, the saving of free motion, and what limits the transitions.
+fn motion_notes(s: &mut String, d: &Delivery) {
     if let Some(ts) = d.servo_period_s {
         let _ = writeln!(
             s,
@@ -235,45 +256,50 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
         "transitions limited by: ELST {}, V {}, A {}, J {}, none {}",
         c.elst, c.speed, c.accel, c.jerk, c.none
     );
-    if let Some(m) = d.margins {
-        let _ = writeln!(s, "tightest margins:");
+}
+
+/// How close the delivery comes to each limit, and where.
+fn tightest_margins(s: &mut String, m: &Margins) {
+    let _ = writeln!(s, "tightest margins:");
+    let _ = writeln!(
+        s,
+        "  speed        {:6.1} % of V     at t = {:8.2} s (layer {})",
+        100.0 * m.speed_use.value,
+        m.speed_use.t_s,
+        m.speed_use.layer
+    );
+    let _ = writeln!(
+        s,
+        "  acceleration {:6.1} % of A/D   at t = {:8.2} s (layer {})",
+        100.0 * m.accel_use.value,
+        m.accel_use.t_s,
+        m.accel_use.layer
+    );
+    let _ = writeln!(
+        s,
+        "  jerk         {:6.1} % of J     at t = {:8.2} s (layer {})",
+        100.0 * m.jerk_use.value,
+        m.jerk_use.t_s,
+        m.jerk_use.layer
+    );
+    let _ = writeln!(
+        s,
+        "  window slack {:8.4} deg      at t = {:8.2} s (layer {})",
+        m.window_slack_deg.value, m.window_slack_deg.t_s, m.window_slack_deg.layer
+    );
+    if m.elst_slack_s.value.is_finite() {
         let _ = writeln!(
             s,
-            "  speed        {:6.1} % of V     at t = {:8.2} s (layer {})",
-            100.0 * m.speed_use.value,
-            m.speed_use.t_s,
-            m.speed_use.layer
+            "  ELST slack   {:8.4} s        at t = {:8.2} s (layer {})",
+            m.elst_slack_s.value.max(0.0),
+            m.elst_slack_s.t_s,
+            m.elst_slack_s.layer
         );
-        let _ = writeln!(
-            s,
-            "  acceleration {:6.1} % of A/D   at t = {:8.2} s (layer {})",
-            100.0 * m.accel_use.value,
-            m.accel_use.t_s,
-            m.accel_use.layer
-        );
-        let _ = writeln!(
-            s,
-            "  jerk         {:6.1} % of J     at t = {:8.2} s (layer {})",
-            100.0 * m.jerk_use.value,
-            m.jerk_use.t_s,
-            m.jerk_use.layer
-        );
-        let _ = writeln!(
-            s,
-            "  window slack {:8.4} deg      at t = {:8.2} s (layer {})",
-            m.window_slack_deg.value, m.window_slack_deg.t_s, m.window_slack_deg.layer
-        );
-        if m.elst_slack_s.value.is_finite() {
-            let _ = writeln!(
-                s,
-                "  ELST slack   {:8.4} s        at t = {:8.2} s (layer {})",
-                m.elst_slack_s.value.max(0.0),
-                m.elst_slack_s.t_s,
-                m.elst_slack_s.layer
-            );
-        }
     }
-    where_lost(&mut s, d);
+}
+
+/// The prescribed speeds that cannot be delivered, and the speeds used instead.
+fn speed_violations(s: &mut String, d: &Delivery) {
     if !d.violations.is_empty() {
         let _ = writeln!(
             s,
@@ -293,7 +319,6 @@ pub fn summary(d: &Delivery, plan: &str, machine: &str) -> String {
             );
         }
     }
-    s
 }
 
 /// Angle ranges as "10–30, 44–52 deg", at most four, then "+N more".

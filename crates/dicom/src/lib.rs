@@ -67,7 +67,7 @@ mod read;
 use std::path::Path;
 
 use arcsim_plan::ArcPlan;
-use dicom_object::{DefaultDicomObject, InMemDicomObject};
+use dicom_object::InMemDicomObject;
 
 pub use convert::{MU_RESOLUTION, POSITION_RESOLUTION_MM, SAME_ANGLE_TOLERANCE_DEG};
 pub use error::{DicomImportError, ImportWarning, Location};
@@ -121,12 +121,6 @@ pub fn import_rt_ion_plan_from_bytes(
     fallback_name: &str,
 ) -> Result<Imported, DicomImportError> {
     import(bytes, fallback_name)
-}
-
-/// Converts an RT Ion Plan already opened with dicom-object.
-pub fn rt_ion_plan_from_object(obj: &DefaultDicomObject) -> Result<ArcPlan, DicomImportError> {
-    read::check_sop_class(read::sop_class_of(obj).as_deref())?;
-    convert_dataset(obj, DEFAULT_PLAN_NAME).map(|i| i.plan)
 }
 
 /// Converts an RT Ion Plan data set (no file meta group); its SOPClassUID (0008,0016) must be present.

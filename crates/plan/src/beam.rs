@@ -187,6 +187,7 @@ pub struct SpotEvent {
     pub mu: f64,
     /// Irradiation start and end after the layer's beam-on, s.
     pub start_s: f64,
+    /// Irradiation end after the layer's beam-on, s.
     pub end_s: f64,
 }
 
@@ -215,7 +216,10 @@ pub enum SpotTimingError {
     /// The `scanning` model needs `spots.positions_mm`.
     NoPositions,
     /// Splitting spots above `max_mu_per_spot` gives more than [`MAX_SPOT_DELIVERIES`].
-    TooManyDeliveries { count: usize },
+    TooManyDeliveries {
+        /// The number of deliveries the split would give.
+        count: usize,
+    },
 }
 
 /// MU per spot of a layer: the given list, or the total shared equally.

@@ -8,8 +8,11 @@ use std::fmt;
 pub struct PlanIssue {
     /// File name (or other source name) the plan or machine came from.
     pub source: String,
+    /// Index of the arc (from 0), when the issue is inside one.
     pub arc: Option<usize>,
+    /// Index of the control point within its arc (from 0), when the issue is inside one.
     pub control_point: Option<usize>,
+    /// Index of the layer within its control point (from 0), when the issue is inside one.
     pub layer: Option<usize>,
     /// Field path inside the located element, e.g. `energy_mev`, `spots.mu[3]`, `gantry.max_speed_deg_per_s`.
     pub field: String,
@@ -75,8 +78,11 @@ impl fmt::Display for PlanIssue {
 /// Where in a plan an issue is; a small helper so validation code reads naturally.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct At {
+    /// Index of the arc (from 0), when the issue is inside one.
     pub arc: Option<usize>,
+    /// Index of the control point within its arc (from 0), when the issue is inside one.
     pub control_point: Option<usize>,
+    /// Index of the layer within its control point (from 0), when the issue is inside one.
     pub layer: Option<usize>,
 }
 
@@ -112,25 +118,32 @@ pub enum PlanError {
     /// The file could not be read.
     #[error("{path}: cannot read file: {source}")]
     Io {
+        /// The file's path.
         path: String,
+        /// Why it could not be read.
         #[source]
         source: std::io::Error,
     },
     /// The text is not valid JSON, or does not have the fields and types of the format.
     #[error("{source_name}:{line}:{column}: {location}: {message}")]
     Json {
+        /// The file name (or other source name) of the text.
         source_name: String,
         /// 1-based line and column reported by serde_json (0 when unknown).
         line: usize,
+        /// See `line`.
         column: usize,
         /// Arc / control point / layer / field where the error was found, as far as known.
         location: String,
+        /// serde_json's message.
         message: String,
     },
     /// The plan or machine parsed but breaks one or more rules; all of them are listed.
     #[error("{source_name}: {} problem{}:\n{}", issues.len(), if issues.len() == 1 { "" } else { "s" }, join_issues(issues))]
     Invalid {
+        /// The file name (or other source name) of the plan or machine.
         source_name: String,
+        /// Every problem found.
         issues: Vec<PlanIssue>,
     },
 }

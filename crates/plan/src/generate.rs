@@ -24,6 +24,7 @@ pub enum PlanKind {
 }
 
 impl PlanKind {
+    /// Every kind.
     pub const ALL: [PlanKind; 4] = [
         PlanKind::Prostate,
         PlanKind::HeadNeck,

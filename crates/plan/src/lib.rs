@@ -5,20 +5,25 @@
 //! of example plans ([`generate()`]) and the ATOM article cases as plans ([`atom_case_plan`]).
 //! The format is documented field by field in `docs/plan-format.md`.
 
+#![warn(missing_docs)]
+
 mod atom;
-pub mod beam;
+mod beam;
 mod error;
 pub mod generate;
 mod load;
 mod machine;
-pub mod model;
+mod model;
 mod plausible;
 mod resolve;
 mod validate;
 mod zero;
 
 pub use atom::{atom_case_plan, ATOM_PLACEHOLDER_MIN_ENERGY_MEV};
-pub use beam::{layer_beam_time, time_spots, LayerBeamTime, SpotEvent, SpotTimingError};
+pub use beam::{
+    layer_beam_time, time_spots, BeamModel, LayerBeamTime, PerMuBeam, ScanningBeam, SpotEvent,
+    SpotTimingError, MAX_SPOT_DELIVERIES,
+};
 pub use error::{fmt_num, PlanError, PlanIssue};
 pub use generate::{generate, to_json, PlanKind};
 pub use load::{load_machine, load_plan, parse_machine, parse_plan};
@@ -26,7 +31,11 @@ pub use machine::{
     validate_machine, ACCEL_RANGE_DEG_PER_S2, JERK_RANGE_DEG_PER_S3, MAX_BEAM_TIME_S,
     MAX_ELST_COEFFS, MAX_SWITCH_TIME_S, SERVO_PERIOD_RANGE_S, SPEED_RANGE_DEG_PER_S,
 };
-pub use model::*;
+pub use model::{
+    Arc, ArcPlan, ControlPoint, ElstModel, EnergyLayer, GantryLimitsSpec, Machine, ResolvedArc,
+    ResolvedLayer, RotationDirection, Spots, MACHINE_FORMAT, PLAN_FORMAT,
+    SAME_ENERGY_TOLERANCE_MEV,
+};
 pub use plausible::{machine_warnings, plan_warnings, Warning};
 pub use resolve::resolve;
 pub use validate::{

@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::beam::{BeamModel, PerMuBeam, ScanningBeam};
+pub(crate) use crate::beam::BeamModel;
 
 /// Value of the `format` field of every plan file; bumped on any incompatible change.
 pub const PLAN_FORMAT: &str = "arcsim-plan/1";
@@ -18,9 +18,12 @@ pub const MACHINE_FORMAT: &str = "arcsim-machine/1";
 pub struct ArcPlan {
     /// Must equal [`PLAN_FORMAT`].
     pub format: String,
+    /// The plan's name.
     pub name: String,
+    /// Free text about the plan (its origin, what it tests).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
+    /// The arcs, in delivery order.
     pub arcs: Vec<Arc>,
 }
 
@@ -57,7 +60,9 @@ impl RotationDirection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Arc {
+    /// The one way the gantry turns through this arc.
     pub direction: RotationDirection,
+    /// The control points, in the order the gantry reaches them.
     pub control_points: Vec<ControlPoint>,
 }
 
@@ -83,6 +88,7 @@ pub struct ControlPoint {
 pub struct EnergyLayer {
     /// Nominal beam energy in MeV, 1..=400.
     pub energy_mev: f64,
+    /// The layer's spots, from which the beam model computes the beam-on time.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spots: Option<Spots>,
     /// Beam-on time in seconds, given directly instead of spots.
@@ -97,6 +103,7 @@ pub struct EnergyLayer {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Spots {
+    /// The number of spots.
     pub count: u32,
     /// MU of each spot; exactly `count` values.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -120,14 +127,19 @@ pub struct Spots {
 pub struct Machine {
     /// Must equal [`MACHINE_FORMAT`].
     pub format: String,
+    /// The machine's name.
     pub name: String,
+    /// Free text about the machine.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
     /// Where the numbers come from (papers, code repositories), or why they are assumptions.
     #[serde(default)]
     pub sources: Vec<String>,
+    /// The gantry's kinematic limits.
     pub gantry: GantryLimitsSpec,
+    /// How long a layer's beam-on takes.
     pub beam: BeamModel,
+    /// How long a switch between energy layers takes.
     pub elst: ElstModel,
     /// Window width in degrees for control points that give none.
     pub default_window_deg: f64,
@@ -140,11 +152,15 @@ pub struct Machine {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GantryLimitsSpec {
+    /// Speed limit, degrees per second.
     pub max_speed_deg_per_s: f64,
+    /// Acceleration limit, degrees per second squared (also the deceleration limit unless
+    /// `max_decel_deg_per_s2` is given).
     pub max_accel_deg_per_s2: f64,
     /// Deceleration limit when it differs from `max_accel_deg_per_s2`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_decel_deg_per_s2: Option<f64>,
+    /// Jerk limit, degrees per second cubed.
     pub max_jerk_deg_per_s3: f64,
 }
 
@@ -153,11 +169,21 @@ pub struct GantryLimitsSpec {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ElstModel {
     /// Fixed times for an upward, a downward and a same-energy switch.
-    Constant { up_s: f64, down_s: f64, same_s: f64 },
+    Constant {
+        /// Seconds for a switch to a higher energy.
+        up_s: f64,
+        /// Seconds for a switch to a lower energy.
+        down_s: f64,
+        /// Seconds between two layers of the same energy.
+        same_s: f64,
+    },
     /// Upward time grows with the step: `sum_i up_coeffs_s[i] * dE^i`, dE in MeV.
     Polynomial {
+        /// Seconds for a switch to a lower energy.
         down_s: f64,
+        /// Seconds between two layers of the same energy.
         same_s: f64,
+        /// Coefficients of the upward time in the energy step, lowest power first.
         up_coeffs_s: Vec<f64>,
     },
 }
@@ -202,6 +228,7 @@ pub struct ResolvedLayer {
     pub angle_deg: f64,
     /// Full window width available to this layer, degrees.
     pub window_deg: f64,
+    /// Nominal beam energy, MeV.
     pub energy_mev: f64,
     /// Beam-on time, seconds: `spot_irradiation_s + scanning_s`.
     pub irradiation_s: f64,
@@ -209,6 +236,7 @@ pub struct ResolvedLayer {
     pub spot_irradiation_s: f64,
     /// Of the beam-on time, the time between spots (scanning, settling, layer overhead), seconds.
     pub scanning_s: f64,
+    /// The gantry speed the plan prescribes through this layer, degrees per second, if any.
     pub required_speed_deg_per_s: Option<f64>,
     /// Switching time from the previous layer of the plan, seconds (0 for the very first).
     pub switch_in_s: f64,
@@ -217,7 +245,10 @@ pub struct ResolvedLayer {
 /// One arc's layers in delivery order.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ResolvedArc {
+    /// Index of the arc within the plan (from 0).
     pub arc_index: usize,
+    /// The way the gantry turns through the arc.
     pub direction: RotationDirection,
+    /// The arc's layers, in delivery order.
     pub layers: Vec<ResolvedLayer>,
 }

@@ -26,6 +26,7 @@ use crate::model::{ArcPlan, BeamModel, ElstModel, Machine};
 pub struct Warning {
     /// Where: the file (or plan/machine name) and the field, e.g. `machine.json: elst.up_s`.
     pub field: String,
+    /// The value found.
     pub value: f64,
     /// What is plausible and the likely slip.
     pub message: String,

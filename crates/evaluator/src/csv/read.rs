@@ -1,0 +1,241 @@
+//! Reading a table back into rows, each checked against the sweep's combination of its index.
+
+use arcsim_sequencer::{Breakdown, LimiterCounts};
+use csv::StringRecord;
+
+use super::lines::CsvLineNumbers;
+use super::schema::{column_index, Field, Header, COLUMNS};
+use super::write::{field_text, one_line};
+use crate::run::{Evaluator, Outcome, Row, Status};
+use crate::sweep::Axis;
+use crate::EvalError;
+
+/// A reader of a table's text: columns by name, quoted fields, a byte-order mark, CRLF.
+pub(super) fn reader(text: &str) -> csv::Reader<&[u8]> {
+    csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .from_reader(text.as_bytes())
+}
+
+/// The records of `text` after its header, each with its line number, and the header.
+pub(super) fn records(text: &str) -> Result<(Header, Vec<(usize, StringRecord)>), String> {
+    let mut rd = reader(text);
+    let header = Header::parse(rd.headers().map_err(|e| e.to_string())?)?;
+    let mut lines = CsvLineNumbers::new(text);
+    let mut out = Vec::new();
+    for record in rd.records() {
+        let record = record.map_err(|e| e.to_string())?;
+        let line = lines.at(record.position().map_or(0, |p| p.byte()));
+        if record.len() != header.len {
+            return Err(format!(
+                "line {line}: {} fields; expected {} (as the header)",
+                record.len(),
+                header.len
+            ));
+        }
+        out.push((line, record));
+    }
+    Ok((header, out))
+}
+
+/// An outcome to fill from a table row: the numbers unknown (NaN) until read.
+fn unknown_outcome() -> Outcome {
+    Outcome {
+        total_s: f64::NAN,
+        breakdown: Breakdown {
+            beam_on_s: f64::NAN,
+            spot_irradiation_s: f64::NAN,
+            scanning_s: f64::NAN,
+            energy_switching_s: f64::NAN,
+            lost_s: f64::NAN,
+        },
+        speedup: None,
+        lower_bound_s: None,
+        gap_s: None,
+        limiter_counts: LimiterCounts::default(),
+        violations: 0,
+        margins: None,
+    }
+}
+
+/// One data row of a table being read: its fields by column name, and where it is.
+struct Fields<'a> {
+    header: &'a Header,
+    record: &'a StringRecord,
+    line: usize,
+}
+
+impl Fields<'_> {
+    /// The field of `COLUMNS[k]`; `None` when the table has no such column.
+    fn get(&self, k: usize) -> Option<&str> {
+        self.header.get(self.record, k)
+    }
+
+    /// A located error about this row.
+    fn error(&self, message: String) -> String {
+        format!("line {}: {message}", self.line)
+    }
+
+    fn expected(&self, column: &str, what: &str, found: &str) -> String {
+        self.error(format!("column {column}: expected {what}, found {found:?}"))
+    }
+
+    fn number(&self, column: &str, text: &str) -> Result<f64, String> {
+        text.trim()
+            .parse::<f64>()
+            .map_err(|_| self.expected(column, "a number", text))
+    }
+
+    fn optional(&self, column: &str, text: &str) -> Result<Option<f64>, String> {
+        if text.trim().is_empty() {
+            Ok(None)
+        } else {
+            self.number(column, text).map(Some)
+        }
+    }
+
+    fn count(&self, column: &str, text: &str) -> Result<usize, String> {
+        text.trim()
+            .parse::<usize>()
+            .map_err(|_| self.expected(column, "a count", text))
+    }
+}
+
+impl Evaluator {
+    /// Reads back the rows of a results table of this sweep (e.g. merged shards) to summarise
+    /// them. Each line must match the combination its index names (plan, schedule, and the limit
+    /// columns as [`write_csv_row`] writes them); margins are not read back (summaries do not use
+    /// them).
+    ///
+    /// Columns are found by their name in the header, which must have the columns of
+    /// [`CSV_HEADER`] or the earlier [`CSV_HEADER_V2`] (its rows read back without a
+    /// certificate) or [`CSV_HEADER_V1`], in any order. A V1 table
+    /// has no beam axes (its rows must be combinations that do not sweep them) and no split of
+    /// the beam-on time: its rows read back with `spot_irradiation_s` and `scanning_s` NaN
+    /// (unknown). Quoted fields, a UTF-8 byte-order mark and CRLF line ends read as well.
+    pub fn rows_from_csv(&self, name: &str, text: &str) -> Result<Vec<Row>, EvalError> {
+        let merr = |message: String| EvalError::Merge {
+            file: name.to_string(),
+            message,
+        };
+        let (header, records) = records(text).map_err(merr)?;
+        records
+            .iter()
+            .map(|(line, record)| {
+                let fields = Fields {
+                    header: &header,
+                    record,
+                    line: *line,
+                };
+                self.row_from_fields(&fields).map_err(merr)
+            })
+            .collect()
+    }
+
+    /// The row of one table line, checked against the sweep's combination of its index.
+    fn row_from_fields(&self, f: &Fields) -> Result<Row, String> {
+        let index_column = column_index("index");
+        let index = f.count("index", f.get(index_column).unwrap_or_default())?;
+        if index >= self.len() {
+            return Err(f.error(format!(
+                "row {index}: the sweep has {} combinations",
+                self.len()
+            )));
+        }
+        let size_column = column_index("combinations");
+        if let Some(t) = f.get(size_column) {
+            let n = f.count("combinations", t)?;
+            if n != self.len() {
+                return Err(f.error(format!(
+                    "a sweep of {n} combinations; this sweep has {}",
+                    self.len()
+                )));
+            }
+        }
+        let (plan, run, setting) = self.combination(index);
+        let mut row = Row {
+            index,
+            combinations: self.len(),
+            plan: self.sweep().plans[plan].label.clone(),
+            schedule: self.sweep().schedule_grids[run].schedule,
+            setting,
+            defaults: self.sweep().defaults(),
+            status: Status::Ok,
+            outcome: None,
+            message: String::new(),
+        };
+        // The columns naming the combination: as the sweep's row of that index writes them.
+        let mut same = true;
+        for (k, c) in COLUMNS.iter().enumerate() {
+            match (c.field, f.get(k)) {
+                (Field::Name(get), Some(t)) => same &= t == one_line(&get(&row)),
+                (Field::Limit(axis), Some(t)) => {
+                    same &= f.optional(c.name, t)? == setting.get_or(axis, &row.defaults);
+                }
+                // A table with an earlier header: its combinations leave the axis to the base machine.
+                (Field::Limit(axis), None) => same &= setting.get(axis).is_none(),
+                _ => {}
+            }
+        }
+        if !same {
+            return Err(f.error(other_combination(&row)));
+        }
+        // The results.
+        let mut outcome = unknown_outcome();
+        for (k, c) in COLUMNS.iter().enumerate() {
+            let Some(t) = f.get(k) else { continue };
+            match c.field {
+                Field::Status => {
+                    row.status = STATUSES
+                        .into_iter()
+                        .find(|s| s.name() == t.trim())
+                        .ok_or_else(|| f.expected(c.name, "ok, infeasible, invalid or error", t))?;
+                }
+                Field::Message => row.message = t.to_string(),
+                _ => {}
+            }
+        }
+        if row.status == Status::Ok {
+            for (k, c) in COLUMNS.iter().enumerate() {
+                let Some(t) = f.get(k) else { continue };
+                match c.field {
+                    Field::Number(_, set) => *set(&mut outcome) = f.number(c.name, t)?,
+                    Field::Optional(_, set) => *set(&mut outcome) = f.optional(c.name, t)?,
+                    Field::Count(_, set) => *set(&mut outcome) = f.count(c.name, t)?,
+                    _ => {}
+                }
+            }
+            row.outcome = Some(outcome);
+        }
+        Ok(row)
+    }
+}
+
+/// Every status, as a table names them.
+const STATUSES: [Status; 4] = [
+    Status::Ok,
+    Status::Infeasible,
+    Status::Invalid,
+    Status::Error,
+];
+
+/// The error for a table row that is not the sweep's combination `row` (of the same index).
+fn other_combination(row: &Row) -> String {
+    let limits: Vec<String> = Axis::ALL
+        .into_iter()
+        .filter_map(|a| {
+            let v = field_text(Field::Limit(a), row);
+            (!v.is_empty()).then(|| format!("{} {v}", a.symbol().0))
+        })
+        .collect();
+    format!(
+        "row {} is {} {} {} in this sweep; the file has another combination (a different sweep \
+         file, or an older arcsim's table, which left the ELST and window columns empty when \
+         they were not swept?)",
+        row.index,
+        row.plan,
+        row.schedule.name(),
+        limits.join(" ")
+    )
+}

@@ -1,0 +1,108 @@
+//! The swept quantities: their names and symbols, and a setting's value of each.
+
+use super::*;
+
+impl Axis {
+    pub const ALL: [Axis; 8] = [
+        Axis::Jerk,
+        Axis::Accel,
+        Axis::Speed,
+        Axis::ElstUp,
+        Axis::ElstDown,
+        Axis::Window,
+        Axis::ScanSpeed,
+        Axis::DoseRateScale,
+    ];
+
+    /// The gantry's own limits (J, A, V): raising one admits every timeline the lower value
+    /// admitted, so it never makes the best delivery longer.
+    pub fn is_gantry_limit(self) -> bool {
+        matches!(self, Axis::Jerk | Axis::Accel | Axis::Speed)
+    }
+
+    /// The field name in sweep files and output columns.
+    pub fn field(self) -> &'static str {
+        match self {
+            Axis::Jerk => "jerk_deg_per_s3",
+            Axis::Accel => "accel_deg_per_s2",
+            Axis::Speed => "speed_deg_per_s",
+            Axis::ElstUp => "elst_up_s",
+            Axis::ElstDown => "elst_down_s",
+            Axis::Window => "window_deg",
+            Axis::ScanSpeed => "scan_speed_mm_per_s",
+            Axis::DoseRateScale => "dose_rate_scale",
+        }
+    }
+
+    /// The unit as figures and plot titles print it ("°/s³"; [`Axis::symbol`] has the plain-text
+    /// one of the tables).
+    pub fn unit(self) -> &'static str {
+        match self {
+            Axis::Jerk => "°/s³",
+            Axis::Accel => "°/s²",
+            Axis::Speed => "°/s",
+            Axis::ElstUp | Axis::ElstDown => "s",
+            Axis::Window => "°",
+            Axis::ScanSpeed => "mm/s",
+            Axis::DoseRateScale => "×",
+        }
+    }
+
+    /// Short symbol and unit for tables ("J", "deg/s^3").
+    pub fn symbol(self) -> (&'static str, &'static str) {
+        match self {
+            Axis::Jerk => ("J", "deg/s^3"),
+            Axis::Accel => ("A", "deg/s^2"),
+            Axis::Speed => ("V", "deg/s"),
+            Axis::ElstUp => ("ELST up", "s"),
+            Axis::ElstDown => ("ELST down", "s"),
+            Axis::Window => ("window", "deg"),
+            Axis::ScanSpeed => ("scan speed", "mm/s"),
+            Axis::DoseRateScale => ("dose rate", "×"),
+        }
+    }
+}
+
+impl Setting {
+    /// The value of one axis (`None`: as in the base machine or plan).
+    pub fn get(&self, axis: Axis) -> Option<f64> {
+        match axis {
+            Axis::Jerk => Some(self.jerk_deg_per_s3),
+            Axis::Accel => Some(self.accel_deg_per_s2),
+            Axis::Speed => Some(self.speed_deg_per_s),
+            Axis::ElstUp => self.elst_up_s,
+            Axis::ElstDown => self.elst_down_s,
+            Axis::Window => self.window_deg,
+            Axis::ScanSpeed => self.scan_speed_mm_per_s,
+            Axis::DoseRateScale => self.dose_rate_scale,
+        }
+    }
+
+    /// The value of one axis, the base machine's (`defaults`) where the setting keeps it (`None`
+    /// only for the upward ELST of a polynomial ELST model).
+    pub fn get_or(&self, axis: Axis, defaults: &Defaults) -> Option<f64> {
+        self.get(axis).or(match axis {
+            Axis::ElstUp => defaults.elst_up_s,
+            Axis::ElstDown => Some(defaults.elst_down_s),
+            Axis::Window => Some(defaults.window_deg),
+            Axis::ScanSpeed => defaults.scan_speed_mm_per_s,
+            Axis::DoseRateScale => Some(defaults.dose_rate_scale),
+            Axis::Jerk | Axis::Accel | Axis::Speed => None,
+        })
+    }
+
+    /// A copy with one axis set.
+    pub fn with(mut self, axis: Axis, value: f64) -> Setting {
+        match axis {
+            Axis::Jerk => self.jerk_deg_per_s3 = value,
+            Axis::Accel => self.accel_deg_per_s2 = value,
+            Axis::Speed => self.speed_deg_per_s = value,
+            Axis::ElstUp => self.elst_up_s = Some(value),
+            Axis::ElstDown => self.elst_down_s = Some(value),
+            Axis::Window => self.window_deg = Some(value),
+            Axis::ScanSpeed => self.scan_speed_mm_per_s = Some(value),
+            Axis::DoseRateScale => self.dose_rate_scale = Some(value),
+        }
+        self
+    }
+}
