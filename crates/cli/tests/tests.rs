@@ -4,6 +4,7 @@ mod answers;
 mod build_reuse;
 mod cli;
 mod csv_tables;
+mod docs_examples;
 mod free_motion_oracle;
 mod hardening;
 mod messages;
