@@ -1,3 +1,4 @@
 //! The integration tests of `arcsim-dicom`, one module per file, linked into one test binary.
 
+mod bundled;
 mod import;

@@ -1,0 +1,33 @@
+//! The DICOM plan bundled for the walk-through (`plans/dicom/arc180.dcm`) is exactly what the test
+//! fixtures write, and imports as the arc they describe.
+
+use std::path::Path;
+
+use arcsim_dicom::read_rt_ion_plan;
+use arcsim_test_support::dicom;
+
+fn bundled() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../plans/dicom/arc180.dcm")
+}
+
+#[test]
+fn the_bundled_dicom_plan_is_the_fixture() {
+    let committed = std::fs::read(bundled()).expect("plans/dicom/arc180.dcm is readable");
+    assert!(
+        committed == dicom::dynamic_arc_plan().to_bytes(),
+        "plans/dicom/arc180.dcm differs from dicom::dynamic_arc_plan(); regenerate it by writing \
+         that fixture's to_bytes() to the file"
+    );
+}
+
+#[test]
+fn the_bundled_dicom_plan_imports_as_one_arc_of_180_layers() {
+    let plan = read_rt_ion_plan(&bundled()).expect("the bundled plan imports");
+    assert_eq!(plan.arcs.len(), 1);
+    let layers: usize = plan.arcs[0]
+        .control_points
+        .iter()
+        .map(|cp| cp.layers.len())
+        .sum();
+    assert_eq!(layers, 180);
+}
