@@ -22,7 +22,7 @@ fn the_bundled_dicom_plan_is_the_fixture() {
 
 #[test]
 fn the_bundled_dicom_plan_imports_as_one_arc_of_180_layers() {
-    let plan = read_rt_ion_plan(&bundled()).expect("the bundled plan imports");
+    let plan = read_rt_ion_plan(bundled()).expect("the bundled plan imports");
     assert_eq!(plan.arcs.len(), 1);
     let layers: usize = plan.arcs[0]
         .control_points
