@@ -10,11 +10,15 @@ pub const RESULT_FORMAT: &str = "arcsim-result/1";
 /// The options a result was computed with, as given or defaulted.
 #[derive(Debug, Clone, Serialize)]
 pub struct OptionsOut {
+    /// Speed schedule name (e.g. `optimal`).
     pub schedule: &'static str,
+    /// Motion name: `constant` or `free`.
     pub motion: &'static str,
+    /// Arc ends name: `rest` or `free`.
     pub arc_ends: &'static str,
     /// The servo period used (s): the option, else the machine's; `null`: continuous time.
     pub servo_period_s: Option<f64>,
+    /// Whether implausible values were refused (`--strict`).
     pub strict: bool,
 }
 
@@ -22,13 +26,17 @@ pub struct OptionsOut {
 /// the bytes read), the options, warnings and notes, then the delivery itself.
 #[derive(Debug, Serialize)]
 pub struct ResultDocument<'a> {
+    /// Always [`RESULT_FORMAT`].
     pub format: &'static str,
     /// Version of arcsim that computed the result.
     pub arcsim_version: &'static str,
+    /// The plan's name.
     pub plan: String,
+    /// The plan file as named on the command line.
     pub plan_file: String,
     /// SHA-256 of the plan file's bytes.
     pub plan_sha256: String,
+    /// The machine's name.
     pub machine: String,
     /// The machine file, or the built-in one.
     pub machine_file: String,
@@ -36,11 +44,13 @@ pub struct ResultDocument<'a> {
     pub machine_sha256: String,
     /// The whole machine model used: every limit, the ELST and beam models.
     pub machine_model: &'a Machine,
+    /// The options the result was computed with.
     pub options: OptionsOut,
     /// Values outside their field's plausible range (likely unit slips).
     pub warnings: &'a [Warning],
     /// Remarks on how the options applied (e.g. `prescribed` without prescribed speeds).
     pub notes: &'a [String],
+    /// The delivery itself, its fields inlined in the document.
     #[serde(flatten)]
     pub delivery: &'a Delivery,
     /// Every spot delivery with its time and gantry angle (`simulate --spots`).
@@ -55,7 +65,9 @@ pub struct ResultDocument<'a> {
 /// Where a plan or machine came from: its name in messages (a path) and the SHA-256 of its bytes.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Source {
+    /// The input's name in messages (a path).
     pub file: String,
+    /// SHA-256 of the bytes read.
     pub sha256: String,
 }
 
@@ -63,10 +75,15 @@ pub struct Source {
 /// checks and notes of the run.
 #[derive(Debug, Clone)]
 pub struct Provenance<'a> {
+    /// Where the plan came from.
     pub plan_source: Source,
+    /// The machine model used.
     pub machine: &'a Machine,
+    /// Where the machine came from (a file, or the built-in one).
     pub machine_source: Source,
+    /// Values outside their field's plausible range (likely unit slips).
     pub warnings: &'a [Warning],
+    /// Remarks on how the options applied.
     pub notes: &'a [String],
     /// Whether implausible values were refused (`--strict`).
     pub strict: bool,

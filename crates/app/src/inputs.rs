@@ -17,15 +17,27 @@ pub enum AppError {
     /// A DICOM file that is not a usable RT Ion Plan.
     #[error("{name}: {source}")]
     Dicom {
+        /// The input's name in messages (a path).
         name: String,
+        /// Why it is not a usable RT Ion Plan.
         source: DicomImportError,
     },
     /// Neither DICOM nor UTF-8 text.
     #[error("{name}: neither a DICOM file nor UTF-8 text (invalid byte at offset {offset}); expected an arcsim-plan/1 JSON file or a DICOM RT Ion Plan")]
-    NotAPlanFile { name: String, offset: usize },
+    NotAPlanFile {
+        /// The input's name in messages (a path).
+        name: String,
+        /// Byte offset of the first invalid UTF-8 byte.
+        offset: usize,
+    },
     /// A file that cannot be read.
     #[error("{name}: cannot read: {message}")]
-    Read { name: String, message: String },
+    Read {
+        /// The input's name in messages (a path).
+        name: String,
+        /// Why it cannot be read.
+        message: String,
+    },
     /// An option out of its range (e.g. a servo period).
     #[error("{0}")]
     Option(String),

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! # arcsim-app
 //!
 //! What the `arcsim` command does around the engine, as a library, so that every front end (the

@@ -8,10 +8,12 @@ use crate::AppError;
 /// What a user asks `simulate` for; `None` fields take the defaults of [`SimulateRequest::options`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SimulateRequest {
+    /// Speed schedule of each layer.
     pub schedule: Schedule,
     /// `None`: free motion, unless a servo period applies or the schedule is `prescribed` or
     /// `step-and-shoot` (constant speed then).
     pub motion: Option<Motion>,
+    /// Arcs starting and ending at rest, or free.
     pub arc_ends: ArcEnds,
     /// Servo period (s) overriding the machine's.
     pub period_s: Option<f64>,

@@ -11,17 +11,33 @@ pub enum Location {
     /// The top level of the data set.
     Dataset,
     /// An item of IonBeamSequence (300A,03A2).
-    Beam { beam: usize, number: Option<i64> },
+    Beam {
+        /// Index of the beam in IonBeamSequence.
+        beam: usize,
+        /// Its BeamNumber (300A,00C0), when present.
+        number: Option<i64>,
+    },
     /// An item of IonControlPointSequence (300A,03A8) inside an ion beam.
     ControlPoint {
+        /// Index of the beam in IonBeamSequence.
         beam: usize,
+        /// Its BeamNumber (300A,00C0), when present.
         number: Option<i64>,
+        /// Index of the control point in the beam's IonControlPointSequence.
         control_point: usize,
     },
     /// An item of FractionGroupSequence (300A,0070).
-    FractionGroup { group: usize },
+    FractionGroup {
+        /// Index of the fraction group.
+        group: usize,
+    },
     /// An item of ReferencedBeamSequence (300C,0004) inside a fraction group.
-    ReferencedBeam { group: usize, item: usize },
+    ReferencedBeam {
+        /// Index of the fraction group.
+        group: usize,
+        /// Index of the item in its ReferencedBeamSequence.
+        item: usize,
+    },
 }
 
 impl fmt::Display for Location {
@@ -57,17 +73,28 @@ impl fmt::Display for Location {
 /// its (gggg,eeee) number and the sequence item it belongs to.
 #[derive(Debug, thiserror::Error)]
 pub enum DicomImportError {
+    /// The file cannot be read.
     #[error("cannot read {}: {source}", path.display())]
     Io {
+        /// The file.
         path: PathBuf,
+        /// Why it cannot be read.
         source: std::io::Error,
     },
 
+    /// The file is not a DICOM file.
     #[error("not a DICOM file: {reason}")]
-    NotDicom { reason: String },
+    NotDicom {
+        /// Why it is not a DICOM file.
+        reason: String,
+    },
 
+    /// The DICOM file is truncated or corrupt.
     #[error("truncated or corrupt DICOM file: {reason}")]
-    Unreadable { reason: String },
+    Unreadable {
+        /// What the reader reported.
+        reason: String,
+    },
 
     #[error(
         "unsupported transfer syntax {uid}{}: arcsim reads DICOM data sets that are uncompressed \
@@ -75,7 +102,9 @@ pub enum DicomImportError {
          Explicit VR Little Endian, 1.2.840.10008.1.2.1.99); export the plan in one of these",
         name.map(|n| format!(" ({n})")).unwrap_or_else(|| " (not a known transfer syntax)".into())
     )]
+    /// The data set is in a transfer syntax arcsim does not read (e.g. compressed).
     UnsupportedTransferSyntax {
+        /// The transfer syntax UID.
         uid: String,
         /// The transfer syntax's name, when it is a known one.
         name: Option<&'static str>,
@@ -87,11 +116,13 @@ pub enum DicomImportError {
         limit + 1,
         keyword.map(|k| format!("{k} ")).unwrap_or_default()
     )]
+    /// Sequences nested deeper than [`MAX_NESTING`](crate::MAX_NESTING): refused before parsing so it cannot overflow the stack.
     TooDeeplyNested {
         /// [`MAX_NESTING`](crate::MAX_NESTING).
         limit: usize,
         /// The sequence that goes one level too deep.
         tag: Tag,
+        /// The keyword of that sequence, when it is a known attribute.
         keyword: Option<&'static str>,
     },
 
@@ -100,8 +131,11 @@ pub enum DicomImportError {
         name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default(),
         crate::read::RT_ION_PLAN_STORAGE
     )]
+    /// The SOP class is not RT Ion Plan Storage.
     NotIonPlan {
+        /// The file's SOP class UID.
         sop_class_uid: String,
+        /// The SOP class's name, when it is a known one.
         name: Option<String>,
     },
 
@@ -110,21 +144,35 @@ pub enum DicomImportError {
          RT Ion Plan Storage ({})",
         crate::read::RT_ION_PLAN_STORAGE
     )]
-    PhotonPlan { sop_class_uid: String },
+    /// A photon RT Plan, not an ion plan.
+    PhotonPlan {
+        /// The file's SOP class UID (RT Plan Storage).
+        sop_class_uid: String,
+    },
 
+    /// A required attribute is absent.
     #[error("missing {keyword} {tag} in {at}{}", note.map(|n| format!(" ({n})")).unwrap_or_default())]
     MissingTag {
+        /// The attribute's keyword (e.g. `BeamNumber`).
         keyword: &'static str,
+        /// The attribute's tag.
         tag: Tag,
+        /// Where it is missing.
         at: Location,
+        /// Why it is needed, when that helps.
         note: Option<&'static str>,
     },
 
+    /// An attribute's value cannot be used.
     #[error("invalid {keyword} {tag} in {at}: {problem}")]
     InvalidValue {
+        /// The attribute's keyword (e.g. `BeamNumber`).
         keyword: &'static str,
+        /// The attribute's tag.
         tag: Tag,
+        /// The sequence item it belongs to.
         at: Location,
+        /// What is wrong with the value and what was expected.
         problem: String,
     },
 
@@ -132,17 +180,26 @@ pub enum DicomImportError {
         "inconsistent spots in {at}: ScanSpotMetersetWeights (300A,0396) has {weights} values but \
          NumberOfScanSpotPositions (300A,0392) is {spots}; expected one weight per spot"
     )]
+    /// A control point has not one meterset weight per spot.
     SpotCountMismatch {
+        /// The control point.
         at: Location,
+        /// Number of ScanSpotMetersetWeights values.
         weights: usize,
+        /// NumberOfScanSpotPositions.
         spots: usize,
     },
 
+    /// Attributes that contradict each other.
     #[error("inconsistent {keyword} {tag} in {at}: {problem}")]
     Inconsistent {
+        /// The attribute's keyword (e.g. `BeamNumber`).
         keyword: &'static str,
+        /// The attribute's tag.
         tag: Tag,
+        /// The sequence item it belongs to.
         at: Location,
+        /// What contradicts what.
         problem: String,
     },
 
@@ -150,14 +207,22 @@ pub enum DicomImportError {
         "no BeamMeterset (300A,0086) for {at}: no FractionGroupSequence (300A,0070) > ReferencedBeamSequence \
          (300C,0004) item has ReferencedBeamNumber (300C,0006) {number}"
     )]
-    NoBeamMeterset { at: Location, number: i64 },
+    /// A beam that no fraction group gives a BeamMeterset.
+    NoBeamMeterset {
+        /// The beam.
+        at: Location,
+        /// Its BeamNumber.
+        number: i64,
+    },
 
     #[error(
         "two beams have BeamNumber (300A,00C0) {number}: IonBeamSequence[{first}] and \
          IonBeamSequence[{second}]; expected a different number for each beam, since \
          ReferencedBeamNumber (300C,0006) in the fraction group refers to a beam by its number"
     )]
+    /// Two beams share a BeamNumber.
     DuplicateBeamNumber {
+        /// The shared BeamNumber.
         number: i64,
         /// Index of the first beam with that number.
         first: usize,
@@ -170,6 +235,7 @@ pub enum DicomImportError {
          (300A,0392) x NumberOfPaintings (300A,039A), summed over all energy layers); at most {limit} \
          are imported"
     )]
+    /// More spots than [`MAX_SPOTS`](crate::MAX_SPOTS): refused to bound the work of timing the plan.
     TooManySpots {
         /// Spots after repainting, over all imported beams.
         spots: u64,
@@ -177,18 +243,27 @@ pub enum DicomImportError {
         limit: u64,
     },
 
+    /// No ion beam can be imported.
     #[error("the plan has no ion beam to import: {reason}")]
-    NoIonBeams { reason: String },
+    NoIonBeams {
+        /// Why no beam is importable.
+        reason: String,
+    },
 
     #[error(
         "{keyword} {tag} in {at} is {number}, but no item of IonBeamSequence (300A,03A2) has \
          BeamNumber {number} (the beams are {}); expected the number of a beam of this plan",
         beams.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
     )]
+    /// A reference to a BeamNumber no beam has.
     UnknownBeamReference {
+        /// The attribute's keyword (e.g. `BeamNumber`).
         keyword: &'static str,
+        /// The attribute's tag.
         tag: Tag,
+        /// The sequence item it belongs to.
         at: Location,
+        /// The referenced BeamNumber.
         number: i64,
         /// The BeamNumbers of the plan's beams, in file order.
         beams: Vec<i64>,
@@ -199,7 +274,11 @@ pub enum DicomImportError {
          as imported, from 0): {}",
         issues.join("; ")
     )]
-    InvalidPlan { issues: Vec<String> },
+    /// The converted plan fails arcsim's plan validation.
+    InvalidPlan {
+        /// Every rule broken, one message each.
+        issues: Vec<String>,
+    },
 }
 
 /// Something the import did that the user should know of, though the plan was imported. Each names
@@ -207,7 +286,10 @@ pub enum DicomImportError {
 #[derive(Debug, Clone, PartialEq)]
 pub enum ImportWarning {
     /// GantryAngle (300A,011E) 360, outside DICOM's [0, 360), read as 0.
-    GantryAngle360 { at: Location },
+    GantryAngle360 {
+        /// The control point.
+        at: Location,
+    },
     /// The plan has several fraction groups: only the first one's beams were imported.
     OtherFractionGroups {
         /// FractionGroupNumber (300A,0071) of the imported group (its index when absent).

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! DICOM RT Ion Plan import into arcsim arc plans (`arcsim-plan/1`).
 //!
 //! [`read_rt_ion_plan`] reads an RT Ion Plan file (SOP class 1.2.840.10008.5.1.4.1.1.481.8) with
@@ -82,7 +83,9 @@ pub const DEFAULT_PLAN_NAME: &str = "dicom-rt-ion-plan";
 /// An imported plan with the warnings of its import (see [`ImportWarning`]).
 #[derive(Debug, Clone)]
 pub struct Imported {
+    /// The imported arc plan.
     pub plan: ArcPlan,
+    /// What the import did that the user should know of.
     pub warnings: Vec<ImportWarning>,
 }
 

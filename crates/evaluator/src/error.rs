@@ -2,21 +2,28 @@
 
 use thiserror::Error;
 
+/// Why loading, evaluating a shard spec or merging shard outputs failed.
 #[derive(Debug, Error)]
 pub enum EvalError {
     /// A sweep file (or a file it names) is unreadable or wrong; `field` is the JSON path
     /// (e.g. `axes.jerk_deg_per_s3.steps`), empty for the whole file.
     #[error("{file}: {}{message}", located(field))]
     Sweep {
+        /// The sweep file, or the file it names that is wrong.
         file: String,
+        /// JSON path of the offending value; empty for the whole file.
         field: String,
+        /// What is wrong and what was expected.
         message: String,
     },
     /// A plan, machine or reference file named by the sweep failed to load.
     #[error("{file}: {field}: {message}")]
     Input {
+        /// The file that failed to load.
         file: String,
+        /// The sweep file's field naming it.
         field: String,
+        /// Why it failed to load.
         message: String,
     },
     /// A `--shard K/N` argument that is not two integers with 1 <= K <= N.
@@ -24,7 +31,13 @@ pub enum EvalError {
     Shard(String),
     /// Shard outputs that cannot be merged into one table.
     #[error("{file}: {message}")]
-    Merge { file: String, message: String },
+    Merge {
+        /// The shard output that cannot be merged.
+        file: String,
+        /// Why it cannot be merged.
+        message: String,
+    },
+    /// Reading or writing a file failed.
     #[error("{0}")]
     Io(#[from] std::io::Error),
 }

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! # arcsim-evaluator
 //!
 //! Evaluates many (plan × machine variant × schedule) combinations in parallel and summarises
@@ -50,7 +51,9 @@ pub const RESULTS_FORMAT: &str = "arcsim-sweep-results/1";
 /// The JSON results of a run: its rows and summary (borrowed: written once, at the end).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Results<'a> {
+    /// Always [`RESULTS_FORMAT`].
     pub format: &'static str,
+    /// The sweep's name.
     pub sweep: String,
     /// Combinations in the whole sweep.
     pub combinations: usize,
@@ -58,6 +61,7 @@ pub struct Results<'a> {
     pub shard: Option<String>,
     /// False when the run was interrupted: `rows` holds those finished.
     pub complete: bool,
+    /// The evaluated rows, in index order.
     pub rows: &'a [Row],
     /// Absent when the run was interrupted.
     pub summary: Option<&'a Summary>,

@@ -7,8 +7,11 @@ use serde::{Serialize, Serializer};
 /// for free motion and `+free-ends` for free arc ends (e.g. `optimal+free+free-ends`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct RunMode {
+    /// The speed schedule of each layer.
     pub schedule: Schedule,
+    /// Constant speed per layer or free motion.
     pub motion: Motion,
+    /// Arcs starting and ending at rest, or free.
     pub arc_ends: ArcEnds,
 }
 
@@ -22,6 +25,7 @@ impl RunMode {
         }
     }
 
+    /// The entry's name in tables and files, e.g. `optimal+free+free-ends`.
     pub fn name(&self) -> String {
         let mut s = self.schedule.name().to_string();
         if self.motion == Motion::Free {

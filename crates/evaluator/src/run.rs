@@ -39,6 +39,7 @@ pub enum Status {
 }
 
 impl Status {
+    /// The status as the CSV and JSON rows write it (`ok`, `infeasible`, `invalid`, `error`).
     pub fn name(self) -> &'static str {
         match self {
             Status::Ok => "ok",
@@ -52,7 +53,9 @@ impl Status {
 /// The times of a feasible combination.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Outcome {
+    /// Total delivery time (s).
     pub total_s: f64,
+    /// Where the total time goes (s).
     pub breakdown: Breakdown,
     /// Base machine's total / this total (same plan and schedule); `None` when the base is infeasible.
     pub speedup: Option<f64>,
@@ -61,6 +64,7 @@ pub struct Outcome {
     pub lower_bound_s: Option<f64>,
     /// `total_s` minus `lower_bound_s`: at most this much is left to gain (s).
     pub gap_s: Option<f64>,
+    /// Counts of transitions by what limited them.
     pub limiter_counts: LimiterCounts,
     /// Prescribed schedule: number of prescribed speeds that could not be delivered.
     pub violations: usize,
@@ -79,13 +83,17 @@ pub struct Row {
     pub combinations: usize,
     /// Plan label (path relative to the sweep file, or `atom:CASE`).
     pub plan: String,
+    /// The schedule entry's way of moving.
     pub schedule: RunMode,
+    /// The machine values of this combination.
     pub setting: Setting,
     /// The base machine's values of the limits `setting` keeps (`None`), which the CSV writes in
     /// their columns; not in the JSON rows, where `null` still means "as in the base machine".
     #[serde(skip)]
     pub defaults: Defaults,
+    /// Whether the combination was delivered and, if not, why.
     pub status: Status,
+    /// The times; present when `status` is `ok`.
     pub outcome: Option<Outcome>,
     /// Why the combination is not `ok` (empty when it is).
     pub message: String,
@@ -284,6 +292,7 @@ impl Evaluator {
         out
     }
 
+    /// The sweep being evaluated.
     pub fn sweep(&self) -> &Sweep {
         &self.sweep
     }
@@ -293,6 +302,7 @@ impl Evaluator {
         self.blocks.last().map_or(0, |b| b.offset + b.len)
     }
 
+    /// Whether the sweep has no combinations.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

@@ -10,7 +10,9 @@ use crate::EvalError;
 /// Shard `k` of `n` (1 <= k <= n).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
+    /// This shard's number, 1-based.
     pub k: usize,
+    /// Number of shards.
     pub n: usize,
 }
 
@@ -18,6 +20,7 @@ impl Shard {
     /// The whole sweep as one shard.
     pub const ALL: Shard = Shard { k: 1, n: 1 };
 
+    /// Shard `k` of `n`; an error unless 1 <= k <= n.
     pub fn new(k: usize, n: usize) -> Result<Shard, EvalError> {
         if n >= 1 && (1..=n).contains(&k) {
             Ok(Shard { k, n })
@@ -58,6 +61,7 @@ impl ShardIndices {
         self.len
     }
 
+    /// Whether the shard holds no index.
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }

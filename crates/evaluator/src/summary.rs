@@ -48,21 +48,28 @@ pub use render::{describe_setting, describe_steps, short, table};
 /// A sweep's summary.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
+    /// The sweep's name.
     pub sweep: String,
     /// Combinations in the whole sweep.
     pub combinations: usize,
     /// Rows summarised (fewer for a shard or an interrupted run).
     pub rows: usize,
+    /// What the cheapest change must reach.
     pub target: Target,
+    /// One entry per (plan × schedule entry).
     pub entries: Vec<Entry>,
 }
 
 /// The summary of one plan under one schedule entry.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Entry {
+    /// Plan label (as in the rows).
     pub plan: String,
+    /// The schedule entry's way of moving.
     pub schedule: RunMode,
+    /// Rows of this plan and schedule entry summarised.
     pub rows: usize,
+    /// Of those, the feasible ones.
     pub feasible: usize,
     /// Total on the base machine.
     pub base_total_s: Option<f64>,
@@ -71,6 +78,7 @@ pub struct Entry {
     pub fastest: Option<Point>,
     /// Time at each value of one axis, the others at the base machine (one per swept axis).
     pub profiles: Vec<AxisTotals>,
+    /// How the total responds to each limit at the base machine.
     pub sensitivity: Vec<Sensitivity>,
     /// The target total (from the sweep's `target` and the base total).
     pub target_total_s: Option<f64>,
@@ -83,8 +91,11 @@ pub struct Entry {
 pub struct Point {
     /// Row index when the point is a grid row.
     pub index: Option<usize>,
+    /// The machine values.
     pub setting: Setting,
+    /// Total delivery time (s).
     pub total_s: f64,
+    /// Base machine's total / this total; `None` when the base is infeasible.
     pub speedup: Option<f64>,
 }
 
@@ -110,23 +121,29 @@ fn profile_positions(n: usize) -> impl Iterator<Item = usize> {
 /// every other limit at the base machine: the summary's one-limit profile.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AxisTotals {
+    /// The profiled axis.
     pub axis: Axis,
+    /// One point per profiled value, in the axis's order.
     pub points: Vec<AxisTotal>,
 }
 
 /// The total at one value of an axis ([`AxisTotals`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct AxisTotal {
+    /// The axis value, in the axis's unit (see [`Axis`]).
     pub value: f64,
     /// `None` when the setting is not feasible.
     pub total_s: Option<f64>,
+    /// Base machine's total / this total.
     pub speedup: Option<f64>,
 }
 
 /// Sensitivity of the total to one limit at the base machine.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Sensitivity {
+    /// The limit.
     pub axis: Axis,
+    /// The base machine's value of it, in the axis's unit (see [`Axis`]).
     pub base_value: f64,
     /// dT / d ln L (s).
     pub s_per_ln: Option<f64>,
@@ -146,8 +163,11 @@ pub struct Sensitivity {
 /// One limit changed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Step {
+    /// The changed limit.
     pub axis: Axis,
+    /// The base machine's value, in the axis's unit (see [`Axis`]).
     pub from: f64,
+    /// The changed value.
     pub to: f64,
 }
 
@@ -158,7 +178,9 @@ pub struct Change {
     pub steps: Vec<Step>,
     /// Σ |ln(to / from)|.
     pub cost: f64,
+    /// Total delivery time with the change (s).
     pub total_s: f64,
+    /// Time saved against the base machine's total (s).
     pub saving_s: f64,
     /// Row index when the setting is a grid row.
     pub index: Option<usize>,

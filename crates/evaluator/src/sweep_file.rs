@@ -19,7 +19,9 @@ pub const SWEEP_FORMAT: &str = "arcsim-sweep/1";
 pub struct SweepFile {
     /// Must equal [`SWEEP_FORMAT`].
     pub format: String,
+    /// The sweep's name, carried into its outputs.
     pub name: String,
+    /// Free text describing the sweep.
     #[serde(default)]
     pub description: Option<String>,
     /// Plan files (paths or globs relative to the sweep file) and ATOM article cases.
@@ -51,12 +53,19 @@ pub enum PlanSource {
     Path(String),
     /// A case of the ATOM article reference file: `{"atom_case": "prostate", "reference": PATH}`.
     AtomCase {
+        /// The case name (e.g. `prostate`).
         atom_case: String,
+        /// The reference file (relative to the sweep file).
         reference: String,
     },
     /// One plan file under a name of the sweep's choosing: `{"path": PATH, "name": NAME}`
     /// (e.g. a bundled ATOM plan keeping the `atom:CASE` label of its reference-file entry).
-    Named { path: String, name: String },
+    Named {
+        /// The plan file (relative to the sweep file).
+        path: String,
+        /// The label its rows carry.
+        name: String,
+    },
 }
 
 /// The swept axes; each is absent (the base machine's value), one number, a list of numbers,
@@ -95,6 +104,7 @@ pub struct Axes {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Scale {
+    /// Equal spacing.
     #[default]
     Linear,
     /// Geometric spacing (equal ratios), for limits spanning orders of magnitude.
@@ -104,11 +114,17 @@ pub enum Scale {
 /// One axis as written.
 #[derive(Debug, Clone, PartialEq)]
 pub enum AxisSpec {
+    /// These values, in this order.
     Values(Vec<f64>),
+    /// `steps` values from `from` to `to`, both ends included, spaced by `scale`.
     Range {
+        /// First value, in the axis's unit.
         from: f64,
+        /// Last value, in the axis's unit.
         to: f64,
+        /// Number of values.
         steps: usize,
+        /// Spacing of the values.
         scale: Scale,
     },
 }
@@ -116,6 +132,7 @@ pub enum AxisSpec {
 /// One entry of `schedules`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScheduleEntry {
+    /// The speed schedule of each layer.
     pub schedule: Schedule,
     /// Constant speed per layer (default) or free motion.
     pub motion: Motion,
@@ -161,6 +178,7 @@ impl AxisSpec {
         }
     }
 
+    /// Whether the axis has no value.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

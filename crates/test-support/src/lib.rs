@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! Test support for the arcsim workspace: what several crates' tests (and the DICOM example) share.
 //! A dev-dependency only, never published or used by library code.
 //!

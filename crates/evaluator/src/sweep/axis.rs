@@ -3,6 +3,7 @@
 use super::*;
 
 impl Axis {
+    /// Every axis, in column order.
     pub const ALL: [Axis; 8] = [
         Axis::Jerk,
         Axis::Accel,

@@ -46,6 +46,7 @@ impl Grid {
         self.checked_len().unwrap_or(usize::MAX)
     }
 
+    /// Whether the grid has no point.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

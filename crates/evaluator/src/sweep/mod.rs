@@ -28,17 +28,24 @@ pub const MAX_COMBINATIONS: usize = 100_000_000;
 pub struct SweepPlan {
     /// How rows name it: the path relative to the sweep file, `atom:CASE`, or the entry's `name`.
     pub label: String,
+    /// The plan as loaded.
     pub plan: ArcPlan,
 }
 
 /// The machine values of one combination. `None` keeps the base machine's (or plan's) value.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Setting {
+    /// Gantry jerk limit J (deg/s³).
     pub jerk_deg_per_s3: f64,
+    /// Gantry acceleration limit A (deg/s²).
     pub accel_deg_per_s2: f64,
+    /// Gantry speed limit V (deg/s).
     pub speed_deg_per_s: f64,
+    /// Upward energy-layer switching time, ELST (s).
     pub elst_up_s: Option<f64>,
+    /// Downward ELST (s).
     pub elst_down_s: Option<f64>,
+    /// Window each layer is irradiated in (deg).
     pub window_deg: Option<f64>,
     /// Scanning speed of a `scanning` beam model (mm/s, both axes).
     pub scan_speed_mm_per_s: Option<f64>,
@@ -91,18 +98,24 @@ pub struct Grid {
 /// settings it is evaluated at.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScheduleGrid {
+    /// How the entry moves.
     pub schedule: RunMode,
+    /// The settings it is evaluated at.
     pub grid: Grid,
 }
 
 /// A sweep ready to evaluate.
 #[derive(Debug, Clone)]
 pub struct Sweep {
+    /// The sweep's name (from the sweep file).
     pub name: String,
+    /// Free text from the sweep file.
     pub description: Option<String>,
     /// The sweep file as named on the command line.
     pub source: String,
+    /// The plans, in the sweep file's order.
     pub plans: Vec<SweepPlan>,
+    /// The base machine every axis varies.
     pub machine: Machine,
     /// The schedule entries, in the sweep file's order (a plan's combinations follow it).
     pub schedule_grids: Vec<ScheduleGrid>,
@@ -110,6 +123,7 @@ pub struct Sweep {
     pub margins: bool,
     /// Certify every constant-speed row (lower bound and gap).
     pub certify: bool,
+    /// What the summary's cheapest change must reach.
     pub target: Target,
     /// Every file the sweep file names and that was read (the machine, the plans, ATOM reference
     /// files), as joined to the sweep file's directory: a command must not write over them.
@@ -120,11 +134,17 @@ pub struct Sweep {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Axis {
+    /// Gantry jerk limit J (deg/s³).
     Jerk,
+    /// Gantry acceleration limit A (deg/s²).
     Accel,
+    /// Gantry speed limit V (deg/s).
     Speed,
+    /// Upward energy-layer switching time, ELST (s).
     ElstUp,
+    /// Downward ELST (s).
     ElstDown,
+    /// Window each layer is irradiated in (deg).
     Window,
     /// Scanning speed of a `scanning` beam model (mm/s).
     ScanSpeed,
