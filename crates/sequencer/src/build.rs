@@ -5,8 +5,9 @@ use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal};
 
 use crate::free;
 use crate::optimal::{optimal, speed_free_scan};
+use crate::problem::ArcProblem;
 use crate::raise::{label_by_raise, move_duration};
-use crate::scan::{moving_time, moving_time_on, polished_scan, scan, scan_converged, ArcProblem};
+use crate::scan::{moving_time, moving_time_on, polished_scan, scan, scan_converged};
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};

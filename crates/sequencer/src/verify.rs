@@ -3,7 +3,7 @@
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::Limits;
 
-use crate::scan::ArcProblem;
+use crate::problem::ArcProblem;
 use crate::timeline::{PieceKind, Timeline};
 use crate::{LayerRow, Margin, Margins, SequenceError, TransitionRow};
 

@@ -13,7 +13,7 @@ use arcsim_planner::{Limits, Segment};
 use super::mover::{FullMove, FullState, Mover};
 use super::solve::{beam_at_rest, End, FreeArc, Start};
 use super::transcribe::Transcript;
-use crate::scan::ArcProblem;
+use crate::problem::ArcProblem;
 
 /// Most steps one refinement takes (each solves two linear programmes).
 const MAX_STEPS: usize = 60;

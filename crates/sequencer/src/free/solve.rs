@@ -5,7 +5,7 @@ use arcsim_planner::Limits;
 
 use super::mover::{FullMove, FullState, Mover};
 use super::refine::refine;
-use crate::scan::ArcProblem;
+use crate::problem::ArcProblem;
 
 /// How an arc's motion starts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
