@@ -339,7 +339,7 @@ impl Assembly<'_> {
         let counts = limiter_counts(&transitions);
         let (timeline, margins) = if build {
             let tl = Timeline { pieces };
-            verify_timeline(&tl, arcs, problems, &layers, &transitions, lim, false)?;
+            verify_timeline(&tl, problems, &layers, &transitions, lim, false)?;
             let m = margins(&tl, &layers, &transitions, lim);
             (Some(tl), Some(m))
         } else {

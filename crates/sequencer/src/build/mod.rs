@@ -141,7 +141,7 @@ fn simulate_free(
     let tl = Timeline {
         pieces: std::mem::take(&mut a.pieces),
     };
-    verify_timeline(&tl, arcs, problems, &a.layers, &a.transitions, limits, true)?;
+    verify_timeline(&tl, problems, &a.layers, &a.transitions, limits, true)?;
     let margins = opts
         .build_timeline
         .then(|| margins(&tl, &a.layers, &a.transitions, limits));

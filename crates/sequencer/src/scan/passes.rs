@@ -52,30 +52,8 @@ pub(crate) fn scan_converged(
     let mut move_ok: Vec<Option<(f64, f64)>> = vec![None; n - 1];
     for round in 0..MAX_ROUNDS {
         let mut changed = false;
-        for k in (0..n - 1).rev() {
-            // Braking branch (v_k >= v_k+1): the highest start speed that still reaches v_k+1.
-            if v[k] > v[k + 1] && braked_ok[k] != Some((v[k], v[k + 1])) {
-                let b = highest_start(p, k, v[k + 1], lim);
-                if v[k] > b {
-                    v[k] = b;
-                    bound[k] = SpeedBound::Gap;
-                    changed = true;
-                }
-                braked_ok[k] = Some((v[k], v[k + 1]));
-            }
-        }
-        for k in 1..n {
-            // Speed-up branch (v_k > v_k-1): the highest end speed reachable from v_k-1.
-            if v[k] > v[k - 1] && sped_ok[k - 1] != Some((v[k - 1], v[k])) {
-                let b = highest_end(p, k - 1, v[k - 1], lim);
-                if v[k] > b {
-                    v[k] = b;
-                    bound[k] = SpeedBound::Gap;
-                    changed = true;
-                }
-                sped_ok[k - 1] = Some((v[k - 1], v[k]));
-            }
-        }
+        changed |= braking_pass(p, lim, &mut v, &mut bound, &mut braked_ok);
+        changed |= speed_up_pass(p, lim, &mut v, &mut bound, &mut sped_ok);
         for k in 0..n - 1 {
             if move_ok[k] == Some((v[k], v[k + 1])) {
                 continue;
@@ -94,31 +72,7 @@ pub(crate) fn scan_converged(
                 // gap, a stop and dwell lasts any ELST (and any whole number of servo periods
                 // beyond it), so the search starts there, with or without a period: the same
                 // search keeps a period from choosing speeds whose transitions are shorter.
-                let (mut lo, mut hi) = (
-                    if with_elst {
-                        stop_fits_scale(p, k, v[k], v[k + 1], lim)
-                    } else {
-                        0.0
-                    },
-                    1.0f64,
-                );
-                let ok = |s: f64| {
-                    transition_check(p, k, s * v[k], s * v[k + 1], lim, with_elst, period)
-                        == Check::Ok
-                };
-                let resolution = (hi - lo) / 4096.0;
-                // Often nothing above the start is feasible: one test settles it.
-                if ok(lo + resolution) {
-                    lo += resolution;
-                    while hi - lo > resolution {
-                        let mid = 0.5 * (lo + hi);
-                        if ok(mid) {
-                            lo = mid;
-                        } else {
-                            hi = mid;
-                        }
-                    }
-                }
+                let lo = feasible_scale(p, k, v[k], v[k + 1], lim, with_elst, period);
                 let why = if check == Check::OffServoGrid {
                     SpeedBound::Servo
                 } else if with_elst {
@@ -160,6 +114,92 @@ pub(super) enum Check {
     TooShortForElst,
     /// Feasible in continuous time, but no duration of a whole number of servo periods is.
     OffServoGrid,
+}
+
+/// The braking pass, from the last transition back: each speed above the next lowered to the
+/// highest start that still reaches it. Returns whether a speed changed.
+fn braking_pass(
+    p: &ArcProblem,
+    lim: &Limits,
+    v: &mut [f64],
+    bound: &mut [SpeedBound],
+    braked_ok: &mut [Option<(f64, f64)>],
+) -> bool {
+    let mut changed = false;
+    for k in (0..v.len() - 1).rev() {
+        // Braking branch (v_k >= v_k+1): the highest start speed that still reaches v_k+1.
+        if v[k] > v[k + 1] && braked_ok[k] != Some((v[k], v[k + 1])) {
+            let b = highest_start(p, k, v[k + 1], lim);
+            if v[k] > b {
+                v[k] = b;
+                bound[k] = SpeedBound::Gap;
+                changed = true;
+            }
+            braked_ok[k] = Some((v[k], v[k + 1]));
+        }
+    }
+    changed
+}
+
+/// The speed-up pass, from the first transition on: each speed above the one before lowered to
+/// the highest end reachable from it. Returns whether a speed changed.
+fn speed_up_pass(
+    p: &ArcProblem,
+    lim: &Limits,
+    v: &mut [f64],
+    bound: &mut [SpeedBound],
+    sped_ok: &mut [Option<(f64, f64)>],
+) -> bool {
+    let mut changed = false;
+    for k in 1..v.len() {
+        // Speed-up branch (v_k > v_k-1): the highest end speed reachable from v_k-1.
+        if v[k] > v[k - 1] && sped_ok[k - 1] != Some((v[k - 1], v[k])) {
+            let b = highest_end(p, k - 1, v[k - 1], lim);
+            if v[k] > b {
+                v[k] = b;
+                bound[k] = SpeedBound::Gap;
+                changed = true;
+            }
+            sped_ok[k - 1] = Some((v[k - 1], v[k]));
+        }
+    }
+    changed
+}
+
+/// The largest common factor of `vs`, `ve` that makes transition `k` feasible (rest always is),
+/// bisected to 2^-12 of the range searched.
+fn feasible_scale(
+    p: &ArcProblem,
+    k: usize,
+    vs: f64,
+    ve: f64,
+    lim: &Limits,
+    with_elst: bool,
+    period: Option<f64>,
+) -> f64 {
+    let (mut lo, mut hi) = (
+        if with_elst {
+            stop_fits_scale(p, k, vs, ve, lim)
+        } else {
+            0.0
+        },
+        1.0f64,
+    );
+    let ok = |s: f64| transition_check(p, k, s * vs, s * ve, lim, with_elst, period) == Check::Ok;
+    let resolution = (hi - lo) / 4096.0;
+    // Often nothing above the start is feasible: one test settles it.
+    if ok(lo + resolution) {
+        lo += resolution;
+        while hi - lo > resolution {
+            let mid = 0.5 * (lo + hi);
+            if ok(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+    }
+    lo
 }
 
 /// Whether transition `k` at `vs`, `ve` is feasible: a forward move fits its gap and (with
