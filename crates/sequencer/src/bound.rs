@@ -48,7 +48,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::build::arc_time_on_grid;
 use crate::optimal::speed_bound;
-use crate::scan::{moving_time, ArcProblem};
+use crate::problem::ArcProblem;
+use crate::scan::moving_time;
 use crate::servo::ticks;
 use crate::{Delivery, Motion, SequenceError};
 

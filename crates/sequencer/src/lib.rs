@@ -19,6 +19,7 @@ mod error;
 mod free;
 mod lost;
 mod optimal;
+mod problem;
 mod raise;
 mod scan;
 mod servo;

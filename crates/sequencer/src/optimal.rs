@@ -74,7 +74,8 @@
 
 use arcsim_planner::{two_change, Limits, LinearGap};
 
-use crate::scan::{moving_time_on, scan, ArcProblem};
+use crate::problem::ArcProblem;
+use crate::scan::{moving_time_on, scan};
 use crate::servo::ticks;
 use crate::SpeedBound;
 

@@ -1,9 +1,8 @@
 //! The timeline's own check, by integrating its pieces, and its kinematic margins.
 
-use arcsim_plan::ResolvedArc;
 use arcsim_planner::Limits;
 
-use crate::scan::ArcProblem;
+use crate::problem::ArcProblem;
 use crate::timeline::{PieceKind, Timeline};
 use crate::{LayerRow, Margin, Margins, SequenceError, TransitionRow};
 
@@ -15,7 +14,6 @@ const TOL: f64 = 1e-9;
 /// ELST; |speed| <= V, |acceleration| <= A (D when braking), |jerk| <= J; no reversal in an arc.
 pub(crate) fn verify_timeline(
     tl: &Timeline,
-    arcs: &[ResolvedArc],
     problems: &[ArcProblem],
     layers: &[LayerRow],
     transitions: &[TransitionRow],
@@ -29,31 +27,7 @@ pub(crate) fn verify_timeline(
     for p in problems {
         dir_of_layer.extend(std::iter::repeat_n(p.dir, p.len()));
     }
-    let _ = arcs;
-    for (i, w) in tl.pieces.windows(2).enumerate() {
-        let (a, b) = (&w[0], &w[1]);
-        let end = a.state_after(a.duration_s);
-        if (a.t_start_s + a.duration_s - b.t_start_s).abs() > TOL * (1.0 + b.t_start_s) {
-            return fail(format!("time jumps between pieces {i} and {}", i + 1));
-        }
-        if (end.angle_deg - b.angle_deg).abs() > TOL * scale_angle {
-            return fail(format!(
-                "angle jumps by {:e} deg at t = {:.6} s",
-                end.angle_deg - b.angle_deg,
-                b.t_start_s
-            ));
-        }
-        if (end.speed_deg_per_s - b.speed_deg_per_s).abs() > TOL * lim.max_vel {
-            return fail(format!(
-                "speed jumps by {:e} deg/s at t = {:.6} s",
-                end.speed_deg_per_s - b.speed_deg_per_s,
-                b.t_start_s
-            ));
-        }
-        if (end.accel_deg_per_s2 - b.accel_deg_per_s2).abs() > TOL * a_max {
-            return fail(format!("acceleration jumps at t = {:.6} s", b.t_start_s));
-        }
-    }
+    check_continuity(tl, lim, a_max, scale_angle)?;
     for p in &tl.pieces {
         let current_dir: f64;
         let (s0, s1) = (p.state_after(0.0), p.state_after(p.duration_s));
@@ -136,6 +110,51 @@ pub(crate) fn verify_timeline(
             }
         }
     }
+    check_elsts_and_end(tl, layers, transitions)
+}
+
+/// Checks that time, angle, speed and acceleration are continuous between pieces.
+fn check_continuity(
+    tl: &Timeline,
+    lim: &Limits,
+    a_max: f64,
+    scale_angle: f64,
+) -> Result<(), SequenceError> {
+    let fail = |msg: String| Err(SequenceError::Verification(msg));
+    for (i, w) in tl.pieces.windows(2).enumerate() {
+        let (a, b) = (&w[0], &w[1]);
+        let end = a.state_after(a.duration_s);
+        if (a.t_start_s + a.duration_s - b.t_start_s).abs() > TOL * (1.0 + b.t_start_s) {
+            return fail(format!("time jumps between pieces {i} and {}", i + 1));
+        }
+        if (end.angle_deg - b.angle_deg).abs() > TOL * scale_angle {
+            return fail(format!(
+                "angle jumps by {:e} deg at t = {:.6} s",
+                end.angle_deg - b.angle_deg,
+                b.t_start_s
+            ));
+        }
+        if (end.speed_deg_per_s - b.speed_deg_per_s).abs() > TOL * lim.max_vel {
+            return fail(format!(
+                "speed jumps by {:e} deg/s at t = {:.6} s",
+                end.speed_deg_per_s - b.speed_deg_per_s,
+                b.t_start_s
+            ));
+        }
+        if (end.accel_deg_per_s2 - b.accel_deg_per_s2).abs() > TOL * a_max {
+            return fail(format!("acceleration jumps at t = {:.6} s", b.t_start_s));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that every transition lasts at least its ELST and the timeline ends with the last layer.
+fn check_elsts_and_end(
+    tl: &Timeline,
+    layers: &[LayerRow],
+    transitions: &[TransitionRow],
+) -> Result<(), SequenceError> {
+    let fail = |msg: String| Err(SequenceError::Verification(msg));
     for tr in transitions {
         if tr.duration_s < tr.elst_s * (1.0 - TOL) {
             return fail(format!(

@@ -6,8 +6,8 @@ use arcsim_planner::{Limits, Segment};
 
 use super::mover::{FullMove, FullState, Mover};
 use super::solve::FreeArc;
+use crate::problem::ArcProblem;
 use crate::raise::label_by_raise;
-use crate::scan::ArcProblem;
 use crate::timeline::{Piece, PieceKind};
 use crate::{Infeasibility, LayerRow, Limiter, SequenceError, SpeedBound, TransitionRow};
 

@@ -13,7 +13,7 @@ use arcsim_planner::{Limits, Segment};
 use super::mover::{FullMove, FullState, Mover};
 use super::solve::{beam_at_rest, End, FreeArc, Start};
 use super::transcribe::Transcript;
-use crate::scan::ArcProblem;
+use crate::problem::ArcProblem;
 
 /// Most steps one refinement takes (each solves two linear programmes).
 const MAX_STEPS: usize = 60;
@@ -128,19 +128,7 @@ impl Flight<'_> {
                     if !rest_at(k) {
                         return None;
                     }
-                    let mut mv = s.mover.brake(cur)?;
-                    let stop = mv.end().pos;
-                    if stop < lo[k] || stop > hi[k] {
-                        return None;
-                    }
-                    let d = mv.duration();
-                    if d < p.elst[k] {
-                        mv.segments.push(Segment {
-                            duration: p.elst[k] - d,
-                            jerk: 0.0,
-                        });
-                    }
-                    Some(mv)
+                    brake_into_window(s.mover, cur, lo[k], hi[k], p.elst[k])
                 });
                 let mv = match ruckig {
                     Some(mv) => mv,
@@ -174,12 +162,7 @@ impl Flight<'_> {
             // Exactly the irradiation time (Ruckig's duration may be off by rounding), so that
             // beam edges and move joins coincide.
             let mut mv = mv;
-            let excess = mv.duration() - t_k;
-            if let Some(last) = mv.segments.last_mut() {
-                if last.duration > excess {
-                    last.duration -= excess;
-                }
-            }
+            trim_to(&mut mv, t_k);
             let c = s.mover.end_within_limits(&mv)?;
             if c.pos > hi[k] + tol {
                 return None;
@@ -189,14 +172,7 @@ impl Flight<'_> {
             moves.push(mv);
         }
         if end == End::Brake {
-            let mv = match s.mover.brake(cur) {
-                Some(mv) => mv,
-                None => pieces_from(cur, tr.brake_segments(), None, &lim)?,
-            };
-            let stop = s.mover.end_within_limits(&mv)?;
-            if stop.vel.abs() > 1e-9 * lim.max_vel || stop.acc.abs() > 1e-9 * lim.max_accel {
-                return None;
-            }
+            let mv = brake_after_last_beam(s.mover, cur, tr, &lim)?;
             t += mv.duration();
             moves.push(mv);
         }
@@ -274,4 +250,57 @@ fn pieces_from(
         start: from,
         segments: segs,
     })
+}
+
+/// Braking to rest from `cur`, if the gantry stops inside `[lo, hi]`; padded with a dwell to
+/// last at least `elst`.
+fn brake_into_window(
+    mover: &mut Mover,
+    cur: FullState,
+    lo: f64,
+    hi: f64,
+    elst: f64,
+) -> Option<FullMove> {
+    let mut mv = mover.brake(cur)?;
+    let stop = mv.end().pos;
+    if stop < lo || stop > hi {
+        return None;
+    }
+    let d = mv.duration();
+    if d < elst {
+        mv.segments.push(Segment {
+            duration: elst - d,
+            jerk: 0.0,
+        });
+    }
+    Some(mv)
+}
+
+/// Shortens the last segment of `mv` by what it lasts beyond `t_k` (when that segment is longer).
+fn trim_to(mv: &mut FullMove, t_k: f64) {
+    let excess = mv.duration() - t_k;
+    if let Some(last) = mv.segments.last_mut() {
+        if last.duration > excess {
+            last.duration -= excess;
+        }
+    }
+}
+
+/// The braking after the last beam from `cur` (the transcript's own pieces where Ruckig finds
+/// none); `None` unless it ends at rest within the limits.
+fn brake_after_last_beam(
+    mover: &mut Mover,
+    cur: FullState,
+    tr: &Transcript,
+    lim: &Limits,
+) -> Option<FullMove> {
+    let mv = match mover.brake(cur) {
+        Some(mv) => mv,
+        None => pieces_from(cur, tr.brake_segments(), None, lim)?,
+    };
+    let stop = mover.end_within_limits(&mv)?;
+    if stop.vel.abs() > 1e-9 * lim.max_vel || stop.acc.abs() > 1e-9 * lim.max_accel {
+        return None;
+    }
+    Some(mv)
 }

@@ -5,7 +5,7 @@ use arcsim_planner::Limits;
 
 use super::mover::{FullMove, FullState, Mover};
 use super::refine::refine;
-use crate::scan::ArcProblem;
+use crate::problem::ArcProblem;
 
 /// How an arc's motion starts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -217,49 +217,10 @@ pub(crate) fn solve_arc(
         end,
         mover: Mover::new(lim, false),
     };
-    let on0 = |k: usize| FullState {
-        pos: p.travel_deg[k] - 0.5 * speeds[k] * p.irradiation_s[k],
-        vel: speeds[k],
-        acc: 0.0,
-    };
-    let off0 = |k: usize| FullState {
-        pos: p.travel_deg[k] + 0.5 * speeds[k] * p.irradiation_s[k],
-        vel: speeds[k],
-        acc: 0.0,
-    };
-    // Cuts: the arc's ends at rest, and the switches that are long against the moves between
-    // layers (the gantry must slow down for them, so a single fast move cannot span them).
-    let mut durations: Vec<f64> = (0..n - 1)
-        .filter_map(|k| p.cost(k, speeds[k], speeds[k + 1], lim))
-        .collect();
-    durations.sort_by(f64::total_cmp);
-    let typical = durations.get(durations.len() / 2).copied().unwrap_or(0.0);
-    let mut cut_after: Vec<bool> = (0..n - 1)
-        .map(|k| p.elst[k + 1] > 0.0 && p.elst[k + 1] >= 2.0 * typical)
-        .collect();
-    if start == Start::Rest {
-        cut_after[0] = true;
-    }
-    if end == End::Rest {
-        cut_after[n - 2] = true;
-    }
-    let build = |cut_after: &[bool]| -> Vec<LayerSpan> {
-        let mut out = Vec::new();
-        let mut first = 0;
-        for k in 0..n {
-            if k + 1 == n || cut_after.get(k).copied().unwrap_or(false) {
-                let at_rest =
-                    (start == Start::Rest && k == 0) || (end == End::Rest && first == n - 1);
-                out.push(LayerSpan {
-                    first,
-                    last: k,
-                    at_rest,
-                });
-                first = k + 1;
-            }
-        }
-        out
-    };
+    let on0 = |k: usize| beam_on_state(p, speeds, k);
+    let off0 = |k: usize| beam_off_state(p, speeds, k);
+    let mut cut_after = initial_cuts(p, lim, start, end, speeds);
+    let build = |cut_after: &[bool]| spans(n, start, end, cut_after);
     // Split stretches whose fastest move outruns a beam at the start, until every one fits.
     let mut stretches = build(&cut_after);
     for _ in 0..n {
@@ -283,6 +244,94 @@ pub(crate) fn solve_arc(
             None => break,
         }
     }
+    let (on, off) = anchor_states(p, lim, end, speeds, &stretches);
+    let anchored = finish(&mut s, &State { stretches, on, off });
+    // The transcription refined from each seed, the anchored moves and the constant-speed
+    // schedule: where long switches at shared control points make the problem rugged (the
+    // bundled lung plan), the two lead to different local optima, 1.3 % apart.
+    // The two refinements are independent: side by side when a core is free.
+    let base = super::from_constant(p, lim, speeds);
+    let refined_from = |seed: Option<&FreeArc>| {
+        seed.and_then(|seed| refine(p, lim, start, end, &mut Mover::new(lim, false), seed))
+    };
+    let (from_anchored, from_constant) = rayon::join(
+        || refined_from(anchored.as_ref()),
+        || refined_from(base.as_ref()),
+    );
+    [anchored, from_anchored, from_constant]
+        .into_iter()
+        .flatten()
+        .min_by(|a, b| a.total.total_cmp(&b.total))
+}
+
+/// Where layer `k`'s beam starts at the constant-speed schedule `speeds`.
+fn beam_on_state(p: &ArcProblem, speeds: &[f64], k: usize) -> FullState {
+    FullState {
+        pos: p.travel_deg[k] - 0.5 * speeds[k] * p.irradiation_s[k],
+        vel: speeds[k],
+        acc: 0.0,
+    }
+}
+
+/// Where layer `k`'s beam ends at the constant-speed schedule `speeds`.
+fn beam_off_state(p: &ArcProblem, speeds: &[f64], k: usize) -> FullState {
+    FullState {
+        pos: p.travel_deg[k] + 0.5 * speeds[k] * p.irradiation_s[k],
+        vel: speeds[k],
+        acc: 0.0,
+    }
+}
+
+/// The first cuts between stretches: after each layer whose switch is long against the moves.
+fn initial_cuts(p: &ArcProblem, lim: &Limits, start: Start, end: End, speeds: &[f64]) -> Vec<bool> {
+    let n = p.len();
+    // Cuts: the arc's ends at rest, and the switches that are long against the moves between
+    // layers (the gantry must slow down for them, so a single fast move cannot span them).
+    let mut durations: Vec<f64> = (0..n - 1)
+        .filter_map(|k| p.cost(k, speeds[k], speeds[k + 1], lim))
+        .collect();
+    durations.sort_by(f64::total_cmp);
+    let typical = durations.get(durations.len() / 2).copied().unwrap_or(0.0);
+    let mut cut_after: Vec<bool> = (0..n - 1)
+        .map(|k| p.elst[k + 1] > 0.0 && p.elst[k + 1] >= 2.0 * typical)
+        .collect();
+    if start == Start::Rest {
+        cut_after[0] = true;
+    }
+    if end == End::Rest {
+        cut_after[n - 2] = true;
+    }
+    cut_after
+}
+
+/// The stretches of `n` layers between the cuts `cut_after`.
+fn spans(n: usize, start: Start, end: End, cut_after: &[bool]) -> Vec<LayerSpan> {
+    let mut out = Vec::new();
+    let mut first = 0;
+    for k in 0..n {
+        if k + 1 == n || cut_after.get(k).copied().unwrap_or(false) {
+            let at_rest = (start == Start::Rest && k == 0) || (end == End::Rest && first == n - 1);
+            out.push(LayerSpan {
+                first,
+                last: k,
+                at_rest,
+            });
+            first = k + 1;
+        }
+    }
+    out
+}
+
+/// The anchor states of the stretches: at rest or at the constant-speed schedule's beam ends.
+fn anchor_states(
+    p: &ArcProblem,
+    lim: &Limits,
+    end: End,
+    speeds: &[f64],
+    stretches: &[LayerSpan],
+) -> (Vec<FullState>, Vec<FullState>) {
+    let on0 = |k: usize| beam_on_state(p, speeds, k);
+    let off0 = |k: usize| beam_off_state(p, speeds, k);
     let on: Vec<FullState> = stretches
         .iter()
         .map(|st| {
@@ -312,23 +361,7 @@ pub(crate) fn solve_arc(
             *last = FullState::rest(last.pos + stop);
         }
     }
-    let anchored = finish(&mut s, &State { stretches, on, off });
-    // The transcription refined from each seed, the anchored moves and the constant-speed
-    // schedule: where long switches at shared control points make the problem rugged (the
-    // bundled lung plan), the two lead to different local optima, 1.3 % apart.
-    // The two refinements are independent: side by side when a core is free.
-    let base = super::from_constant(p, lim, speeds);
-    let refined_from = |seed: Option<&FreeArc>| {
-        seed.and_then(|seed| refine(p, lim, start, end, &mut Mover::new(lim, false), seed))
-    };
-    let (from_anchored, from_constant) = rayon::join(
-        || refined_from(anchored.as_ref()),
-        || refined_from(base.as_ref()),
-    );
-    [anchored, from_anchored, from_constant]
-        .into_iter()
-        .flatten()
-        .min_by(|a, b| a.total.total_cmp(&b.total))
+    (on, off)
 }
 
 /// Builds the moves and beam times of the final anchor states.

@@ -25,7 +25,7 @@ use arcsim_planner::{Limits, Segment};
 use super::lp::Lp;
 use super::mover::{FullMove, FullState};
 use super::solve::{beam_at_rest, End, FreeArc, Start};
-use crate::scan::ArcProblem;
+use crate::problem::ArcProblem;
 
 /// What a stage of the arc's motion is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
