@@ -558,7 +558,8 @@ fn certificate_lines(c: &Certificate, total_s: f64) -> String {
     )
 }
 
-pub fn run(args: Args) -> Result<(), CliError> {
+/// Checks `--dt` and the output paths against the inputs and each other.
+fn check_args(args: &Args) -> Result<(), CliError> {
     if !(args.dt.is_finite() && args.dt > 0.0) {
         return Err(CliError::usage(format!(
             "--dt {}: expected a finite number > 0",
@@ -576,7 +577,25 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ("--rrd", args.rrd.as_deref()),
             ("--spots", args.spots.as_deref()),
         ],
-    )?;
+    )
+}
+
+/// Refuses a `--dt` that would sample the timeline more than 5e7 times, when an output samples it.
+fn check_sample_count(args: &Args, delivery: &Delivery) -> Result<(), CliError> {
+    let sampled = args.csv.is_some() || args.rrd.is_some() || args.spawn || args.connect.is_some();
+    if let Some(tl) = delivery.timeline.as_ref().filter(|_| sampled) {
+        if tl.duration_s() / args.dt > 5e7 {
+            return Err(CliError::usage(format!(
+                "--dt {} would write more than 5e7 samples",
+                args.dt
+            )));
+        }
+    }
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<(), CliError> {
+    check_args(&args)?;
     let (plan, plan_sha256) = load_plan_hashed(&args.plan)?;
     let (machine, machine_sha256) = load_machine_hashed(args.machine.as_deref())?;
     let mut warnings =
@@ -599,15 +618,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     let delivery = simulate(&plan, &machine, &opts)
         .map_err(|e| CliError::failed(format!("{}: {e}", crate::input::input_name(&args.plan))))?;
-    let sampled = args.csv.is_some() || args.rrd.is_some() || args.spawn || args.connect.is_some();
-    if let Some(tl) = delivery.timeline.as_ref().filter(|_| sampled) {
-        if tl.duration_s() / args.dt > 5e7 {
-            return Err(CliError::usage(format!(
-                "--dt {} would write more than 5e7 samples",
-                args.dt
-            )));
-        }
-    }
+    check_sample_count(&args, &delivery)?;
     let certificate = match args.certify {
         true => Some(certificate(&plan, &machine, &delivery, &args.plan)?),
         false => None,

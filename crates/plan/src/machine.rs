@@ -2,7 +2,7 @@
 //! sequencer never divides by zero or turns a bad file into NaN.
 
 use crate::error::{fmt_num, At, PlanIssue};
-use crate::model::{poly, BeamModel, ElstModel, Machine, MACHINE_FORMAT};
+use crate::model::{poly, BeamModel, ElstModel, GantryLimitsSpec, Machine, MACHINE_FORMAT};
 use crate::validate::ENERGY_RANGE_MEV;
 
 /// Gantry limits arcsim accepts. They span every real gantry (V 1–10 deg/s, A 0.1–5 deg/s²,
@@ -34,7 +34,29 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
             format!("expected \"{MACHINE_FORMAT}\", got \"{}\"", machine.format),
         );
     }
-    let g = &machine.gantry;
+    gantry(&mut m, &machine.gantry);
+    beam(&mut m, &machine.beam);
+    elst(&mut m, &machine.elst);
+    m.check(
+        "default_window_deg",
+        machine.default_window_deg,
+        true,
+        "deg",
+    );
+    m.at_most(
+        "default_window_deg",
+        machine.default_window_deg,
+        360.0,
+        "deg",
+    );
+    if let Some(p) = machine.servo_period_s {
+        m.range("servo_period_s", p, SERVO_PERIOD_RANGE_S, "s");
+    }
+    m.issues
+}
+
+/// The rules of the gantry limits.
+fn gantry(m: &mut Checker, g: &GantryLimitsSpec) {
     m.range(
         "gantry.max_speed_deg_per_s",
         g.max_speed_deg_per_s,
@@ -61,8 +83,11 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
         JERK_RANGE_DEG_PER_S3,
         "deg/s^3",
     );
-    beam(&mut m, &machine.beam);
-    match &machine.elst {
+}
+
+/// The rules of the energy-switching (ELST) model of either kind.
+fn elst(m: &mut Checker, elst: &ElstModel) {
+    match elst {
         ElstModel::Constant {
             up_s,
             down_s,
@@ -130,22 +155,6 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
             }
         }
     }
-    m.check(
-        "default_window_deg",
-        machine.default_window_deg,
-        true,
-        "deg",
-    );
-    m.at_most(
-        "default_window_deg",
-        machine.default_window_deg,
-        360.0,
-        "deg",
-    );
-    if let Some(p) = machine.servo_period_s {
-        m.range("servo_period_s", p, SERVO_PERIOD_RANGE_S, "s");
-    }
-    m.issues
 }
 
 /// Largest accepted scanning speed, mm/s (real systems: 2–20 m/s).

@@ -344,6 +344,25 @@ impl Validator<'_> {
             ),
             _ => {}
         }
+        self.spot_mu(at, spots);
+        self.spot_paintings(at, spots);
+        self.spot_positions(at, spots);
+        if let Some(t) = spots.total_mu {
+            self.number(at, "spots.total_mu", t, true, "a total weight in MU");
+            self.at_most(
+                at,
+                "spots.total_mu",
+                t,
+                MAX_SPOT_MU * f64::from(MAX_SPOTS_PER_LAYER),
+                "MU",
+                "no layer delivers that much",
+            );
+        }
+    }
+
+    /// Checks the per-spot MU values: one per spot, each a finite weight within range, and a
+    /// positive finite sum.
+    fn spot_mu(&mut self, at: At, spots: &Spots) {
         if let Some(mu) = &spots.mu {
             if mu.len() != spots.count as usize {
                 self.push(
@@ -390,6 +409,10 @@ impl Validator<'_> {
                 );
             }
         }
+    }
+
+    /// Checks the painting count and the spot deliveries it makes.
+    fn spot_paintings(&mut self, at: At, spots: &Spots) {
         if let Some(p) = spots.paintings {
             if !(1..=MAX_PAINTINGS).contains(&p) {
                 self.push(
@@ -409,6 +432,10 @@ impl Validator<'_> {
                 );
             }
         }
+    }
+
+    /// Checks the spot positions: one per spot, each with finite coordinates within range.
+    fn spot_positions(&mut self, at: At, spots: &Spots) {
         if let Some(positions) = &spots.positions_mm {
             if positions.len() != spots.count as usize {
                 self.push(
@@ -436,17 +463,6 @@ impl Validator<'_> {
                     ),
                 );
             }
-        }
-        if let Some(t) = spots.total_mu {
-            self.number(at, "spots.total_mu", t, true, "a total weight in MU");
-            self.at_most(
-                at,
-                "spots.total_mu",
-                t,
-                MAX_SPOT_MU * f64::from(MAX_SPOTS_PER_LAYER),
-                "MU",
-                "no layer delivers that much",
-            );
         }
     }
 }

@@ -75,6 +75,28 @@ pub(crate) fn discretize(
             ),
         });
     };
+    let new = grid_profile(start.position, start.velocity, dir, vs, ve, best);
+    new.verify(
+        profile.end_state().position,
+        profile.end_state().velocity,
+        lim,
+        forbid_reversal,
+        1e-9,
+    )?;
+    let added_time = new.duration() - profile.duration();
+    Ok(new.with_servo_added_time(added_time))
+}
+
+/// The seven-phase profile of the phases `best` from `position` and `velocity`, in direction
+/// `dir`, from `vs` to `ve`.
+fn grid_profile(
+    position: f64,
+    velocity: f64,
+    dir: f64,
+    vs: f64,
+    ve: f64,
+    best: GridPhases,
+) -> Profile {
     let GridPhases {
         t1,
         t2,
@@ -115,27 +137,17 @@ pub(crate) fn discretize(
             jerk: -dir * j2,
         },
     ];
-    let new =
-        Profile::new(start.position, start.velocity, 0.0, &segs).with_seven_phases(SevenPhases {
-            direction: dir,
-            v_start: vs,
-            v_peak: c,
-            v_end: ve,
-            t1,
-            t2,
-            t3,
-            t4,
-            t5,
-        });
-    new.verify(
-        profile.end_state().position,
-        profile.end_state().velocity,
-        lim,
-        forbid_reversal,
-        1e-9,
-    )?;
-    let added_time = new.duration() - profile.duration();
-    Ok(new.with_servo_added_time(added_time))
+    Profile::new(position, velocity, 0.0, &segs).with_seven_phases(SevenPhases {
+        direction: dir,
+        v_start: vs,
+        v_peak: c,
+        v_end: ve,
+        t1,
+        t2,
+        t3,
+        t4,
+        t5,
+    })
 }
 
 /// Periods a phase may lose (rounding down is fine while the limits hold) or gain in the search.

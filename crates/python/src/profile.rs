@@ -272,6 +272,14 @@ pub fn profile_batch<'py>(
             })
             .collect()
     });
+    batch_output(py, &results)
+}
+
+/// The dict `profile_batch` returns, from the solved moves in order.
+fn batch_output<'py>(
+    py: Python<'py>,
+    results: &[Result<SolvedMove, String>],
+) -> PyResult<Bound<'py, PyDict>> {
     let out = PyDict::new(py);
     let duration: Vec<f64> = results
         .iter()

@@ -173,36 +173,40 @@ pub(crate) fn heatmap(m: &Heatmap) -> Result<String, String> {
                 .map_err(err)?;
         }
 
-        // Colour bar.
-        let mut key = ChartBuilder::on(&bar)
-            .margin_top(12)
-            .margin_bottom(58)
-            .margin_right(8)
-            .y_label_area_size(62)
-            .build_cartesian_2d(0.0..1.0, lo..hi)
-            .map_err(err)?;
-        key.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .y_labels(6)
-            .y_label_formatter(&|y| short(*y))
-            .y_desc("total (s)")
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 13))
-            .draw()
-            .map_err(err)?;
-        const STEPS: usize = 64;
-        key.draw_series((0..STEPS).map(|k| {
-            let (a, b) = (k as f64 / STEPS as f64, (k + 1) as f64 / STEPS as f64);
-            let c: RGBColor = ViridisRGB.get_color(((a + b) / 2.0) as f32);
-            Rectangle::new(
-                [(0.0, lo + a * (hi - lo)), (1.0, lo + b * (hi - lo))],
-                c.filled(),
-            )
-        }))
-        .map_err(err)?;
-        Ok(())
+        colour_bar(&bar, lo, hi)
     })
+}
+
+/// Draws the heatmap's colour bar: the scale from `lo` to `hi` seconds, labelled.
+fn colour_bar(bar: &Area<'_>, lo: f64, hi: f64) -> Result<(), String> {
+    let mut key = ChartBuilder::on(bar)
+        .margin_top(12)
+        .margin_bottom(58)
+        .margin_right(8)
+        .y_label_area_size(62)
+        .build_cartesian_2d(0.0..1.0, lo..hi)
+        .map_err(err)?;
+    key.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_labels(6)
+        .y_label_formatter(&|y| short(*y))
+        .y_desc("total (s)")
+        .label_style((FONT, 12))
+        .axis_desc_style((FONT, 13))
+        .draw()
+        .map_err(err)?;
+    const STEPS: usize = 64;
+    key.draw_series((0..STEPS).map(|k| {
+        let (a, b) = (k as f64 / STEPS as f64, (k + 1) as f64 / STEPS as f64);
+        let c: RGBColor = ViridisRGB.get_color(((a + b) / 2.0) as f32);
+        Rectangle::new(
+            [(0.0, lo + a * (hi - lo)), (1.0, lo + b * (hi - lo))],
+            c.filled(),
+        )
+    }))
+    .map_err(err)?;
+    Ok(())
 }
 
 /// One limit's sensitivity.

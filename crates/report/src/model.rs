@@ -265,36 +265,7 @@ fn section(
         });
     }
 
-    // Base, cheapest and fastest: from the rows when they are there, else simulated.
-    let outcome = |s: &Setting, index: Option<usize>| -> Option<Outcome> {
-        block
-            .iter()
-            .find(|r| Some(r.index) == index || (index.is_none() && same_setting(&r.setting, s)))
-            .and_then(|r| r.outcome)
-            .or_else(|| ev.simulate(plan, entry.schedule, s, entry.base_total_s).1)
-    };
-    let mut breakdown: Vec<Bar> = Vec::new();
-    if let Some(o) = outcome(&base, None) {
-        breakdown.push(Bar::new(format!("base ({})", describe_setting(&base)), &o));
-    }
-    if let Some(c) = entry.cheapest.as_ref().filter(|c| !c.steps.is_empty()) {
-        if let Some(o) = outcome(&changed(&base, &c.steps), c.index) {
-            breakdown.push(Bar::new(
-                format!("cheapest: {}", describe_change(&c.steps)),
-                &o,
-            ));
-        }
-    }
-    if let Some(f) = entry.fastest {
-        if !same_setting(&f.setting, &base) {
-            if let Some(o) = outcome(&f.setting, f.index) {
-                breakdown.push(Bar::new(
-                    format!("fastest ({})", describe_setting(&f.setting)),
-                    &o,
-                ));
-            }
-        }
-    }
+    let breakdown = breakdown_bars(ev, plan, entry, block, &base);
     if !breakdown.is_empty() {
         let caption = format!(
             "{title}: where the time goes at the base machine, the cheapest change reaching the \
@@ -334,6 +305,48 @@ fn section(
         }),
         figures,
     })
+}
+
+/// The time breakdown's bars: the base machine, the cheapest change reaching the target and the
+/// fastest setting, each when known.
+fn breakdown_bars(
+    ev: &Evaluator,
+    plan: usize,
+    entry: &Entry,
+    block: &[&Row],
+    base: &Setting,
+) -> Vec<Bar> {
+    // Base, cheapest and fastest: from the rows when they are there, else simulated.
+    let outcome = |s: &Setting, index: Option<usize>| -> Option<Outcome> {
+        block
+            .iter()
+            .find(|r| Some(r.index) == index || (index.is_none() && same_setting(&r.setting, s)))
+            .and_then(|r| r.outcome)
+            .or_else(|| ev.simulate(plan, entry.schedule, s, entry.base_total_s).1)
+    };
+    let mut breakdown: Vec<Bar> = Vec::new();
+    if let Some(o) = outcome(base, None) {
+        breakdown.push(Bar::new(format!("base ({})", describe_setting(base)), &o));
+    }
+    if let Some(c) = entry.cheapest.as_ref().filter(|c| !c.steps.is_empty()) {
+        if let Some(o) = outcome(&changed(base, &c.steps), c.index) {
+            breakdown.push(Bar::new(
+                format!("cheapest: {}", describe_change(&c.steps)),
+                &o,
+            ));
+        }
+    }
+    if let Some(f) = entry.fastest {
+        if !same_setting(&f.setting, base) {
+            if let Some(o) = outcome(&f.setting, f.index) {
+                breakdown.push(Bar::new(
+                    format!("fastest ({})", describe_setting(&f.setting)),
+                    &o,
+                ));
+            }
+        }
+    }
+    breakdown
 }
 
 fn draw_err(figure: &str) -> impl Fn(String) -> ReportError + '_ {

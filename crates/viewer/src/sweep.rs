@@ -14,7 +14,7 @@ use std::path::Path;
 
 use arcsim_evaluator::{describe_setting, short, Axis, Row, Status};
 use rerun::components::TextLogLevel;
-use rerun::{RecordingStreamBuilder, TimeColumn};
+use rerun::{RecordingStream, RecordingStreamBuilder, TimeColumn};
 
 use crate::layout::{send_sweep_blueprint, SweepPlot, SweepTab};
 use crate::ViewerError;
@@ -186,15 +186,7 @@ pub fn save_sweep(
 
     // Plans, then (plan, schedule) groups, in first-seen order.
     let mut tabs: Vec<SweepTab> = vec![];
-    let mut groups: Vec<(String, Vec<&Row>)> = vec![];
-    for r in rows {
-        let origin = format!("sweep/{}/{}", slug(&r.plan), slug(&r.schedule.name()));
-        match groups.iter_mut().find(|g| g.0 == origin) {
-            Some(g) => g.1.push(r),
-            None => groups.push((origin, vec![r])),
-        }
-    }
-    for (origin, group) in &groups {
+    for (origin, group) in &groups(rows) {
         let plan = &group[0].plan;
         let schedule = group[0].schedule.name();
         let ok: Vec<&Row> = group
@@ -204,98 +196,9 @@ pub fn save_sweep(
             .collect();
         let mut plots = vec![];
         for axis in PLOTTED {
-            let mut values: Vec<f64> = ok.iter().filter_map(|r| value(r, axis)).collect();
-            values.sort_by(f64::total_cmp);
-            values.dedup();
-            if values.len() < 2 {
-                continue;
+            if let Some(plot) = log_plot(&rec, origin, &schedule, &ok, axis)? {
+                plots.push(plot);
             }
-            let d = decimals(&values);
-            let scale = 10f64.powi(d as i32);
-            let x_of = |v: f64| (v * scale).round() as i64;
-            let mut lines: Vec<Line> = vec![];
-            let mut sorted = ok.clone();
-            // Lines in the order of their other limits (as named: J, A, V, ...), points along x.
-            sorted.sort_by(|a, b| {
-                let key = |r: &Row| {
-                    let mut k: Vec<f64> = line_key(r, axis).iter().map(|p| p.1).collect();
-                    k.push(value(r, axis).unwrap_or(0.0));
-                    k
-                };
-                key(a)
-                    .iter()
-                    .zip(key(b).iter())
-                    .map(|(x, y)| x.total_cmp(y))
-                    .find(|o| o.is_ne())
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            });
-            for r in sorted {
-                let (Some(v), Some(o)) = (value(r, axis), r.outcome) else {
-                    continue;
-                };
-                let key = line_key(r, axis);
-                let point = (x_of(v), o.total_s, r.index);
-                match lines.iter_mut().find(|l| l.key == key) {
-                    Some(l) => l.points.push(point),
-                    None => lines.push(Line {
-                        name: line_name(&key),
-                        key,
-                        points: vec![point],
-                    }),
-                }
-            }
-            let all_lines = lines.len();
-            let lines = thin(lines);
-            let shown = if lines.len() < all_lines {
-                format!("; {} of {all_lines} lines", lines.len())
-            } else {
-                String::new()
-            };
-            let sym = axis.symbol().0;
-            let plot_origin = format!("{origin}/vs_{sym}");
-            for (k, line) in lines.iter().enumerate() {
-                // The viewer lists a plot's lines in entity-path order: numbered, they keep ours.
-                let entity = format!("{plot_origin}/{k:02}_{}", slug(&line.name));
-                let color = PALETTE[k % PALETTE.len()];
-                rec.log_static(
-                    entity.as_str(),
-                    &rerun::SeriesLines::new()
-                        .with_names([line.name.as_str()])
-                        .with_colors([color])
-                        .with_widths([2.0]),
-                )?;
-                rec.log_static(
-                    entity.as_str(),
-                    // The same name as the line: the legend shows one entry for both.
-                    &rerun::SeriesPoints::new()
-                        .with_names([line.name.as_str()])
-                        .with_colors([color])
-                        .with_marker_sizes([3.0]),
-                )?;
-                let times = [
-                    TimeColumn::new_sequence(SWEEP_X, line.points.iter().map(|p| p.0)),
-                    TimeColumn::new_sequence(COMBINATION, line.points.iter().map(|p| p.2 as i64)),
-                ];
-                let columns = rerun::Scalars::new(line.points.iter().map(|p| p.1))
-                    .columns(std::iter::repeat_n(1, line.points.len()))?;
-                rec.send_columns(entity.as_str(), times, columns)?;
-            }
-            let x_unit = match d {
-                0 => axis.unit().to_string(),
-                _ => format!("{} {}", short(1.0 / scale), axis.unit()),
-            };
-            let (lo, hi) = (x_of(values[0]), x_of(values[values.len() - 1]));
-            let span = (hi - lo).max(1);
-            // From 0 when that costs at most half the plot (the ticks then fall on round values).
-            let start = if lo <= span { 0 } else { lo - span / 20 - 1 };
-            plots.push(SweepPlot {
-                title: format!("{schedule}: total (s) vs {sym} (x: {sym} in {x_unit}{shown})"),
-                origin: plot_origin,
-                // A margin left and right so no point sits on the edge, and a wider one on
-                // the right where the legend goes.
-                x_range: (start, hi + span * 3 / 5 + 1),
-                lines: lines.len(),
-            });
         }
         match tabs.iter_mut().find(|t| &t.plan == plan) {
             Some(t) => t.rows.push(plots),
@@ -307,7 +210,146 @@ pub fn save_sweep(
     }
     tabs.retain(|t| t.rows.iter().any(|r| !r.is_empty()));
     send_sweep_blueprint(&rec, &tabs, SWEEP_SUMMARY, SWEEP_ROWS)?;
+    log_summary(&rec, summary)?;
+    log_rows(&rec, rows)?;
 
+    let target = path.display().to_string();
+    rec.flush_blocking()
+        .map_err(|source| ViewerError::Flush { target, source })?;
+    Ok(())
+}
+
+/// The rows grouped by (plan, schedule), as `sweep/PLAN/SCHEDULE` origins, in first-seen order.
+fn groups(rows: &[Row]) -> Vec<(String, Vec<&Row>)> {
+    let mut groups: Vec<(String, Vec<&Row>)> = vec![];
+    for r in rows {
+        let origin = format!("sweep/{}/{}", slug(&r.plan), slug(&r.schedule.name()));
+        match groups.iter_mut().find(|g| g.0 == origin) {
+            Some(g) => g.1.push(r),
+            None => groups.push((origin, vec![r])),
+        }
+    }
+    groups
+}
+
+/// Logs one group's plot of the total time against `axis` (one line per setting of the other
+/// limits); `None` when the group has fewer than two values of the axis.
+fn log_plot(
+    rec: &RecordingStream,
+    origin: &str,
+    schedule: &str,
+    ok: &[&Row],
+    axis: Axis,
+) -> Result<Option<SweepPlot>, ViewerError> {
+    let mut values: Vec<f64> = ok.iter().filter_map(|r| value(r, axis)).collect();
+    values.sort_by(f64::total_cmp);
+    values.dedup();
+    if values.len() < 2 {
+        return Ok(None);
+    }
+    let d = decimals(&values);
+    let scale = 10f64.powi(d as i32);
+    let x_of = |v: f64| (v * scale).round() as i64;
+    let mut lines: Vec<Line> = vec![];
+    let mut sorted = ok.to_vec();
+    // Lines in the order of their other limits (as named: J, A, V, ...), points along x.
+    sorted.sort_by(|a, b| {
+        let key = |r: &Row| {
+            let mut k: Vec<f64> = line_key(r, axis).iter().map(|p| p.1).collect();
+            k.push(value(r, axis).unwrap_or(0.0));
+            k
+        };
+        key(a)
+            .iter()
+            .zip(key(b).iter())
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    for r in sorted {
+        let (Some(v), Some(o)) = (value(r, axis), r.outcome) else {
+            continue;
+        };
+        let key = line_key(r, axis);
+        let point = (x_of(v), o.total_s, r.index);
+        match lines.iter_mut().find(|l| l.key == key) {
+            Some(l) => l.points.push(point),
+            None => lines.push(Line {
+                name: line_name(&key),
+                key,
+                points: vec![point],
+            }),
+        }
+    }
+    let all_lines = lines.len();
+    let lines = thin(lines);
+    let shown = if lines.len() < all_lines {
+        format!("; {} of {all_lines} lines", lines.len())
+    } else {
+        String::new()
+    };
+    let sym = axis.symbol().0;
+    let plot_origin = format!("{origin}/vs_{sym}");
+    for (k, line) in lines.iter().enumerate() {
+        log_line(rec, &plot_origin, k, line)?;
+    }
+    let x_unit = match d {
+        0 => axis.unit().to_string(),
+        _ => format!("{} {}", short(1.0 / scale), axis.unit()),
+    };
+    let (lo, hi) = (x_of(values[0]), x_of(values[values.len() - 1]));
+    let span = (hi - lo).max(1);
+    // From 0 when that costs at most half the plot (the ticks then fall on round values).
+    let start = if lo <= span { 0 } else { lo - span / 20 - 1 };
+    Ok(Some(SweepPlot {
+        title: format!("{schedule}: total (s) vs {sym} (x: {sym} in {x_unit}{shown})"),
+        origin: plot_origin,
+        // A margin left and right so no point sits on the edge, and a wider one on
+        // the right where the legend goes.
+        x_range: (start, hi + span * 3 / 5 + 1),
+        lines: lines.len(),
+    }))
+}
+
+/// Logs one line of a plot (its series style, then its points) as the `k`th entity under
+/// `plot_origin`.
+fn log_line(
+    rec: &RecordingStream,
+    plot_origin: &str,
+    k: usize,
+    line: &Line,
+) -> Result<(), ViewerError> {
+    // The viewer lists a plot's lines in entity-path order: numbered, they keep ours.
+    let entity = format!("{plot_origin}/{k:02}_{}", slug(&line.name));
+    let color = PALETTE[k % PALETTE.len()];
+    rec.log_static(
+        entity.as_str(),
+        &rerun::SeriesLines::new()
+            .with_names([line.name.as_str()])
+            .with_colors([color])
+            .with_widths([2.0]),
+    )?;
+    rec.log_static(
+        entity.as_str(),
+        // The same name as the line: the legend shows one entry for both.
+        &rerun::SeriesPoints::new()
+            .with_names([line.name.as_str()])
+            .with_colors([color])
+            .with_marker_sizes([3.0]),
+    )?;
+    let times = [
+        TimeColumn::new_sequence(SWEEP_X, line.points.iter().map(|p| p.0)),
+        TimeColumn::new_sequence(COMBINATION, line.points.iter().map(|p| p.2 as i64)),
+    ];
+    let columns = rerun::Scalars::new(line.points.iter().map(|p| p.1))
+        .columns(std::iter::repeat_n(1, line.points.len()))?;
+    rec.send_columns(entity.as_str(), times, columns)?;
+    Ok(())
+}
+
+/// Logs `summary` (or, without one, a note that the run did not complete) before and after
+/// every plotted value.
+fn log_summary(rec: &RecordingStream, summary: Option<&str>) -> Result<(), ViewerError> {
     // The summary sits before and after every plotted value on both timelines: shown wherever
     // the time cursor is, and the viewer (following the end) opens with the cursor outside every
     // plot's x range instead of on a plotted value.
@@ -321,7 +363,11 @@ pub fn save_sweep(
         )?;
     }
     rec.reset_time();
+    Ok(())
+}
 
+/// Logs one line of text per row, warnings for the rows that are not `ok`.
+fn log_rows(rec: &RecordingStream, rows: &[Row]) -> Result<(), ViewerError> {
     let text = rows.iter().map(|r| {
         let result = match &r.outcome {
             Some(o) => format!("{:.1} s", o.total_s),
@@ -353,9 +399,5 @@ pub fn save_sweep(
         TimeColumn::new_sequence(SWEEP_X, index()),
     ];
     rec.send_columns(SWEEP_ROWS, times, columns)?;
-
-    let target = path.display().to_string();
-    rec.flush_blocking()
-        .map_err(|source| ViewerError::Flush { target, source })?;
     Ok(())
 }
