@@ -3,3 +3,4 @@
 mod atom_cases;
 mod optimal_monotone;
 mod pinned_totals;
+mod structure;

@@ -296,7 +296,7 @@ fn batch_output<'py>(
         .collect();
     let ok: Vec<bool> = results.iter().map(Result::is_ok).collect();
     let errors = PyList::empty(py);
-    for r in &results {
+    for r in results {
         match r {
             Ok(_) => errors.append(py.None())?,
             Err(e) => errors.append(e)?,

@@ -8,6 +8,8 @@
 //! Figures are SVG drawn with `plotters` ([`figures`]); [`Report::to_html`] puts them in one
 //! self-contained HTML file and [`Report::write_svgs`] writes them as separate files.
 
+#![warn(missing_docs)]
+
 mod figures;
 mod html;
 mod model;
@@ -19,11 +21,18 @@ pub use model::{build, Figure, FigureKind, Report, Section};
 pub enum ReportError {
     /// `plotters` failed to draw a figure (a bug, or a value it cannot place).
     #[error("drawing {figure}: {message}")]
-    Draw { figure: String, message: String },
+    Draw {
+        /// The figure's caption.
+        figure: String,
+        /// What `plotters` reported.
+        message: String,
+    },
     /// Writing a file failed.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// Why it failed.
         source: std::io::Error,
     },
 }

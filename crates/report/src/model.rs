@@ -46,6 +46,7 @@ impl FigureKind {
 /// One drawn figure.
 #[derive(Debug, Clone)]
 pub struct Figure {
+    /// What the figure shows.
     pub kind: FigureKind,
     /// What the figure shows, in a sentence (the HTML caption).
     pub caption: String,
@@ -58,30 +59,40 @@ pub struct Figure {
 /// One plan under one schedule entry.
 #[derive(Debug, Clone)]
 pub struct Section {
+    /// The plan, as the sweep names it.
     pub plan: String,
+    /// The schedule entry's name.
     pub schedule: String,
-    /// Rows of this plan and schedule entry in the report, and how many of them are feasible.
+    /// Rows of this plan and schedule entry in the report.
     pub rows: usize,
+    /// How many of those rows are feasible.
     pub feasible: usize,
+    /// Total on the base machine (s); `None` when it is not known.
     pub base_total_s: Option<f64>,
+    /// The total the target asks for (s); `None` when it is not known.
     pub target_total_s: Option<f64>,
     /// The fastest setting and its total, in words.
     pub fastest: Option<String>,
     /// The cheapest change reaching the target, in words.
     pub cheapest: Option<String>,
+    /// The section's figures, in the order shown.
     pub figures: Vec<Figure>,
 }
 
 /// A sweep's report.
 #[derive(Debug, Clone)]
 pub struct Report {
+    /// The sweep's name.
     pub sweep: String,
+    /// The sweep's description, when it has one.
     pub description: Option<String>,
-    /// Combinations of the whole sweep, and rows in the report (fewer for a shard).
+    /// Combinations of the whole sweep.
     pub combinations: usize,
+    /// Rows in the report (fewer than the combinations for a shard).
     pub rows: usize,
     /// The target as the summary states it, e.g. "10 % saving".
     pub target: String,
+    /// One per plan and schedule entry.
     pub sections: Vec<Section>,
 }
 

@@ -14,6 +14,8 @@
 //! hundredths of a degree; Rerun indexes only by integers, durations or timestamps, and a
 //! duration would print angles as `1m 30s`). See [`paths`] for the entity paths.
 
+#![warn(missing_docs)]
+
 mod delivery;
 mod error;
 mod layout;
