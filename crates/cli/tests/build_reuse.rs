@@ -4,6 +4,8 @@
 //! dependency that turns on a feature only in the test build would have a newcomer compile the
 //! rerun stack twice (about 15 minutes on 2 cores).
 
+use crate::util;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -19,6 +21,7 @@ fn compiled_packages(messages: &str) -> Vec<String> {
 
 #[test]
 fn the_main_command_reuses_the_test_build() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let exe = Path::new(env!("CARGO_BIN_EXE_arcsim"));
     // target/<profile>/arcsim: build the same profile the tests were built with.
     let profile = match exe.parent().and_then(Path::file_name) {
@@ -28,25 +31,7 @@ fn the_main_command_reuses_the_test_build() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
     let mut build = Command::new(cargo);
-    // Cargo sets these for the test process; passed on, they would change the fingerprints of
-    // build scripts that watch them, and the nested build would recompile for that reason alone.
-    for (key, _) in std::env::vars_os() {
-        let key = key.to_string_lossy();
-        let set_for_tests = [
-            "CARGO_MANIFEST_DIR",
-            "CARGO_MANIFEST_PATH",
-            "CARGO_CRATE_NAME",
-            "CARGO_PRIMARY_PACKAGE",
-            "CARGO_TARGET_TMPDIR",
-            "CARGO_BIN_NAME",
-        ]
-        .contains(&key.as_ref())
-            || key.starts_with("CARGO_PKG_")
-            || key.starts_with("CARGO_BIN_EXE_");
-        if set_for_tests {
-            build.env_remove(key.as_ref());
-        }
-    }
+    util::without_test_environment(&mut build);
     let out = build
         .current_dir(&repo)
         .args(["build", "-p", "arcsim", "--profile", profile])

@@ -181,6 +181,7 @@ fn the_script_checks_an_expected_failure() {
 
 #[test]
 fn every_shell_example_in_the_docs_runs() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let mut ran = 0;
     let mut not_run = Vec::new();
     let mut failures = Vec::new();

@@ -36,6 +36,7 @@ fn skip_or_fail(why: &str) {
 
 #[test]
 fn no_independent_optimiser_beats_free_motion() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let repo = util::repo();
     let python = match util::python() {
         Ok(python) => python,

@@ -293,6 +293,7 @@ fn probe(budget: Duration, seed: u64) -> usize {
 
 #[test]
 fn probe_bounded() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let secs = std::env::var("ARCSIM_PROBE_SECONDS")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -305,6 +306,7 @@ fn probe_bounded() {
 #[test]
 #[ignore = "20-minute probe; run before a release"]
 fn probe_long() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let runs = probe(Duration::from_secs(1200), 0xa5c1_2026);
     eprintln!("probe: {runs} inputs in 1200 s");
 }
@@ -576,6 +578,7 @@ fn probe_outputs(budget: Duration, seed: u64) -> usize {
 #[cfg(unix)]
 #[test]
 fn outputs_bounded() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let cases = probe_outputs(Duration::from_secs(15), 0x0070_2026);
     eprintln!("output probe: {cases} cases in 15 s");
     assert!(cases > 0);
@@ -585,6 +588,7 @@ fn outputs_bounded() {
 #[test]
 #[ignore = "10-minute output-path probe; run before a release"]
 fn outputs_long() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let cases = probe_outputs(Duration::from_secs(600), 0xf1f0_2026);
     eprintln!("output probe: {cases} cases in 600 s");
 }

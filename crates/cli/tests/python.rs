@@ -27,6 +27,7 @@ fn wheel_in(dir: &Path) -> Option<PathBuf> {
 
 #[test]
 fn python_package_passes_its_pytest_suite() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let repo = util::repo();
     let python = match util::python() {
         Ok(python) => python,
@@ -50,26 +51,7 @@ fn python_package_passes_its_pytest_suite() {
     // build with `cargo build`; maturin's `cargo rustc` would build a test harness with the
     // `test` profile), stripped of debug information (else it is over 600 MB).
     let mut maturin = Command::new(bin.join("maturin"));
-    // Cargo sets these for this test process; leaked into the nested cargo they change the
-    // fingerprints of build scripts that watch them (ring's watches CARGO_MANIFEST_DIR), and rerun
-    // and everything above it would be compiled a second time.
-    for (key, _) in std::env::vars_os() {
-        let key = key.to_string_lossy();
-        let set_for_tests = [
-            "CARGO_MANIFEST_DIR",
-            "CARGO_MANIFEST_PATH",
-            "CARGO_CRATE_NAME",
-            "CARGO_PRIMARY_PACKAGE",
-            "CARGO_TARGET_TMPDIR",
-            "CARGO_BIN_NAME",
-        ]
-        .contains(&key.as_ref())
-            || key.starts_with("CARGO_PKG_")
-            || key.starts_with("CARGO_BIN_EXE_");
-        if set_for_tests {
-            maturin.env_remove(key.as_ref());
-        }
-    }
+    util::without_test_environment(&mut maturin);
     run(maturin
         .current_dir(&repo)
         .args([

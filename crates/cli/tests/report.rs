@@ -174,6 +174,7 @@ fn check_report(html: &str, results: &Value, base: (f64, f64, f64)) -> usize {
 /// The bundled ATOM sweep: 7 plans, three schedule entries, V swept by `scan` only.
 #[test]
 fn atom_sweep_report_has_a_heatmap_per_plan_and_speed_with_the_base_marked() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let dir = temp_dir();
     let (html, json, plots) = (dir.join("report.html"), dir.join("r.json"), dir.join("svg"));
     let o = arcsim(&[
@@ -226,6 +227,7 @@ fn atom_sweep_report_has_a_heatmap_per_plan_and_speed_with_the_base_marked() {
 /// so is its Rerun recording's size class (same rows); flags that need the sweep file say so.
 #[test]
 fn merged_shards_give_the_single_run_report() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     let dir = temp_dir();
     let sweep = sweep_file(
         &dir,

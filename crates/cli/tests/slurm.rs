@@ -40,6 +40,7 @@ fn sbatch(script: &str, task: Option<usize>, sweep: &Path, out_dir: &Path) -> Ou
 
 #[test]
 fn job_array_and_merge_give_the_single_run() {
+    let _turn = crate::util::one_heavy_test_at_a_time();
     if !have_bash() {
         return skip_or_fail("the SLURM script test", "bash is not available");
     }

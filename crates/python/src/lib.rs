@@ -6,6 +6,8 @@
 //! results are the CLI's (`to_json()` is `simulate --json`), and every long computation runs
 //! with the GIL released. Errors are Python exceptions carrying the CLI's located messages.
 
+#![warn(missing_docs)]
+
 use pyo3::create_exception;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;

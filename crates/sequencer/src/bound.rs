@@ -46,12 +46,11 @@ use arcsim_plan::ResolvedArc;
 use arcsim_planner::{Limits, LinearGap};
 use serde::{Deserialize, Serialize};
 
-use crate::build::arc_time_on_grid;
 use crate::optimal::speed_bound;
-use crate::problem::ArcProblem;
-use crate::scan::moving_time;
+use crate::problem::arc_time_on_grid;
+use crate::problem::{moving_time, ArcProblem};
 use crate::servo::ticks;
-use crate::{Delivery, Motion, SequenceError};
+use crate::{Delivery, InputError, Motion, SequenceError};
 
 /// A closed interval of speeds (deg/s).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -601,9 +600,7 @@ pub fn certify(
 ) -> Result<Certificate, SequenceError> {
     limits.validate().map_err(SequenceError::Limits)?;
     if delivery.motion != Motion::Constant {
-        return Err(SequenceError::Input(
-            "the certificate bounds constant-speed schedules; free motion has none".into(),
-        ));
+        return Err(InputError::CertifyFreeMotion.into());
     }
     let period = delivery.servo_period_s;
     let mut first = 0;
@@ -611,9 +608,10 @@ pub fn certify(
     for arc in arcs {
         let p = ArcProblem::new(arc, limits);
         let n = p.len();
-        let rows = delivery.layers.get(first..first + n).ok_or_else(|| {
-            SequenceError::Input("the delivery does not belong to these arcs".into())
-        })?;
+        let rows = delivery
+            .layers
+            .get(first..first + n)
+            .ok_or_else(|| SequenceError::from(InputError::DeliveryNotOfArcs))?;
         let speeds: Vec<f64> = rows.iter().map(|r| r.speed_deg_per_s.abs()).collect();
         first += n;
         let found = match period {
@@ -637,7 +635,7 @@ pub fn certify(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan::tests::{random_arc_of, random_limits};
+    use crate::problem::tests::{random_arc_of, random_limits};
     use arcsim_planner::{MoveAnalysis, Reversal};
     use arcsim_test_support::Rng;
 

@@ -1,6 +1,9 @@
 //! Sequencer errors.
 
+use arcsim_plan::SpotTimingError;
 use arcsim_planner::PlannerError;
+
+use crate::types::Schedule;
 use thiserror::Error;
 
 /// Why a delivery cannot be sequenced.
@@ -25,10 +28,205 @@ pub enum SequenceError {
     },
     /// The integrated timeline broke a constraint: a bug, reported instead of ignored.
     #[error("timeline verification failed (a bug): {0}")]
-    Verification(String),
+    Verification(#[from] VerificationError),
     /// Wrong input to a lower-level entry point (e.g. speed list of the wrong length).
-    #[error("{0}")]
-    Input(String),
+    #[error(transparent)]
+    Input(#[from] InputError),
+}
+
+/// Options or arguments that do not go together.
+#[derive(Debug, Error)]
+pub enum InputError {
+    /// The servo period is not a finite positive number.
+    #[error("servo period {period_s} s: expected a finite number > 0")]
+    ServoPeriod {
+        /// The period given (s).
+        period_s: f64,
+    },
+    /// Free arc ends asked of constant motion.
+    #[error("free arc ends need free motion (--motion free): a constant-speed arc starts and ends at rest")]
+    FreeEndsNeedFreeMotion,
+    /// Free motion asked on a servo period.
+    #[error("free motion is continuous-time only (its solver switches jerk at any instant; a version whose jerk holds over whole servo periods is not built): drop the servo period (--period or the machine's servo_period_s), or use --motion constant, which supports one")]
+    FreeMotionOnServoPeriod,
+    /// Free motion asked with a schedule that fixes the speeds.
+    #[error("free motion chooses its own speeds: use it with the optimal or scan schedule, not {}", .schedule.name())]
+    FreeMotionSchedule {
+        /// The schedule asked for.
+        schedule: Schedule,
+    },
+    /// A speed list whose length is not the number of layers.
+    #[error("{given} speeds given for {layers} layers")]
+    SpeedCount {
+        /// Speeds given.
+        given: usize,
+        /// Layers of the arcs.
+        layers: usize,
+    },
+    /// Spot times asked of a delivery built without its timeline.
+    #[error("the spot timeline needs the delivery's timeline")]
+    NoTimeline,
+    /// A delivery layer that the plan does not have.
+    #[error("delivery layer {index} (arc {arc}, control point {control_point}, layer {layer}) is not in plan \"{plan}\"")]
+    LayerNotInPlan {
+        /// The layer's delivery index.
+        index: usize,
+        /// Its arc.
+        arc: usize,
+        /// Its control point.
+        control_point: usize,
+        /// Its layer within the control point.
+        layer: usize,
+        /// The plan's name.
+        plan: String,
+    },
+    /// A layer whose spots the machine's beam model cannot time.
+    #[error("layer {index} (arc {arc}, control point {control_point}, layer {layer}): its spots cannot be timed under machine \"{machine}\": {reason:?}")]
+    SpotsUntimed {
+        /// The layer's delivery index.
+        index: usize,
+        /// Its arc.
+        arc: usize,
+        /// Its control point.
+        control_point: usize,
+        /// Its layer within the control point.
+        layer: usize,
+        /// The machine's name.
+        machine: String,
+        /// Why the beam model cannot time them.
+        reason: SpotTimingError,
+    },
+    /// A certificate asked of a free-motion delivery.
+    #[error("the certificate bounds constant-speed schedules; free motion has none")]
+    CertifyFreeMotion,
+    /// A delivery whose layers are not those of the arcs given.
+    #[error("the delivery does not belong to these arcs")]
+    DeliveryNotOfArcs,
+}
+
+/// The constraint an integrated timeline broke (a bug of the sequencer).
+#[derive(Debug, Error)]
+pub enum VerificationError {
+    /// Two consecutive pieces do not meet in time.
+    #[error("time jumps between pieces {piece} and {}", .piece + 1)]
+    TimeJump {
+        /// The first piece's index.
+        piece: usize,
+    },
+    /// The angle jumps between pieces.
+    #[error("angle jumps by {jump_deg:e} deg at t = {t_s:.6} s")]
+    AngleJump {
+        /// The jump (deg).
+        jump_deg: f64,
+        /// Where (s).
+        t_s: f64,
+    },
+    /// The speed jumps between pieces.
+    #[error("speed jumps by {jump_deg_per_s:e} deg/s at t = {t_s:.6} s")]
+    SpeedJump {
+        /// The jump (deg/s).
+        jump_deg_per_s: f64,
+        /// Where (s).
+        t_s: f64,
+    },
+    /// The acceleration jumps between pieces.
+    #[error("acceleration jumps at t = {t_s:.6} s")]
+    AccelJump {
+        /// Where (s).
+        t_s: f64,
+    },
+    /// A piece's jerk is above J.
+    #[error("jerk {jerk_deg_per_s3} above J at t = {t_s:.6} s")]
+    JerkAboveLimit {
+        /// The jerk (deg/s³).
+        jerk_deg_per_s3: f64,
+        /// The piece's start (s).
+        t_s: f64,
+    },
+    /// A beam piece starts or ends outside its layer's window.
+    #[error(
+        "layer {layer}: beam at {angle_deg:.9} deg outside its window [{lo_deg:.6}, {hi_deg:.6}]"
+    )]
+    BeamOutsideWindow {
+        /// The layer (delivery index).
+        layer: usize,
+        /// The beam's angle (deg).
+        angle_deg: f64,
+        /// The window's edges (deg).
+        lo_deg: f64,
+        /// The window's upper edge (deg).
+        hi_deg: f64,
+    },
+    /// Constant motion changed speed while irradiating.
+    #[error("layer {layer}: speed not constant while irradiating")]
+    SpeedNotConstant {
+        /// The layer (delivery index).
+        layer: usize,
+    },
+    /// A move piece names a transition that has no row.
+    #[error("a move belongs to transition {transition}, which does not exist")]
+    UnknownTransition {
+        /// The transition named.
+        transition: usize,
+    },
+    /// The acceleration is above its limit (A, or D when braking).
+    #[error(
+        "acceleration {accel_deg_per_s2} above its limit {limit_deg_per_s2} at t = {t_s:.6} s"
+    )]
+    AccelAboveLimit {
+        /// The acceleration (deg/s²).
+        accel_deg_per_s2: f64,
+        /// Its limit (deg/s²).
+        limit_deg_per_s2: f64,
+        /// Where (s).
+        t_s: f64,
+    },
+    /// The speed is above V.
+    #[error("speed {speed_deg_per_s} above V at t = {t_s:.6} s")]
+    SpeedAboveLimit {
+        /// The speed (deg/s).
+        speed_deg_per_s: f64,
+        /// The piece's start (s).
+        t_s: f64,
+    },
+    /// The gantry moves backwards inside an arc.
+    #[error("gantry reverses inside an arc at t = {t_s:.6} s (speed {speed_deg_per_s})")]
+    Reversal {
+        /// The piece's start (s).
+        t_s: f64,
+        /// The speed (deg/s).
+        speed_deg_per_s: f64,
+    },
+    /// A transition is shorter than its ELST.
+    #[error("transition {transition} lasts {duration_s} s, less than its ELST {elst_s} s")]
+    ShorterThanElst {
+        /// The transition's index.
+        transition: usize,
+        /// Its duration (s).
+        duration_s: f64,
+        /// Its ELST (s).
+        elst_s: f64,
+    },
+    /// The timeline's duration is not the end of the last layer.
+    #[error("timeline lasts {timeline_s} s but the layers end at {layers_end_s} s")]
+    DurationMismatch {
+        /// The timeline's duration (s).
+        timeline_s: f64,
+        /// The last layer's end (s).
+        layers_end_s: f64,
+    },
+}
+
+/// A name that is none of a choice's names (schedule, motion, arc ends).
+#[derive(Debug, Error)]
+#[error("unknown {what} '{name}' (expected {expected})")]
+pub struct UnknownName {
+    /// What was named ("schedule", "motion", "arc ends").
+    pub what: &'static str,
+    /// The name given.
+    pub name: String,
+    /// The names it may be.
+    pub expected: &'static str,
 }
 
 /// What made one transition or layer infeasible.

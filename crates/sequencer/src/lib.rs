@@ -1,39 +1,55 @@
 //! # arcsim-sequencer
 //!
-//! Turns a resolved arc plan into one gantry timeline: each energy layer is irradiated at a
-//! constant speed inside its window, centred on its angle; between layers the planner's
-//! jerk-limited move covers the remaining gap and lasts at least the energy-layer switching time
-//! (ELST). Arcs start and end at rest; a change of arc (rotation direction) is a stop.
+//! Turns resolved arcs (energy layers with angles, windows, irradiation times and ELSTs) and the
+//! gantry's limits into one verified delivery: its total time, per-layer and per-transition rows,
+//! where the time is lost, and the gantry timeline.
 //!
-//! Choosing the layer speeds is the velocity-scheduling problem ([`Schedule`]): prescribed by the
-//! plan, a bidirectional scan that also avoids stops at ELSTs, the shortest found by dynamic
-//! programming over refined speed grids (a local search, never worse than the scan), or
-//! step-and-shoot.
-//! [`certify`] proves a lower bound of every constant-speed schedule (a branch-and-bound over
-//! boxes of layer speeds), so a delivery's distance from the best is known.
-//! Every timeline is verified by integrating its segments before it is returned.
+//! Two motions ([`Motion`]): *constant* irradiates each layer at one speed, its sweep centred in
+//! its window, with the planner's jerk-limited moves between layers (ATOM's model; a servo
+//! period puts every move on whole periods); *free* lets the gantry change speed while the beam
+//! is on, anywhere inside the window (a solver seeded by the constant-speed schedule, never
+//! slower). The layer speeds come from a [`Schedule`]: prescribed by the plan, a bidirectional
+//! scan, the shortest found by a search over refined speed grids, or step-and-shoot.
+//! [`certify`] bounds every constant-speed schedule from below. Every timeline is verified by
+//! integrating its pieces before it is returned.
+//!
+//! Entry points: [`simulate`] (plan and machine), [`simulate_resolved`] (resolved arcs and
+//! limits, for sweeps), [`simulate_with_speeds`] (given speeds). [`Options::default`] is
+//! constant motion with the `scan` schedule; the CLI and the Python package default to free
+//! motion with the `optimal` schedule (see `arcsim-app`'s `SimulateRequest`).
+
+#![warn(missing_docs)]
 
 mod bound;
-mod build;
+mod constant;
 mod error;
 mod free;
 mod lost;
 mod optimal;
+mod polish;
+mod prescribed;
 mod problem;
 mod raise;
+mod rebalance;
 mod scan;
+mod schedule;
 mod servo;
+mod simulate;
 mod spots;
+mod stops;
 mod timeline;
 mod types;
 mod verify;
 
-pub use error::{Infeasibility, SequenceError};
+pub use error::{Infeasibility, InputError, SequenceError, UnknownName, VerificationError};
 pub use lost::{GapClass, LostGroup, LostTime, LostTransition, SwitchKind};
-pub use raise::{limiter_by_raise, move_duration, raised_limits, LIMIT_RAISE_FACTOR};
+pub use raise::{move_duration, raised_limits, LIMIT_RAISE_FACTOR};
 pub use spots::{spot_timeline, SpotRow};
 pub use timeline::{GantryState, Piece, PieceKind, Timeline};
-pub use types::*;
+pub use types::{
+    ArcEnds, Breakdown, Delivery, LayerRow, Limiter, LimiterCounts, LimitsOut, Margin, Margins,
+    Motion, Options, Schedule, SpeedBound, TransitionRow, Violation,
+};
 
 pub use bound::{certify, Certificate, CERTIFY_ROUNDS};
-pub use build::{machine_limits, simulate, simulate_resolved, simulate_with_speeds};
+pub use simulate::{machine_limits, simulate, simulate_resolved, simulate_with_speeds};

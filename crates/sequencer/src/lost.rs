@@ -27,6 +27,7 @@ pub enum SwitchKind {
 }
 
 impl SwitchKind {
+    /// The name the reports print.
     pub fn name(self) -> &'static str {
         match self {
             SwitchKind::Up => "up",
@@ -50,6 +51,7 @@ pub enum GapClass {
 }
 
 impl GapClass {
+    /// The name the reports print.
     pub fn name(self) -> &'static str {
         match self {
             GapClass::SameControlPoint => "same control point",
@@ -64,8 +66,11 @@ impl GapClass {
 pub struct LostGroup {
     /// The limit that set these transitions' durations.
     pub limited_by: Limiter,
+    /// The energy switch.
     pub switch: SwitchKind,
+    /// How far apart the layers are.
     pub gap: GapClass,
+    /// Number of transitions.
     pub count: usize,
     /// Σ time beyond the ELST (s).
     pub lost_s: f64,
@@ -83,15 +88,25 @@ pub struct LostTransition {
     pub transition: usize,
     /// Arc, control point and gantry angle of the layers before and after.
     pub from_arc: usize,
+    /// Control point of the layer before.
     pub from_control_point: usize,
+    /// Gantry angle of the layer before (deg).
     pub from_angle_deg: f64,
+    /// Arc of the layer after.
     pub to_arc: usize,
+    /// Control point of the layer after.
     pub to_control_point: usize,
+    /// Gantry angle of the layer after (deg).
     pub to_angle_deg: f64,
+    /// The energy switch.
     pub switch: SwitchKind,
+    /// What limits it.
     pub limited_by: Limiter,
+    /// Its duration (s).
     pub duration_s: f64,
+    /// Its ELST (s).
     pub elst_s: f64,
+    /// Time beyond the ELST (s).
     pub lost_s: f64,
 }
 
@@ -148,7 +163,7 @@ fn merge(mut ranges: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
 
 impl LostTime {
     /// Groups the transitions of a delivery (`layers` in delivery order, as the rows index them).
-    pub fn of(layers: &[LayerRow], transitions: &[TransitionRow]) -> LostTime {
+    pub(crate) fn of(layers: &[LayerRow], transitions: &[TransitionRow]) -> LostTime {
         type Key = (Limiter, SwitchKind, GapClass);
         let mut groups: Vec<(Key, LostGroup, Vec<[f64; 2]>)> = Vec::new();
         let mut located: Vec<LostTransition> = Vec::new();

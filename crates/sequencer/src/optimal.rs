@@ -13,22 +13,18 @@
 //! than the seed or step-and-shoot; each refinement shrinks the spacing six-fold around the best
 //! path, and runs once more at the same spacing when the path improved and ended on a grid's
 //! edge (the optimum may lie beyond). A fourth, finer refinement follows while the third still
-//! gained 1e-6 of the moving time: with three, the speeds could stop some 1e-5 °/s short of the
-//! local optimum, and free motion, which starts from them, landed a second apart on such a
-//! difference (a 4-layer arc of `free_optimality.rs`: 11.16 s against 12.22 s).
+//! gained 1e-6 of the moving time: three can stop some 1e-5 °/s short of the local optimum, and
+//! free motion, which starts from these speeds, can land a second apart on such a difference
+//! (a 4-layer arc of `free_optimality.rs`: 11.16 s against 12.22 s).
 //!
-//! # Why raising a limit does not lengthen it (issue 30)
+//! # Why raising a limit does not lengthen it
 //!
 //! Raising J, A, D or V admits every move the lower limits admitted, so each transition's cost
 //! (its shortest feasible duration of at least the ELST) can only fall, and dynamic programming
-//! over the *same* grids can only find a shorter path. The search used to lose that property
-//! through its inputs, not its costs: the grids spanned each layer's bound min(V, w_k/t_k, reach),
-//! so a higher V spread the same points over a wider range, and the seed and the ELST-free
-//! `upper` came from scans that start at min(V, w_k/t_k) and lower speeds by factors of where
-//! they start. A higher V (one that limited no speed of the result) then searched coarser grids
-//! around another seed and ended in a worse basin: bundled head-neck 757.871 s at V 1.3,
-//! 757.885 s at every V from 1.93 up (ATOM machine), prostate 273.849 → 273.853 s from V 3.1
-//! to 3.7. Now, in continuous time:
+//! over the *same* grids can only find a shorter path. What could break that is the search's
+//! inputs, not its costs: grids spanning each layer's bound min(V, w_k/t_k, reach) would spread
+//! the same points over a wider range at a higher V, and seeds from scans that start at
+//! min(V, w_k/t_k) would move with V, ending in another basin. So, in continuous time:
 //!
 //! - the first grids are the lattice `i · s_k / (m − 1)` of a span `s_k` that holds no limit but
 //!   J ([`jerk_spans`]: the window cap w_k / t_k, and the speed a jerk triangle reaches from
@@ -46,11 +42,10 @@
 //! the costs the refinements follow), the seed and the refinements are still local heuristics
 //! that depend on the limits: there monotonicity is what the one-axis sweeps of
 //! `tests/optimal_monotone.rs` check (J, A, D, V, ten values each, ATOM machine, ATOM cases and
-//! bundled plans: no step above 1e-6 relative; 30 of 280 settings failed before, worst +0.014 s),
-//! not a theorem. Probes at other bases still find small steps: at J 0.287, A 0.698 along A up
-//! to +0.010 s (10 of 280 settings; 61 before, up to +0.36 s), where a lower A sends the scan's
-//! ELST lowering into another basin; at the ATOM machine with other sweep values, along D on
-//! lung, +0.0004 s (3 of 280; 32 before).
+//! bundled plans: no step above 1e-6 relative), not a theorem. Probes at other bases still find
+//! small steps: at J 0.287, A 0.698 along A up to +0.010 s (10 of 280 settings), where a lower A
+//! sends the scan's ELST lowering into another basin; at the ATOM machine with other sweep
+//! values, along D on lung, +0.0004 s (3 of 280).
 //!
 //! Most speed pairs of a grid cannot improve their target: the closed-form test
 //! [`may_last_within`] (eq. 3–4, no root solve) skips every pair whose minimum time already
@@ -69,13 +64,13 @@
 //! 158.232 s continuous, with no transition shorter than its continuous duration (its speeds
 //! replayed in continuous time give 158.215 s too), so the grid-timing rule holds and the
 //! continuous result is the one that is not optimal. Repeating the continuous search from its
-//! own result closes that (158.235 s after two passes, before the fourth refinement) but costs
-//! one search per pass and moved lung along A by 2e-6 relative, so it is not done.
+//! own result would close that but costs one search per pass and moves lung along A by 2e-6
+//! relative, so it is not done.
 
 use arcsim_planner::{two_change, Limits, LinearGap};
 
-use crate::problem::ArcProblem;
-use crate::scan::{moving_time_on, scan};
+use crate::problem::{moving_time_on, ArcProblem};
+use crate::scan::scan;
 use crate::servo::ticks;
 use crate::SpeedBound;
 

@@ -1,4 +1,4 @@
-//! One arc as a scheduling problem and its transition cost.
+//! One arc as a scheduling problem, and the duration of its transitions.
 //!
 //! Layer `k` sits at `s_k` degrees along the direction of travel and is irradiated for `t_k` at
 //! speed `v_k`, sweeping `v_k·t_k` of its window. Transition `k` (layer k → k+1) covers the gap
@@ -91,13 +91,19 @@ impl ArcProblem {
 
     /// Whether the gap of transition `k` is not negative at speeds `vs`, `ve` (the two layers'
     /// swept windows do not overlap), to rounding.
-    pub fn gap_open(&self, k: usize, vs: f64, ve: f64) -> bool {
+    pub(crate) fn gap_open(&self, k: usize, vs: f64, ve: f64) -> bool {
         self.gap(k).at(vs, ve) >= -1e-12 * (1.0 + self.travel_deg[k + 1])
     }
 
     /// The planner's analysis of transition `k`'s forward move at speeds `vs`, `ve`; `None` when
     /// the two layers' sweeps overlap or no forward move fits the gap.
-    pub fn analysis(&self, k: usize, vs: f64, ve: f64, lim: &Limits) -> Option<MoveAnalysis> {
+    pub(crate) fn analysis(
+        &self,
+        k: usize,
+        vs: f64,
+        ve: f64,
+        lim: &Limits,
+    ) -> Option<MoveAnalysis> {
         if !self.gap_open(k, vs, ve) {
             return None;
         }
@@ -139,6 +145,83 @@ impl ArcProblem {
         match period {
             Some(ts) => grid_duration_in(&analysis.durations(), d, ts),
             None => Some(d),
+        }
+    }
+}
+
+/// Σ transition durations of an arc at speeds `v` (infinite if one is infeasible).
+pub(crate) fn moving_time(p: &ArcProblem, lim: &Limits, v: &[f64]) -> f64 {
+    moving_time_on(p, lim, v, None)
+}
+
+/// Σ transition durations of speeds `v`, on `period` when given; infinite if one is infeasible.
+pub(crate) fn moving_time_on(p: &ArcProblem, lim: &Limits, v: &[f64], period: Option<f64>) -> f64 {
+    (0..p.len().saturating_sub(1))
+        .map(|k| {
+            p.cost_on(k, v[k], v[k + 1], lim, period)
+                .unwrap_or(f64::INFINITY)
+        })
+        .sum()
+}
+
+/// Time of one arc at layer speeds `v` with every transition on the servo period (infinite when
+/// a transition has no such duration).
+pub(crate) fn arc_time_on_grid(p: &ArcProblem, v: &[f64], lim: &Limits, period: f64) -> f64 {
+    moving_time_on(p, lim, v, Some(period)) + p.irradiation_s.iter().sum::<f64>()
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use arcsim_plan::{ResolvedLayer, RotationDirection};
+    use arcsim_test_support::Rng;
+
+    /// Random limits of the unit tests: J 0.1–4, A and D 0.1–2, V 1–8.
+    pub(crate) fn random_limits(rng: &mut Rng) -> Limits {
+        Limits::with_decel(
+            rng.range(0.1, 4.0),
+            rng.range(0.1, 2.0),
+            rng.range(0.1, 2.0),
+            rng.range(1.0, 8.0),
+        )
+        .expect("limits")
+    }
+
+    /// A random arc of `n` layers: spacing, irradiation time and window drawn uniformly from
+    /// the given ranges (deg, s, deg), the ELST of each switch one of `elsts_s`.
+    pub(crate) fn random_arc_of(
+        rng: &mut Rng,
+        n: usize,
+        spacing_deg: (f64, f64),
+        irradiation_s: (f64, f64),
+        window_deg: (f64, f64),
+        elsts_s: &[f64],
+    ) -> ResolvedArc {
+        let mut angle = 0.0;
+        let layers = (0..n)
+            .map(|k| {
+                if k > 0 {
+                    angle += rng.range(spacing_deg.0, spacing_deg.1);
+                }
+                let t = rng.range(irradiation_s.0, irradiation_s.1);
+                ResolvedLayer {
+                    control_point: k,
+                    layer: 0,
+                    angle_deg: angle,
+                    window_deg: rng.range(window_deg.0, window_deg.1),
+                    energy_mev: 100.0,
+                    irradiation_s: t,
+                    spot_irradiation_s: t,
+                    scanning_s: 0.0,
+                    required_speed_deg_per_s: None,
+                    switch_in_s: elsts_s[rng.below(elsts_s.len())],
+                }
+            })
+            .collect();
+        ResolvedArc {
+            arc_index: 0,
+            direction: RotationDirection::Cw,
+            layers,
         }
     }
 }

@@ -41,11 +41,33 @@ pub(crate) const GANTRY_LIMITS: [Limiter; 3] = [Limiter::Jerk, Limiter::Accel, L
 /// constant-speed sequencer times it (before any servo rounding); `None` if it has none.
 pub fn move_duration(mv: &Move, elst: f64, lim: &Limits) -> Option<f64> {
     let analysis = MoveAnalysis::new(mv, lim, Reversal::Forbid).ok()?;
-    let min_time = analysis.min_time_phases().duration();
-    if elst > min_time {
-        analysis.shortest_duration_at_least(elst)
-    } else {
-        Some(min_time)
+    timed(&analysis).at_least(elst)
+}
+
+/// An analysed move's minimum time, to be floored by an ELST.
+pub(crate) struct Timed<'a> {
+    analysis: &'a MoveAnalysis,
+    /// The duration of the time-optimal move (s).
+    pub min_time: f64,
+}
+
+/// The minimum time of an analysed move.
+pub(crate) fn timed(analysis: &MoveAnalysis) -> Timed<'_> {
+    Timed {
+        analysis,
+        min_time: analysis.min_time_phases().duration(),
+    }
+}
+
+impl Timed<'_> {
+    /// The shortest duration lasting at least `elst`: the minimum time when it already does;
+    /// `None` when no duration of the move lasts it.
+    pub(crate) fn at_least(&self, elst: f64) -> Option<f64> {
+        if elst > self.min_time {
+            self.analysis.shortest_duration_at_least(elst)
+        } else {
+            Some(self.min_time)
+        }
     }
 }
 
@@ -74,18 +96,20 @@ pub(crate) fn label_by_raise(
     }
 }
 
-/// What limits the move `mv` lasting at least `elst` under `lim`: the gantry limit whose raise
-/// shortens it most (see the module documentation).
-pub fn limiter_by_raise(mv: &Move, elst: f64, lim: &Limits) -> Limiter {
-    match move_duration(mv, elst, lim) {
-        Some(base) if base > 0.0 => label_by_raise(base, elst, lim, |l| move_duration(mv, elst, l)),
-        _ => Limiter::None,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What limits the move `mv` lasting at least `elst` under `lim`: the gantry limit whose raise
+    /// shortens it most (see the module documentation).
+    fn limiter_by_raise(mv: &Move, elst: f64, lim: &Limits) -> Limiter {
+        match move_duration(mv, elst, lim) {
+            Some(base) if base > 0.0 => {
+                label_by_raise(base, elst, lim, |l| move_duration(mv, elst, l))
+            }
+            _ => Limiter::None,
+        }
+    }
 
     fn atom() -> Limits {
         Limits::new(0.5, 0.5, 5.0).unwrap()

@@ -6,14 +6,16 @@
 use arcsim_plan::{time_spots, ArcPlan, Machine};
 use serde::{Deserialize, Serialize};
 
-use crate::{Delivery, SequenceError};
+use crate::{Delivery, InputError, SequenceError};
 
 /// One delivery of one spot (one painting of it).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SpotRow {
     /// Index of the layer in delivery order over the whole plan.
     pub layer_index: usize,
+    /// The arc (index in the plan).
     pub arc: usize,
+    /// The control point within the arc.
     pub control_point: usize,
     /// Index of the layer within its control point.
     pub layer: usize,
@@ -23,14 +25,17 @@ pub struct SpotRow {
     pub painting: usize,
     /// Spot position in the isocentre plane, mm (absent when the plan gives no positions).
     pub x_mm: Option<f64>,
+    /// Spot position, mm (y).
     pub y_mm: Option<f64>,
     /// MU delivered by this painting of the spot.
     pub mu: f64,
     /// Irradiation start and end, s from the start of the delivery.
     pub t_start_s: f64,
+    /// Irradiation end, s.
     pub t_end_s: f64,
     /// Gantry angle at the spot's start and end, degrees.
     pub angle_start_deg: f64,
+    /// Gantry angle at the spot's end, degrees.
     pub angle_end_deg: f64,
 }
 
@@ -42,9 +47,10 @@ pub fn spot_timeline(
     machine: &Machine,
     delivery: &Delivery,
 ) -> Result<Vec<SpotRow>, SequenceError> {
-    let timeline = delivery.timeline.as_ref().ok_or_else(|| {
-        SequenceError::Input("the spot timeline needs the delivery's timeline".into())
-    })?;
+    let timeline = delivery
+        .timeline
+        .as_ref()
+        .ok_or_else(|| SequenceError::from(InputError::NoTimeline))?;
     let mut rows = Vec::new();
     for row in &delivery.layers {
         let layer = plan
@@ -53,10 +59,13 @@ pub fn spot_timeline(
             .and_then(|a| a.control_points.get(row.control_point))
             .and_then(|cp| cp.layers.get(row.layer))
             .ok_or_else(|| {
-                SequenceError::Input(format!(
-                    "delivery layer {} (arc {}, control point {}, layer {}) is not in plan \"{}\"",
-                    row.index, row.arc, row.control_point, row.layer, plan.name
-                ))
+                SequenceError::from(InputError::LayerNotInPlan {
+                    index: row.index,
+                    arc: row.arc,
+                    control_point: row.control_point,
+                    layer: row.layer,
+                    plan: plan.name.clone(),
+                })
             })?;
         let Some(spots) = &layer.spots else {
             continue;
@@ -84,11 +93,13 @@ pub fn spot_timeline(
                 angle_end_deg: angle(t1),
             });
         })
-        .map_err(|e| {
-            SequenceError::Input(format!(
-                "layer {} (arc {}, control point {}, layer {}): its spots cannot be timed under machine \"{}\": {e:?}",
-                row.index, row.arc, row.control_point, row.layer, machine.name
-            ))
+        .map_err(|reason| InputError::SpotsUntimed {
+            index: row.index,
+            arc: row.arc,
+            control_point: row.control_point,
+            layer: row.layer,
+            machine: machine.name.clone(),
+            reason,
         })?;
     }
     Ok(rows)

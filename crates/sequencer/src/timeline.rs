@@ -6,37 +6,58 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum PieceKind {
     /// Irradiating layer `layer` (delivery order); at constant speed unless the motion is free.
-    Beam { layer: usize },
+    Beam {
+        /// The layer (delivery order).
+        layer: usize,
+    },
     /// Beam off, moving (or waiting) between layers: transition `transition`.
-    Move { transition: usize },
+    Move {
+        /// The transition (delivery order).
+        transition: usize,
+    },
     /// Beam off, running up from rest before arc `arc`'s first beam (free arc ends).
-    RunUp { arc: usize },
+    RunUp {
+        /// The arc (index in the plan).
+        arc: usize,
+    },
 }
 
 /// One constant-jerk piece. Angles and speeds are signed gantry values (CW positive).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Piece {
+    /// Start (s).
     pub t_start_s: f64,
+    /// Duration (s).
     pub duration_s: f64,
+    /// Angle at its start (deg).
     pub angle_deg: f64,
+    /// Speed at its start (deg/s).
     pub speed_deg_per_s: f64,
+    /// Acceleration at its start (deg/s²).
     pub accel_deg_per_s2: f64,
+    /// Jerk throughout (deg/s³).
     pub jerk_deg_per_s3: f64,
+    /// What the gantry does.
     pub kind: PieceKind,
 }
 
 /// Gantry state at one instant (signed, CW positive).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct GantryState {
+    /// Angle (deg).
     pub angle_deg: f64,
+    /// Speed (deg/s).
     pub speed_deg_per_s: f64,
+    /// Acceleration (deg/s²).
     pub accel_deg_per_s2: f64,
+    /// Jerk (deg/s³).
     pub jerk_deg_per_s3: f64,
 }
 
 /// The whole delivery's motion.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timeline {
+    /// The pieces, end to end from t = 0.
     pub pieces: Vec<Piece>,
 }
 

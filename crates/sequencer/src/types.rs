@@ -3,6 +3,7 @@
 use arcsim_planner::Limits;
 use serde::{Deserialize, Serialize};
 
+use crate::error::UnknownName;
 use crate::Timeline;
 use arcsim_plan::ResolvedArc;
 
@@ -24,13 +25,15 @@ pub enum Schedule {
 }
 
 impl Schedule {
-    pub const ALL: [Schedule; 4] = [
+    /// Every schedule, in the order the CLI lists them.
+    pub(crate) const ALL: [Schedule; 4] = [
         Schedule::Prescribed,
         Schedule::Scan,
         Schedule::Optimal,
         Schedule::StepAndShoot,
     ];
 
+    /// The name the CLI and the files use.
     pub fn name(self) -> &'static str {
         match self {
             Schedule::Prescribed => "prescribed",
@@ -42,15 +45,15 @@ impl Schedule {
 }
 
 impl std::str::FromStr for Schedule {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
         Schedule::ALL
             .into_iter()
             .find(|k| k.name() == s)
-            .ok_or_else(|| {
-                format!(
-                    "unknown schedule '{s}' (expected prescribed, scan, optimal or step-and-shoot)"
-                )
+            .ok_or_else(|| UnknownName {
+                what: "schedule",
+                name: s.to_string(),
+                expected: "prescribed, scan, optimal or step-and-shoot",
             })
     }
 }
@@ -69,8 +72,9 @@ pub enum Motion {
 }
 
 impl Motion {
-    pub const ALL: [Motion; 2] = [Motion::Constant, Motion::Free];
+    pub(crate) const ALL: [Motion; 2] = [Motion::Constant, Motion::Free];
 
+    /// The name the CLI and the files use.
     pub fn name(self) -> &'static str {
         match self {
             Motion::Constant => "constant",
@@ -80,12 +84,16 @@ impl Motion {
 }
 
 impl std::str::FromStr for Motion {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
         Motion::ALL
             .into_iter()
             .find(|k| k.name() == s)
-            .ok_or_else(|| format!("unknown motion '{s}' (expected constant or free)"))
+            .ok_or_else(|| UnknownName {
+                what: "motion",
+                name: s.to_string(),
+                expected: "constant or free",
+            })
     }
 }
 
@@ -103,8 +111,10 @@ pub enum ArcEnds {
 }
 
 impl ArcEnds {
+    /// Both, rest first.
     pub const ALL: [ArcEnds; 2] = [ArcEnds::Rest, ArcEnds::Free];
 
+    /// The name the CLI and the files use.
     pub fn name(self) -> &'static str {
         match self {
             ArcEnds::Rest => "rest",
@@ -114,18 +124,23 @@ impl ArcEnds {
 }
 
 impl std::str::FromStr for ArcEnds {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
         ArcEnds::ALL
             .into_iter()
             .find(|k| k.name() == s)
-            .ok_or_else(|| format!("unknown arc ends '{s}' (expected rest or free)"))
+            .ok_or_else(|| UnknownName {
+                what: "arc ends",
+                name: s.to_string(),
+                expected: "rest or free",
+            })
     }
 }
 
 /// Options of one simulation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Options {
+    /// How the layer speeds are chosen.
     pub schedule: Schedule,
     /// Build the sampled-ready timeline and its margins (off for fast sweeps: totals only).
     pub build_timeline: bool,
@@ -141,6 +156,10 @@ pub struct Options {
     pub arc_ends: ArcEnds,
 }
 
+/// Constant motion with the `scan` schedule, arc ends at rest, continuous time, timeline built:
+/// the cheapest full simulation. The CLI and the Python package default instead to free motion
+/// with the `optimal` schedule (constant motion where a servo period applies or the schedule is
+/// `prescribed` or `step-and-shoot`).
 impl Default for Options {
     fn default() -> Self {
         Options {
@@ -154,6 +173,7 @@ impl Default for Options {
 }
 
 impl Options {
+    /// The default options with `schedule`.
     pub fn new(schedule: Schedule) -> Self {
         Options {
             schedule,
@@ -189,7 +209,7 @@ pub enum SpeedBound {
 }
 
 /// What limits a transition: the gantry limit whose raise by [`crate::LIMIT_RAISE_FACTOR`]
-/// shortens it most, or the ELST when no raise shortens it ([`crate::limiter_by_raise`]).
+/// shortens it most, or the ELST when no raise shortens it (module `raise`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Limiter {
@@ -209,10 +229,15 @@ pub enum Limiter {
 /// Counts of transitions by what limited them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LimiterCounts {
+    /// Limited by the ELST.
     pub elst: usize,
+    /// Limited by V.
     pub speed: usize,
+    /// Limited by A and D.
     pub accel: usize,
+    /// Limited by J.
     pub jerk: usize,
+    /// Not moving.
     pub none: usize,
 }
 
@@ -221,22 +246,33 @@ pub struct LimiterCounts {
 pub struct LayerRow {
     /// Index of the layer in delivery order over the whole plan.
     pub index: usize,
+    /// The arc (index in the plan).
     pub arc: usize,
+    /// The control point within the arc.
     pub control_point: usize,
+    /// The layer within the control point.
     pub layer: usize,
+    /// The layer's gantry angle (deg).
     pub angle_deg: f64,
+    /// The layer's energy (MeV).
     pub energy_mev: f64,
+    /// Beam-on time (s).
     pub irradiation_s: f64,
     /// Gantry speed while irradiating (magnitude, deg/s); with free motion, the mean speed.
     pub speed_deg_per_s: f64,
     /// Speed at beam-on and at beam-off (deg/s; equal to the speed with constant motion).
     pub speed_on_deg_per_s: f64,
+    /// Speed at beam-off (deg/s).
     pub speed_off_deg_per_s: f64,
+    /// What bounds the layer's speed.
     pub speed_bound: SpeedBound,
+    /// The layer's tolerance window (deg).
     pub window_deg: f64,
     /// Degrees swept while irradiating (speed × irradiation time).
     pub window_used_deg: f64,
+    /// Beam-on (s from the start of the delivery).
     pub t_start_s: f64,
+    /// Beam-off (s).
     pub t_end_s: f64,
     /// Duration of the transition into this layer (0 for the first layer of the plan).
     pub transition_in_s: f64,
@@ -247,13 +283,17 @@ pub struct LayerRow {
 /// One beam-off move between two layers (or between two arcs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TransitionRow {
+    /// Index in delivery order.
     pub index: usize,
     /// Layer indices (delivery order) before and after.
     pub from_layer: usize,
+    /// Layer index (delivery order) after.
     pub to_layer: usize,
     /// True for the stop-and-turn between two arcs.
     pub arc_change: bool,
+    /// Start, at the beam-off before it (s).
     pub t_start_s: f64,
+    /// Duration (s).
     pub duration_s: f64,
     /// Minimum-time duration without the ELST (s); with free motion, the transition's duration
     /// (its motion is shaped together with the layers around it).
@@ -262,8 +302,11 @@ pub struct TransitionRow {
     pub elst_s: f64,
     /// Beam-off gap covered (deg, magnitude).
     pub gap_deg: f64,
+    /// Speed at its start (deg/s, magnitude).
     pub v_start_deg_per_s: f64,
+    /// Speed at its end (deg/s, magnitude).
     pub v_end_deg_per_s: f64,
+    /// What limits it.
     pub limited_by: Limiter,
     /// Time beyond the ELST that the gantry needed (s).
     pub lost_s: f64,
@@ -307,7 +350,9 @@ impl Breakdown {
 /// The tightest value of a quantity over the timeline and where it occurs.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Margin {
+    /// The value, in the unit of the quantity.
     pub value: f64,
+    /// When it occurs (s).
     pub t_s: f64,
     /// Layer (delivery order) nearest to where it occurs.
     pub layer: usize,
@@ -331,32 +376,45 @@ pub struct Margins {
 /// A plan point where the prescribed speed cannot be delivered.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Violation {
+    /// Layer index (delivery order).
     pub layer: usize,
+    /// The arc (index in the plan).
     pub arc: usize,
+    /// The control point within the arc.
     pub control_point: usize,
+    /// The plan's required speed (deg/s).
     pub prescribed_deg_per_s: f64,
     /// The corrected speed used in the delivered timeline.
     pub corrected_deg_per_s: f64,
+    /// Why it cannot be delivered.
     pub reason: String,
 }
 
 /// The result of one simulation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Delivery {
+    /// The schedule that chose the speeds.
     pub schedule: Schedule,
+    /// Constant or free motion.
     pub motion: Motion,
+    /// What the gantry does at the arcs' ends.
     pub arc_ends: ArcEnds,
     /// Free motion: the total with constant speed per layer (same schedule), so the saving is
     /// `constant_speed_total_s - total_s`.
     pub constant_speed_total_s: Option<f64>,
     /// Total delivery time (s).
     pub total_s: f64,
+    /// Where the total time goes.
     pub breakdown: Breakdown,
+    /// The gantry limits used.
     pub limits: LimitsOut,
     /// Servo period the transitions were timed on (s); `None`: continuous time.
     pub servo_period_s: Option<f64>,
+    /// One row per layer, delivery order.
     pub layers: Vec<LayerRow>,
+    /// One row per transition, delivery order.
     pub transitions: Vec<TransitionRow>,
+    /// Transitions counted by what limits them.
     pub limiter_counts: LimiterCounts,
     /// Present when the options asked for a timeline.
     pub margins: Option<Margins>,
@@ -366,15 +424,20 @@ pub struct Delivery {
     #[serde(default)]
     pub lost_time: crate::LostTime,
     #[serde(skip)]
+    /// The gantry motion, when the options asked for it (not serialised).
     pub timeline: Option<Timeline>,
 }
 
 /// The gantry limits used, in the units of the output.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LimitsOut {
+    /// V (deg/s).
     pub max_speed_deg_per_s: f64,
+    /// A (deg/s²).
     pub max_accel_deg_per_s2: f64,
+    /// D (deg/s²).
     pub max_decel_deg_per_s2: f64,
+    /// J (deg/s³).
     pub max_jerk_deg_per_s3: f64,
 }
 

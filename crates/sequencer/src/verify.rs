@@ -3,15 +3,16 @@
 use arcsim_planner::Limits;
 
 use crate::problem::ArcProblem;
-use crate::timeline::{PieceKind, Timeline};
-use crate::{LayerRow, Margin, Margins, SequenceError, TransitionRow};
+use crate::timeline::{Piece, PieceKind, Timeline};
+use crate::{LayerRow, Margin, Margins, TransitionRow, VerificationError};
 
 /// Relative tolerance of every check.
 const TOL: f64 = 1e-9;
 
 /// Integrates the timeline piece by piece and checks: continuous time, angle, speed and
-/// acceleration; every layer inside its window (at constant speed unless `free_motion`); every transition at least its
-/// ELST; |speed| <= V, |acceleration| <= A (D when braking), |jerk| <= J; no reversal in an arc.
+/// acceleration; every layer inside its window (at constant speed unless `free_motion`); every
+/// transition at least its ELST; |speed| <= V, |acceleration| <= A (D when braking), |jerk| <= J;
+/// no reversal in an arc.
 pub(crate) fn verify_timeline(
     tl: &Timeline,
     problems: &[ArcProblem],
@@ -19,157 +20,193 @@ pub(crate) fn verify_timeline(
     transitions: &[TransitionRow],
     lim: &Limits,
     free_motion: bool,
-) -> Result<(), SequenceError> {
-    let fail = |msg: String| Err(SequenceError::Verification(msg));
-    let a_max = lim.max_accel.max(lim.max_decel);
+) -> Result<(), VerificationError> {
     let scale_angle = 360.0f64.max(layers.iter().map(|l| l.angle_deg.abs()).fold(0.0, f64::max));
     let mut dir_of_layer = Vec::with_capacity(layers.len());
     for p in problems {
         dir_of_layer.extend(std::iter::repeat_n(p.dir, p.len()));
     }
-    check_continuity(tl, lim, a_max, scale_angle)?;
+    check_continuity(tl, lim, scale_angle)?;
+    let rows = Rows {
+        problems,
+        layers,
+        transitions,
+        dir_of_layer: &dir_of_layer,
+    };
     for p in &tl.pieces {
-        let current_dir: f64;
-        let (s0, s1) = (p.state_after(0.0), p.state_after(p.duration_s));
-        if p.jerk_deg_per_s3.abs() > lim.max_jerk * (1.0 + TOL) {
-            return fail(format!(
-                "jerk {} above J at t = {:.6} s",
-                p.jerk_deg_per_s3, p.t_start_s
-            ));
-        }
-        // Acceleration is linear in a piece: its ends bound it. Speed peaks at an end or where a = 0.
-        let mut speeds = vec![s0.speed_deg_per_s, s1.speed_deg_per_s];
-        if p.jerk_deg_per_s3 != 0.0 {
-            let tv = -p.accel_deg_per_s2 / p.jerk_deg_per_s3;
-            if tv > 0.0 && tv < p.duration_s {
-                speeds.push(p.state_after(tv).speed_deg_per_s);
-            }
-        }
-        match p.kind {
-            PieceKind::Beam { layer } => {
-                current_dir = dir_of_layer[layer];
-                let l = &layers[layer];
-                let lo = l.angle_deg - 0.5 * l.window_deg;
-                let hi = l.angle_deg + 0.5 * l.window_deg;
-                let tol = TOL * scale_angle;
-                for a in [s0.angle_deg, s1.angle_deg] {
-                    if a < lo - tol || a > hi + tol {
-                        return fail(format!("layer {layer}: beam at {a:.9} deg outside its window [{lo:.6}, {hi:.6}]"));
-                    }
-                }
-                if !free_motion && (p.accel_deg_per_s2 != 0.0 || p.jerk_deg_per_s3 != 0.0) {
-                    return fail(format!(
-                        "layer {layer}: speed not constant while irradiating"
-                    ));
-                }
-            }
-            PieceKind::RunUp { arc } => {
-                current_dir = problems.get(arc).map_or(0.0, |p| p.dir);
-            }
-            PieceKind::Move { transition } => {
-                let Some(tr) = transitions.get(transition) else {
-                    return fail(format!(
-                        "a move belongs to transition {transition}, which does not exist"
-                    ));
-                };
-                if tr.arc_change {
-                    current_dir = 0.0; // a stop-and-turn may go either way, at rest at both ends
-                } else {
-                    current_dir = dir_of_layer[tr.to_layer];
-                }
-            }
-        }
-        for (k, acc) in [s0.accel_deg_per_s2, s1.accel_deg_per_s2]
-            .into_iter()
-            .enumerate()
-        {
-            let braking = current_dir != 0.0 && acc * current_dir < 0.0;
-            let bound = if current_dir == 0.0 {
-                a_max
-            } else if braking {
-                lim.max_decel
-            } else {
-                lim.max_accel
-            };
-            if acc.abs() > bound * (1.0 + TOL) {
-                return fail(format!(
-                    "acceleration {acc} above its limit {bound} at t = {:.6} s",
-                    p.t_start_s + k as f64 * p.duration_s
-                ));
-            }
-        }
-        for v in speeds {
-            if v.abs() > lim.max_vel * (1.0 + TOL) {
-                return fail(format!("speed {v} above V at t = {:.6} s", p.t_start_s));
-            }
-            if current_dir != 0.0 && v * current_dir < -TOL * lim.max_vel {
-                return fail(format!(
-                    "gantry reverses inside an arc at t = {:.6} s (speed {v})",
-                    p.t_start_s
-                ));
-            }
-        }
+        check_piece(p, &rows, lim, scale_angle, free_motion)?;
     }
-    check_elsts_and_end(tl, layers, transitions)
+    check_elsts(transitions)?;
+    let total = layers.last().map_or(0.0, |l| l.t_end_s);
+    if (tl.duration_s() - total).abs() > TOL * (1.0 + total) {
+        return Err(VerificationError::DurationMismatch {
+            timeline_s: tl.duration_s(),
+            layers_end_s: total,
+        });
+    }
+    Ok(())
 }
 
-/// Checks that time, angle, speed and acceleration are continuous between pieces.
+/// The delivery's rows a piece is checked against, and the direction of each layer's arc.
+struct Rows<'a> {
+    problems: &'a [ArcProblem],
+    layers: &'a [LayerRow],
+    transitions: &'a [TransitionRow],
+    dir_of_layer: &'a [f64],
+}
+
+/// Each piece ends where the next starts: in time, angle, speed and acceleration.
 fn check_continuity(
     tl: &Timeline,
     lim: &Limits,
-    a_max: f64,
     scale_angle: f64,
-) -> Result<(), SequenceError> {
-    let fail = |msg: String| Err(SequenceError::Verification(msg));
+) -> Result<(), VerificationError> {
+    let a_max = lim.max_accel.max(lim.max_decel);
     for (i, w) in tl.pieces.windows(2).enumerate() {
         let (a, b) = (&w[0], &w[1]);
         let end = a.state_after(a.duration_s);
         if (a.t_start_s + a.duration_s - b.t_start_s).abs() > TOL * (1.0 + b.t_start_s) {
-            return fail(format!("time jumps between pieces {i} and {}", i + 1));
+            return Err(VerificationError::TimeJump { piece: i });
         }
         if (end.angle_deg - b.angle_deg).abs() > TOL * scale_angle {
-            return fail(format!(
-                "angle jumps by {:e} deg at t = {:.6} s",
-                end.angle_deg - b.angle_deg,
-                b.t_start_s
-            ));
+            return Err(VerificationError::AngleJump {
+                jump_deg: end.angle_deg - b.angle_deg,
+                t_s: b.t_start_s,
+            });
         }
         if (end.speed_deg_per_s - b.speed_deg_per_s).abs() > TOL * lim.max_vel {
-            return fail(format!(
-                "speed jumps by {:e} deg/s at t = {:.6} s",
-                end.speed_deg_per_s - b.speed_deg_per_s,
-                b.t_start_s
-            ));
+            return Err(VerificationError::SpeedJump {
+                jump_deg_per_s: end.speed_deg_per_s - b.speed_deg_per_s,
+                t_s: b.t_start_s,
+            });
         }
         if (end.accel_deg_per_s2 - b.accel_deg_per_s2).abs() > TOL * a_max {
-            return fail(format!("acceleration jumps at t = {:.6} s", b.t_start_s));
+            return Err(VerificationError::AccelJump { t_s: b.t_start_s });
         }
     }
     Ok(())
 }
 
-/// Checks that every transition lasts at least its ELST and the timeline ends with the last layer.
-fn check_elsts_and_end(
-    tl: &Timeline,
-    layers: &[LayerRow],
-    transitions: &[TransitionRow],
-) -> Result<(), SequenceError> {
-    let fail = |msg: String| Err(SequenceError::Verification(msg));
-    for tr in transitions {
-        if tr.duration_s < tr.elst_s * (1.0 - TOL) {
-            return fail(format!(
-                "transition {} lasts {} s, less than its ELST {} s",
-                tr.index, tr.duration_s, tr.elst_s
-            ));
+/// One piece within the limits: its jerk, its beam inside the window (at constant speed unless
+/// `free_motion`), its acceleration and speed, and no reversal inside an arc.
+fn check_piece(
+    p: &Piece,
+    rows: &Rows,
+    lim: &Limits,
+    scale_angle: f64,
+    free_motion: bool,
+) -> Result<(), VerificationError> {
+    let (s0, s1) = (p.state_after(0.0), p.state_after(p.duration_s));
+    if p.jerk_deg_per_s3.abs() > lim.max_jerk * (1.0 + TOL) {
+        return Err(VerificationError::JerkAboveLimit {
+            jerk_deg_per_s3: p.jerk_deg_per_s3,
+            t_s: p.t_start_s,
+        });
+    }
+    // Acceleration is linear in a piece: its ends bound it. Speed peaks at an end or where a = 0.
+    let mut speeds = vec![s0.speed_deg_per_s, s1.speed_deg_per_s];
+    if p.jerk_deg_per_s3 != 0.0 {
+        let tv = -p.accel_deg_per_s2 / p.jerk_deg_per_s3;
+        if tv > 0.0 && tv < p.duration_s {
+            speeds.push(p.state_after(tv).speed_deg_per_s);
         }
     }
-    let total = layers.last().map_or(0.0, |l| l.t_end_s);
-    if (tl.duration_s() - total).abs() > TOL * (1.0 + total) {
-        return fail(format!(
-            "timeline lasts {} s but the layers end at {} s",
-            tl.duration_s(),
-            total
-        ));
+    let current_dir = direction_of(p, rows, scale_angle, free_motion)?;
+    let a_max = lim.max_accel.max(lim.max_decel);
+    for (k, acc) in [s0.accel_deg_per_s2, s1.accel_deg_per_s2]
+        .into_iter()
+        .enumerate()
+    {
+        let braking = current_dir != 0.0 && acc * current_dir < 0.0;
+        let bound = if current_dir == 0.0 {
+            a_max
+        } else if braking {
+            lim.max_decel
+        } else {
+            lim.max_accel
+        };
+        if acc.abs() > bound * (1.0 + TOL) {
+            return Err(VerificationError::AccelAboveLimit {
+                accel_deg_per_s2: acc,
+                limit_deg_per_s2: bound,
+                t_s: p.t_start_s + k as f64 * p.duration_s,
+            });
+        }
+    }
+    for v in speeds {
+        if v.abs() > lim.max_vel * (1.0 + TOL) {
+            return Err(VerificationError::SpeedAboveLimit {
+                speed_deg_per_s: v,
+                t_s: p.t_start_s,
+            });
+        }
+        if current_dir != 0.0 && v * current_dir < -TOL * lim.max_vel {
+            return Err(VerificationError::Reversal {
+                t_s: p.t_start_s,
+                speed_deg_per_s: v,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The direction the gantry must keep during piece `p` (0 where it may go either way, in a
+/// stop-and-turn); a beam piece is checked against its window on the way.
+fn direction_of(
+    p: &Piece,
+    rows: &Rows,
+    scale_angle: f64,
+    free_motion: bool,
+) -> Result<f64, VerificationError> {
+    match p.kind {
+        PieceKind::Beam { layer } => {
+            let l = &rows.layers[layer];
+            let lo = l.angle_deg - 0.5 * l.window_deg;
+            let hi = l.angle_deg + 0.5 * l.window_deg;
+            let tol = TOL * scale_angle;
+            for a in [
+                p.state_after(0.0).angle_deg,
+                p.state_after(p.duration_s).angle_deg,
+            ] {
+                if a < lo - tol || a > hi + tol {
+                    return Err(VerificationError::BeamOutsideWindow {
+                        layer,
+                        angle_deg: a,
+                        lo_deg: lo,
+                        hi_deg: hi,
+                    });
+                }
+            }
+            if !free_motion && (p.accel_deg_per_s2 != 0.0 || p.jerk_deg_per_s3 != 0.0) {
+                return Err(VerificationError::SpeedNotConstant { layer });
+            }
+            Ok(rows.dir_of_layer[layer])
+        }
+        PieceKind::RunUp { arc } => Ok(rows.problems.get(arc).map_or(0.0, |p| p.dir)),
+        PieceKind::Move { transition } => {
+            let Some(tr) = rows.transitions.get(transition) else {
+                return Err(VerificationError::UnknownTransition { transition });
+            };
+            // A stop-and-turn may go either way, at rest at both ends.
+            Ok(if tr.arc_change {
+                0.0
+            } else {
+                rows.dir_of_layer[tr.to_layer]
+            })
+        }
+    }
+}
+
+/// Every transition lasts at least its ELST.
+fn check_elsts(transitions: &[TransitionRow]) -> Result<(), VerificationError> {
+    for tr in transitions {
+        if tr.duration_s < tr.elst_s * (1.0 - TOL) {
+            return Err(VerificationError::ShorterThanElst {
+                transition: tr.index,
+                duration_s: tr.duration_s,
+                elst_s: tr.elst_s,
+            });
+        }
     }
     Ok(())
 }

@@ -89,3 +89,38 @@ pub fn pip_install(python: &Path, packages: &[&str]) -> Result<String, String> {
         ])
         .args(packages))
 }
+
+/// Removes from `cmd` what Cargo sets for this test process. Passed on to a nested cargo (a
+/// build, maturin), they change the fingerprints of build scripts that watch them (ring's
+/// watches `CARGO_MANIFEST_DIR`), and rerun with everything above it would compile again.
+pub fn without_test_environment(cmd: &mut Command) -> &mut Command {
+    for (key, _) in std::env::vars_os() {
+        let key = key.to_string_lossy();
+        let set_for_tests = [
+            "CARGO_MANIFEST_DIR",
+            "CARGO_MANIFEST_PATH",
+            "CARGO_CRATE_NAME",
+            "CARGO_PRIMARY_PACKAGE",
+            "CARGO_TARGET_TMPDIR",
+            "CARGO_BIN_NAME",
+        ]
+        .contains(&key.as_ref())
+            || key.starts_with("CARGO_PKG_")
+            || key.starts_with("CARGO_BIN_EXE_");
+        if set_for_tests {
+            cmd.env_remove(key.as_ref());
+        }
+    }
+    cmd
+}
+
+/// Held by each test that loads the machine for minutes (sweeps, the probes, the independent
+/// optimiser, the wheel build, nested cargo): they take turns, so the ones with a time limit
+/// per run are not starved by the others on a 2-core machine. A test that failed while holding
+/// it does not block the rest.
+pub fn one_heavy_test_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static HEAVY: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    HEAVY
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}

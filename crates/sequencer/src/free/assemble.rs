@@ -102,7 +102,7 @@ impl<'a> Track<'a> {
     }
 }
 
-/// Assembles arcs solved with free motion into rows and a timeline starting at `t = 0`.
+/// Arcs solved with free motion as rows and a timeline starting at `t = 0`.
 pub(crate) struct Assembled {
     pub layers: Vec<LayerRow>,
     pub transitions: Vec<TransitionRow>,
@@ -112,108 +112,223 @@ pub(crate) struct Assembled {
     pub lead_s: f64,
 }
 
+/// Assembles arcs solved with free motion into rows and a timeline starting at `t = 0`.
 pub(crate) fn assemble(
     arcs: &[ResolvedArc],
     problems: &[ArcProblem],
     solved: &[FreeArc],
     lim: &Limits,
 ) -> Result<Assembled, SequenceError> {
-    let mut out = Assembled {
-        layers: Vec::new(),
-        transitions: Vec::new(),
-        pieces: Vec::new(),
-        total: 0.0,
-        lead_s: 0.0,
+    let mut a = Assembly {
+        lim,
+        out: Assembled {
+            layers: Vec::new(),
+            transitions: Vec::new(),
+            pieces: Vec::new(),
+            total: 0.0,
+            lead_s: 0.0,
+        },
+        turn: Mover::new(lim, true),
+        t: 0.0,
+        prev: None,
     };
-    let mut turn = Mover::new(lim, true);
-    let mut t = 0.0;
-    // End of the previous arc: absolute state where its motion ends, its last layer, and the
-    // time of its last beam-off.
-    let mut prev: Option<(FullState, usize, f64)> = None;
     for (ai, ((arc, p), fa)) in arcs.iter().zip(problems).zip(solved).enumerate() {
+        a.arc(ai, arc, p, fa)?;
+    }
+    a.out.total = a.t;
+    Ok(a.out)
+}
+
+/// Whether a transition lasting `duration` lasts no longer than its ELST (to rounding): the
+/// ELST is then what limits it.
+fn lasts_its_elst(duration: f64, elst: f64) -> bool {
+    duration <= elst * (1.0 + 1e-9) + 1e-12
+}
+
+/// Where the previous arc ends.
+#[derive(Clone, Copy)]
+struct ArcEnd {
+    /// Absolute state where its motion ends.
+    state: FullState,
+    /// Its last layer (delivery index).
+    layer: usize,
+    /// The time of its last beam-off (s).
+    last_off: f64,
+}
+
+/// Free-motion arcs being assembled: the rows and pieces so far, the clock, and where the
+/// previous arc ends.
+struct Assembly<'l> {
+    lim: &'l Limits,
+    out: Assembled,
+    /// Solves the stop-and-turn moves between arcs.
+    turn: Mover,
+    /// Time so far (s).
+    t: f64,
+    prev: Option<ArcEnd>,
+}
+
+/// One arc's beam intervals on the delivery's clock.
+struct Beams {
+    /// When the arc's motion starts after its run-up (s).
+    t_arc: f64,
+    on: Vec<f64>,
+    off: Vec<f64>,
+    /// The arc's first layer and first transition (delivery indices).
+    first_layer: usize,
+    tr0: usize,
+}
+
+impl Assembly<'_> {
+    /// Appends arc `ai`: the stop-and-turn into it, its run-up, its layer and transition rows,
+    /// its pieces and the labels of its transitions.
+    fn arc(
+        &mut self,
+        ai: usize,
+        arc: &ResolvedArc,
+        p: &ArcProblem,
+        fa: &FreeArc,
+    ) -> Result<(), SequenceError> {
         let (angle0, dir) = (p.angle.first().copied().unwrap_or(0.0), p.dir);
-        let first_layer = out.layers.len();
+        let first_layer = self.out.layers.len();
         let run_up = fa.run_up.as_ref();
         let lead = run_up.map_or(0.0, |r| r.duration());
         let wait_at = match run_up {
             Some(r) => r.start,
             None => fa.moves.first().map_or(FullState::default(), |m| m.start),
         };
-        // Stop-and-turn from the previous arc to where this one starts, at rest.
-        if let Some((from, from_layer, last_off)) = prev {
+        if let Some(prev) = self.prev {
             let to = FullState::rest(angle0 + dir * wait_at.pos);
-            let elst = p.elst[0];
-            let mv =
-                turn.solve(from, to, (elst - lead).max(0.0))
-                    .ok_or(SequenceError::Infeasible {
-                        arc: arc.arc_index,
-                        layer: 0,
-                        reason: Infeasibility::NoStopAndTurn,
-                    })?;
-            let index = out.transitions.len();
-            push_move(
-                &mut out.pieces,
-                &mv,
-                t,
-                0.0,
-                1.0,
-                PieceKind::Move { transition: index },
-            );
-            // From the last beam-off: braking (if any), the turn, the run-up.
-            let duration = t + mv.duration() + lead - last_off;
-            out.transitions.push(TransitionRow {
-                index,
-                from_layer,
-                to_layer: first_layer,
-                arc_change: true,
-                t_start_s: last_off,
-                duration_s: duration,
-                min_time_s: duration,
-                elst_s: elst,
-                gap_deg: (to.pos - from.pos).abs(),
-                v_start_deg_per_s: from.vel.abs(),
-                v_end_deg_per_s: 0.0,
-                limited_by: if duration <= elst * (1.0 + 1e-9) + 1e-12 {
-                    Limiter::Elst
-                } else {
-                    let floor = (elst - lead).max(0.0);
-                    label_by_raise(mv.duration(), elst, lim, |l| {
-                        fastest_at_least(l, true, from, to, floor)
-                    })
-                },
-                lost_s: (duration - elst).max(0.0),
-            });
-            t += mv.duration();
+            self.turn_between_arcs(arc, p, prev, to, lead, first_layer)?;
         }
         if let Some(r) = run_up {
             push_move(
-                &mut out.pieces,
+                &mut self.out.pieces,
                 r,
-                t,
+                self.t,
                 angle0,
                 dir,
                 PieceKind::RunUp { arc: ai },
             );
-            if prev.is_none() {
-                out.lead_s = lead;
+            if self.prev.is_none() {
+                self.out.lead_s = lead;
             }
-            t += lead;
+            self.t += lead;
         }
-        let t_arc = t;
+        let t_arc = self.t;
         let track = Track::new(fa);
         let n = p.len();
         // Beam intervals (absolute) and transition indices of this arc.
         let on: Vec<f64> = fa.beam_on.iter().map(|b| t_arc + b).collect();
         let off: Vec<f64> = (0..n).map(|k| on[k] + p.irradiation_s[k]).collect();
-        let tr0 = out.transitions.len();
-        // Each beam-off move's boundary states (along the arc), for its label.
+        let beams = Beams {
+            t_arc,
+            on,
+            off,
+            first_layer,
+            tr0: self.out.transitions.len(),
+        };
+        let ends = self.rows(arc, p, &track, &beams);
+        self.pieces(&track, &beams, angle0, dir);
+        self.label(&ends, &beams);
+        self.t = t_arc + fa.total - lead;
+        // Where the arc's motion ends (at rest after braking, unless it is the plan's last).
+        let last = fa.moves.last().map_or(FullState::default(), FullMove::end);
+        self.prev = Some(ArcEnd {
+            state: absolute(last, angle0, dir),
+            layer: first_layer + n - 1,
+            last_off: beams.off[n - 1],
+        });
+        Ok(())
+    }
+
+    /// Stop-and-turn from the previous arc's end to `to`, at rest where this arc's run-up (or
+    /// first beam) starts; its row counts from the last beam-off: braking (if any), the turn,
+    /// the run-up of `lead` seconds.
+    fn turn_between_arcs(
+        &mut self,
+        arc: &ResolvedArc,
+        p: &ArcProblem,
+        prev: ArcEnd,
+        to: FullState,
+        lead: f64,
+        first_layer: usize,
+    ) -> Result<(), SequenceError> {
+        let ArcEnd {
+            state: from,
+            layer: from_layer,
+            last_off,
+        } = prev;
+        let elst = p.elst[0];
+        let mv =
+            self.turn
+                .solve(from, to, (elst - lead).max(0.0))
+                .ok_or(SequenceError::Infeasible {
+                    arc: arc.arc_index,
+                    layer: 0,
+                    reason: Infeasibility::NoStopAndTurn,
+                })?;
+        let index = self.out.transitions.len();
+        push_move(
+            &mut self.out.pieces,
+            &mv,
+            self.t,
+            0.0,
+            1.0,
+            PieceKind::Move { transition: index },
+        );
+        let duration = self.t + mv.duration() + lead - last_off;
+        let lim = self.lim;
+        self.out.transitions.push(TransitionRow {
+            index,
+            from_layer,
+            to_layer: first_layer,
+            arc_change: true,
+            t_start_s: last_off,
+            duration_s: duration,
+            min_time_s: duration,
+            elst_s: elst,
+            gap_deg: (to.pos - from.pos).abs(),
+            v_start_deg_per_s: from.vel.abs(),
+            v_end_deg_per_s: 0.0,
+            limited_by: if lasts_its_elst(duration, elst) {
+                Limiter::Elst
+            } else {
+                let floor = (elst - lead).max(0.0);
+                label_by_raise(mv.duration(), elst, lim, |l| {
+                    fastest_at_least(l, true, from, to, floor)
+                })
+            },
+            lost_s: (duration - elst).max(0.0),
+        });
+        self.t += mv.duration();
+        Ok(())
+    }
+
+    /// The arc's layer rows and the rows of the transitions inside it (labelled later); returns
+    /// each beam-off move's boundary states (along the arc), for its label.
+    fn rows(
+        &mut self,
+        arc: &ResolvedArc,
+        p: &ArcProblem,
+        track: &Track,
+        beams: &Beams,
+    ) -> Vec<(FullState, FullState)> {
+        let Beams {
+            t_arc,
+            ref on,
+            ref off,
+            first_layer,
+            tr0,
+        } = *beams;
+        let n = p.len();
         let mut ends: Vec<(FullState, FullState)> = Vec::with_capacity(n.saturating_sub(1));
         for k in 0..n {
             let s_on = track.state_at(on[k] - t_arc);
             let s_off = track.state_at(off[k] - t_arc);
             let (t_in, lim_in) = if k == 0 {
-                match out.transitions.last() {
-                    Some(tr) if prev.is_some() => (tr.duration_s, tr.limited_by),
+                match self.out.transitions.last() {
+                    Some(tr) if self.prev.is_some() => (tr.duration_s, tr.limited_by),
                     _ => (0.0, Limiter::None),
                 }
             } else {
@@ -221,7 +336,7 @@ pub(crate) fn assemble(
             };
             let l = &arc.layers[k];
             let used = s_off.pos - s_on.pos;
-            out.layers.push(LayerRow {
+            self.out.layers.push(LayerRow {
                 index: first_layer + k,
                 arc: arc.arc_index,
                 control_point: l.control_point,
@@ -248,7 +363,7 @@ pub(crate) fn assemble(
                 let s_next = track.state_at(on[k + 1] - t_arc);
                 let duration = on[k + 1] - off[k];
                 ends.push((s_off, s_next));
-                out.transitions.push(TransitionRow {
+                self.out.transitions.push(TransitionRow {
                     index: tr0 + k,
                     from_layer: first_layer + k,
                     to_layer: first_layer + k + 1,
@@ -265,7 +380,19 @@ pub(crate) fn assemble(
                 });
             }
         }
-        // Pieces, split at every beam edge.
+        ends
+    }
+
+    /// The arc's pieces (absolute angles), split at every beam edge so each is a beam or a move.
+    fn pieces(&mut self, track: &Track, beams: &Beams, angle0: f64, dir: f64) {
+        let Beams {
+            t_arc,
+            ref on,
+            ref off,
+            first_layer,
+            tr0,
+        } = *beams;
+        let n = on.len();
         let mut edges: Vec<f64> = on.iter().chain(off.iter()).copied().collect();
         edges.sort_by(f64::total_cmp);
         // Motion after the arc's last beam belongs to the stop-and-turn that follows.
@@ -301,7 +428,7 @@ pub(crate) fn assemble(
                 for c in cuts {
                     let d = c - a;
                     if d > 0.0 {
-                        out.pieces.push(Piece {
+                        self.out.pieces.push(Piece {
                             t_start_s: a,
                             duration_s: d,
                             angle_deg: s.pos,
@@ -317,22 +444,20 @@ pub(crate) fn assemble(
                 tm = end;
             }
         }
-        // What limits each transition: the ELST when it lasts no longer, else the gantry limit
-        // whose raise shortens the fastest move between the same boundary states most.
-        for (k, &(from, to)) in ends.iter().enumerate() {
-            let tr = &mut out.transitions[tr0 + k];
-            tr.limited_by = limiter_between(from, to, tr.duration_s, tr.elst_s, lim);
-            out.layers[first_layer + k + 1].transition_limited_by = tr.limited_by;
-        }
-        t = t_arc + fa.total - lead;
-        // Where the arc's motion ends (at rest after braking, unless it is the plan's last).
-        let last = fa.moves.last().map_or(FullState::default(), FullMove::end);
-        prev = Some((absolute(last, angle0, dir), first_layer + n - 1, off[n - 1]));
     }
-    out.total = t;
-    Ok(out)
+
+    /// What limits each transition inside the arc: the ELST when it lasts no longer, else the
+    /// gantry limit whose raise shortens the fastest move between the same boundary states most.
+    fn label(&mut self, ends: &[(FullState, FullState)], beams: &Beams) {
+        for (k, &(from, to)) in ends.iter().enumerate() {
+            let tr = &mut self.out.transitions[beams.tr0 + k];
+            tr.limited_by = limiter_between(from, to, tr.duration_s, tr.elst_s, self.lim);
+            self.out.layers[beams.first_layer + k + 1].transition_limited_by = tr.limited_by;
+        }
+    }
 }
 
+/// Appends the pieces of `mv`, started at `t0`, on an arc starting at `angle0` in direction `dir`.
 fn push_move(
     pieces: &mut Vec<Piece>,
     mv: &FullMove,
@@ -374,7 +499,7 @@ fn limiter_between(
 ) -> Limiter {
     if duration <= 0.0 {
         Limiter::None
-    } else if duration <= elst * (1.0 + 1e-9) + 1e-12 {
+    } else if lasts_its_elst(duration, elst) {
         Limiter::Elst
     } else {
         match fastest_at_least(lim, false, from, to, elst) {

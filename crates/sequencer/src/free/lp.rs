@@ -56,9 +56,7 @@ impl Lp {
     /// The optimal `z`, or `None` when the method does not converge (an infeasible or
     /// numerically hopeless programme).
     pub fn solve(&self) -> Option<Vec<f64>> {
-        let n = self.cost.len();
-        let m = self.rhs.len();
-        if m == 0
+        if self.rhs.is_empty()
             || self
                 .lo
                 .iter()
@@ -67,13 +65,42 @@ impl Lp {
         {
             return None;
         }
-        // Columns as flat arrays, and the half-bandwidth of E·D⁻¹·Eᵀ (rows sharing a variable).
-        let mut colptr = Vec::with_capacity(n + 1);
+        let mut ipm = Ipm::start(self);
+        let mut pinf_seen = Vec::with_capacity(MAX_ITER);
+        for _ in 0..MAX_ITER {
+            let (pinf, dinf, mu) = ipm.residuals();
+            if let Some(verdict) = ipm.verdict(pinf, dinf, mu, &mut pinf_seen) {
+                return verdict;
+            }
+            ipm.normal_matrix();
+            // Predictor (σ = 0), then the corrector with its second-order term.
+            let (ap, ad) = ipm.direction(false, 0.0);
+            let sigma_mu = ipm.centring(ap, ad, mu);
+            ipm.keep_predictor();
+            let (ap, ad) = ipm.direction(true, sigma_mu);
+            ipm.step((0.995 * ap).min(1.0), (0.995 * ad).min(1.0));
+        }
+        None
+    }
+}
+
+/// The columns of E as flat arrays, and the half-bandwidth of E·D⁻¹·Eᵀ (rows sharing a
+/// variable).
+struct Columns {
+    colptr: Vec<usize>,
+    rows: Vec<usize>,
+    vals: Vec<f64>,
+    bw: usize,
+}
+
+impl Columns {
+    fn of(lp: &Lp) -> Self {
+        let mut colptr = Vec::with_capacity(lp.cost.len() + 1);
         let mut rows = Vec::new();
         let mut vals = Vec::new();
         colptr.push(0);
         let mut bw = 0;
-        for col in &self.cols {
+        for col in &lp.cols {
             let mut col = col.clone();
             col.sort_by_key(|e| e.0);
             if let (Some(a), Some(b)) = (col.first(), col.last()) {
@@ -85,223 +112,335 @@ impl Lp {
             }
             colptr.push(rows.len());
         }
-        let col = |j: usize| colptr[j]..colptr[j + 1];
-        // Which bounds count: a variable with equal bounds is fixed (no barrier, no step).
+        Columns {
+            colptr,
+            rows,
+            vals,
+            bw,
+        }
+    }
+
+    /// The entries of column `j`.
+    fn col(&self, j: usize) -> std::ops::Range<usize> {
+        self.colptr[j]..self.colptr[j + 1]
+    }
+}
+
+/// The iterates of the interior-point method and its work arrays.
+struct Ipm<'a> {
+    lp: &'a Lp,
+    c: Columns,
+    n: usize,
+    /// Which bounds count: a variable with equal bounds is fixed (no barrier, no step).
+    fixed: Vec<bool>,
+    has_lo: Vec<bool>,
+    has_hi: Vec<bool>,
+    z: Vec<f64>,
+    yl: Vec<f64>,
+    yu: Vec<f64>,
+    lam: Vec<f64>,
+    /// The slacks to the bounds are iterates of their own: recomputed from `z`, a slack that
+    /// has become tiny next to `z` would round to zero.
+    sl: Vec<f64>,
+    su: Vec<f64>,
+    /// Bound pairs with a barrier (for the mean complementarity).
+    pairs: usize,
+    norm_f: f64,
+    norm_c: f64,
+    band: Band,
+    rp: Vec<f64>,
+    rd: Vec<f64>,
+    dinv: Vec<f64>,
+    g: Vec<f64>,
+    dz: Vec<f64>,
+    dyl: Vec<f64>,
+    dyu: Vec<f64>,
+    /// The predictor's direction, for the corrector's second-order term.
+    adz: Vec<f64>,
+    adyl: Vec<f64>,
+    adyu: Vec<f64>,
+    dlam: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl<'a> Ipm<'a> {
+    /// The starting point: inside the bounds, duals at one.
+    fn start(lp: &'a Lp) -> Self {
+        let n = lp.cost.len();
+        let m = lp.rhs.len();
+        let c = Columns::of(lp);
         let fixed: Vec<bool> = (0..n)
-            .map(|j| self.lo[j].is_finite() && self.hi[j].is_finite() && self.hi[j] <= self.lo[j])
+            .map(|j| lp.lo[j].is_finite() && lp.hi[j].is_finite() && lp.hi[j] <= lp.lo[j])
             .collect();
-        let has_lo: Vec<bool> = (0..n)
-            .map(|j| self.lo[j].is_finite() && !fixed[j])
-            .collect();
-        let has_hi: Vec<bool> = (0..n)
-            .map(|j| self.hi[j].is_finite() && !fixed[j])
-            .collect();
-        // Start inside the bounds, duals at one.
-        let mut z: Vec<f64> = (0..n)
+        let has_lo: Vec<bool> = (0..n).map(|j| lp.lo[j].is_finite() && !fixed[j]).collect();
+        let has_hi: Vec<bool> = (0..n).map(|j| lp.hi[j].is_finite() && !fixed[j]).collect();
+        let z: Vec<f64> = (0..n)
             .map(|j| match (has_lo[j], has_hi[j]) {
-                _ if fixed[j] => self.lo[j],
-                (true, true) => 0.5 * (self.lo[j] + self.hi[j]),
-                (true, false) => self.lo[j] + 1.0f64.max(self.lo[j].abs()),
-                (false, true) => self.hi[j] - 1.0f64.max(self.hi[j].abs()),
+                _ if fixed[j] => lp.lo[j],
+                (true, true) => 0.5 * (lp.lo[j] + lp.hi[j]),
+                (true, false) => lp.lo[j] + 1.0f64.max(lp.lo[j].abs()),
+                (false, true) => lp.hi[j] - 1.0f64.max(lp.hi[j].abs()),
                 (false, false) => 0.0,
             })
             .collect();
-        let mut yl: Vec<f64> = has_lo.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
-        let mut yu: Vec<f64> = has_hi.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
-        let mut lam = vec![0.0; m];
+        let yl: Vec<f64> = has_lo.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
+        let yu: Vec<f64> = has_hi.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
         let pairs = has_lo.iter().filter(|&&b| b).count() + has_hi.iter().filter(|&&b| b).count();
-        let norm_f = self.rhs.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        let norm_c = self.cost.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        let mut band = Band::new(m, bw);
-        let mut rp = vec![0.0; m];
-        let mut rd = vec![0.0; n];
-        // The slacks to the bounds are iterates of their own: recomputed from `z`, a slack
-        // that has become tiny next to `z` would round to zero.
-        let mut sl: Vec<f64> = (0..n)
-            .map(|j| if has_lo[j] { z[j] - self.lo[j] } else { 0.0 })
+        let norm_f = lp.rhs.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let norm_c = lp.cost.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let band = Band::new(m, c.bw);
+        let sl: Vec<f64> = (0..n)
+            .map(|j| if has_lo[j] { z[j] - lp.lo[j] } else { 0.0 })
             .collect();
-        let mut su: Vec<f64> = (0..n)
-            .map(|j| if has_hi[j] { self.hi[j] - z[j] } else { 0.0 })
+        let su: Vec<f64> = (0..n)
+            .map(|j| if has_hi[j] { lp.hi[j] - z[j] } else { 0.0 })
             .collect();
-        let mut dinv = vec![0.0; n];
-        let mut g = vec![0.0; n];
-        let mut dz = vec![0.0; n];
-        let mut dyl = vec![0.0; n];
-        let mut dyu = vec![0.0; n];
-        let mut adz = vec![0.0; n];
-        let mut adyl = vec![0.0; n];
-        let mut adyu = vec![0.0; n];
-        let mut dlam = vec![0.0; m];
-        let mut rhs = vec![0.0; m];
-        let mut pinf_seen = Vec::with_capacity(MAX_ITER);
-        for _ in 0..MAX_ITER {
-            // Residuals, slacks and the gap.
-            rp.copy_from_slice(&self.rhs);
-            let mut gap = 0.0;
-            for j in 0..n {
-                let mut s = self.cost[j] - yl[j] + yu[j];
-                for e in col(j) {
-                    rp[rows[e]] -= vals[e] * z[j];
-                    s -= vals[e] * lam[rows[e]];
-                }
-                rd[j] = if fixed[j] { 0.0 } else { s };
-                gap += sl[j] * yl[j] + su[j] * yu[j];
+        Ipm {
+            lp,
+            c,
+            n,
+            fixed,
+            has_lo,
+            has_hi,
+            z,
+            yl,
+            yu,
+            lam: vec![0.0; m],
+            sl,
+            su,
+            pairs,
+            norm_f,
+            norm_c,
+            band,
+            rp: vec![0.0; m],
+            rd: vec![0.0; n],
+            dinv: vec![0.0; n],
+            g: vec![0.0; n],
+            dz: vec![0.0; n],
+            dyl: vec![0.0; n],
+            dyu: vec![0.0; n],
+            adz: vec![0.0; n],
+            adyl: vec![0.0; n],
+            adyu: vec![0.0; n],
+            dlam: vec![0.0; m],
+            rhs: vec![0.0; m],
+        }
+    }
+
+    /// The primal and dual residuals (max norms) and the mean complementarity.
+    fn residuals(&mut self) -> (f64, f64, f64) {
+        let (lp, c) = (self.lp, &self.c);
+        self.rp.copy_from_slice(&lp.rhs);
+        let mut gap = 0.0;
+        for j in 0..self.n {
+            let mut s = lp.cost[j] - self.yl[j] + self.yu[j];
+            for e in c.col(j) {
+                self.rp[c.rows[e]] -= c.vals[e] * self.z[j];
+                s -= c.vals[e] * self.lam[c.rows[e]];
             }
-            let mu = if pairs > 0 { gap / pairs as f64 } else { 0.0 };
-            let pinf = rp.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-            let dinf = rd.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-            if pinf <= TOL_FEAS * (1.0 + norm_f)
-                && dinf <= TOL_DUAL * (1.0 + norm_c)
-                && mu <= TOL_GAP * (1.0 + norm_c)
-            {
-                return Some(z);
-            }
-            if !(pinf.is_finite() && dinf.is_finite() && mu.is_finite()) {
-                return None;
-            }
-            // No progress towards feasibility over ten iterations while the gap closed:
-            // rounding keeps the rows from closing further (good enough if nearly closed: the
-            // caller re-integrates and checks exactly), or the programme has no solution.
-            pinf_seen.push(pinf);
-            let stalled = pinf_seen.len() > 10 && pinf > 0.5 * pinf_seen[pinf_seen.len() - 11];
-            if stalled && mu <= TOL_GAP * (1.0 + norm_c) && dinf <= TOL_DUAL * (1.0 + norm_c) {
-                return (pinf <= TOL_STALL * (1.0 + norm_f)).then_some(z);
-            }
-            if stalled && mu < 1e-3 * pinf {
-                return None;
-            }
-            // Normal matrix E·D⁻¹·Eᵀ.
-            band.clear();
-            for j in 0..n {
-                if fixed[j] {
-                    dinv[j] = 0.0;
-                    continue;
-                }
-                let mut d = REG_PRIMAL;
-                if has_lo[j] {
-                    d += yl[j] / sl[j];
-                }
-                if has_hi[j] {
-                    d += yu[j] / su[j];
-                }
-                dinv[j] = 1.0 / d;
-                let c = col(j);
-                for a in c.clone() {
-                    let (ra, ca) = (rows[a], vals[a] * dinv[j]);
-                    for b in c.start..=a {
-                        band.add(ra, rows[b], ca * vals[b]);
-                    }
-                }
-            }
-            band.add_diagonal(REG_DUAL * (1.0 + band.max_diagonal()));
-            band.factor();
-            // Predictor (σ = 0), then the corrector with its second-order term.
-            let mut sigma_mu = 0.0;
-            let mut steps = (0.0, 0.0);
-            for pass in 0..2 {
-                let corr = pass == 1;
-                // Complementarity targets.
-                let rcl =
-                    |j: usize| sigma_mu - sl[j] * yl[j] - if corr { adz[j] * adyl[j] } else { 0.0 };
-                let rcu =
-                    |j: usize| sigma_mu - su[j] * yu[j] + if corr { adz[j] * adyu[j] } else { 0.0 };
-                rhs.copy_from_slice(&rp);
-                for j in 0..n {
-                    let mut gj = -rd[j];
-                    if has_lo[j] {
-                        gj += rcl(j) / sl[j];
-                    }
-                    if has_hi[j] {
-                        gj -= rcu(j) / su[j];
-                    }
-                    g[j] = gj;
-                    let t = dinv[j] * gj;
-                    for e in col(j) {
-                        rhs[rows[e]] -= vals[e] * t;
-                    }
-                }
-                band.solve(&rhs, &mut dlam);
-                let mut ap = 1.0f64;
-                let mut ad = 1.0f64;
-                for j in 0..n {
-                    let mut s = g[j];
-                    for e in col(j) {
-                        s += vals[e] * dlam[rows[e]];
-                    }
-                    dz[j] = dinv[j] * s;
-                    dyl[j] = if has_lo[j] {
-                        (rcl(j) - yl[j] * dz[j]) / sl[j]
-                    } else {
-                        0.0
-                    };
-                    dyu[j] = if has_hi[j] {
-                        (rcu(j) + yu[j] * dz[j]) / su[j]
-                    } else {
-                        0.0
-                    };
-                    // Longest steps that keep the slacks and duals positive.
-                    if has_lo[j] {
-                        if dz[j] < 0.0 {
-                            ap = ap.min(-sl[j] / dz[j]);
-                        }
-                        if dyl[j] < 0.0 {
-                            ad = ad.min(-yl[j] / dyl[j]);
-                        }
-                    }
-                    if has_hi[j] {
-                        if dz[j] > 0.0 {
-                            ap = ap.min(su[j] / dz[j]);
-                        }
-                        if dyu[j] < 0.0 {
-                            ad = ad.min(-yu[j] / dyu[j]);
-                        }
-                    }
-                }
-                if corr {
-                    steps = ((0.995 * ap).min(1.0), (0.995 * ad).min(1.0));
-                } else {
-                    let mut gap_aff = 0.0;
-                    for j in 0..n {
-                        if has_lo[j] {
-                            gap_aff += (sl[j] + ap * dz[j]) * (yl[j] + ad * dyl[j]);
-                        }
-                        if has_hi[j] {
-                            gap_aff += (su[j] - ap * dz[j]) * (yu[j] + ad * dyu[j]);
-                        }
-                    }
-                    let mu_aff = if pairs > 0 {
-                        gap_aff / pairs as f64
-                    } else {
-                        0.0
-                    };
-                    let sigma = if mu > 0.0 {
-                        (mu_aff / mu).powi(3).min(1.0)
-                    } else {
-                        0.0
-                    };
-                    sigma_mu = sigma * mu;
-                    std::mem::swap(&mut adz, &mut dz);
-                    std::mem::swap(&mut adyl, &mut dyl);
-                    std::mem::swap(&mut adyu, &mut dyu);
-                }
-            }
-            let (ap, ad) = steps;
-            for j in 0..n {
-                z[j] += ap * dz[j];
-                if has_lo[j] {
-                    sl[j] += ap * dz[j];
-                }
-                if has_hi[j] {
-                    su[j] -= ap * dz[j];
-                }
-                yl[j] += ad * dyl[j];
-                yu[j] += ad * dyu[j];
-            }
-            for r in 0..m {
-                lam[r] += ad * dlam[r];
-            }
+            self.rd[j] = if self.fixed[j] { 0.0 } else { s };
+            gap += self.sl[j] * self.yl[j] + self.su[j] * self.yu[j];
+        }
+        let mu = if self.pairs > 0 {
+            gap / self.pairs as f64
+        } else {
+            0.0
+        };
+        let pinf = self.rp.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let dinf = self.rd.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        (pinf, dinf, mu)
+    }
+
+    /// The answer when the method stops here: converged, stalled close enough, or failed;
+    /// `None` to go on.
+    fn verdict(
+        &self,
+        pinf: f64,
+        dinf: f64,
+        mu: f64,
+        pinf_seen: &mut Vec<f64>,
+    ) -> Option<Option<Vec<f64>>> {
+        let (norm_f, norm_c) = (self.norm_f, self.norm_c);
+        if pinf <= TOL_FEAS * (1.0 + norm_f)
+            && dinf <= TOL_DUAL * (1.0 + norm_c)
+            && mu <= TOL_GAP * (1.0 + norm_c)
+        {
+            return Some(Some(self.z.clone()));
+        }
+        if !(pinf.is_finite() && dinf.is_finite() && mu.is_finite()) {
+            return Some(None);
+        }
+        // No progress towards feasibility over ten iterations while the gap closed: rounding
+        // keeps the rows from closing further (good enough if nearly closed: the caller
+        // re-integrates and checks exactly), or the programme has no solution.
+        pinf_seen.push(pinf);
+        let stalled = pinf_seen.len() > 10 && pinf > 0.5 * pinf_seen[pinf_seen.len() - 11];
+        if stalled && mu <= TOL_GAP * (1.0 + norm_c) && dinf <= TOL_DUAL * (1.0 + norm_c) {
+            return Some((pinf <= TOL_STALL * (1.0 + norm_f)).then(|| self.z.clone()));
+        }
+        if stalled && mu < 1e-3 * pinf {
+            return Some(None);
         }
         None
+    }
+
+    /// Builds and factors the normal matrix E·D⁻¹·Eᵀ.
+    fn normal_matrix(&mut self) {
+        let c = &self.c;
+        self.band.clear();
+        for j in 0..self.n {
+            if self.fixed[j] {
+                self.dinv[j] = 0.0;
+                continue;
+            }
+            let mut d = REG_PRIMAL;
+            if self.has_lo[j] {
+                d += self.yl[j] / self.sl[j];
+            }
+            if self.has_hi[j] {
+                d += self.yu[j] / self.su[j];
+            }
+            self.dinv[j] = 1.0 / d;
+            let col = c.col(j);
+            for a in col.clone() {
+                let (ra, ca) = (c.rows[a], c.vals[a] * self.dinv[j]);
+                for b in col.start..=a {
+                    self.band.add(ra, c.rows[b], ca * c.vals[b]);
+                }
+            }
+        }
+        self.band
+            .add_diagonal(REG_DUAL * (1.0 + self.band.max_diagonal()));
+        self.band.factor();
+    }
+
+    /// Complementarity target of variable `j`'s lower bound.
+    fn rcl(&self, j: usize, corr: bool, sigma_mu: f64) -> f64 {
+        sigma_mu
+            - self.sl[j] * self.yl[j]
+            - if corr {
+                self.adz[j] * self.adyl[j]
+            } else {
+                0.0
+            }
+    }
+
+    /// Complementarity target of variable `j`'s upper bound.
+    fn rcu(&self, j: usize, corr: bool, sigma_mu: f64) -> f64 {
+        sigma_mu - self.su[j] * self.yu[j]
+            + if corr {
+                self.adz[j] * self.adyu[j]
+            } else {
+                0.0
+            }
+    }
+
+    /// The Newton direction towards the complementarity target `sigma_mu` (with the
+    /// predictor's second-order term when `corr`), and the longest primal and dual steps that
+    /// keep the slacks and duals positive.
+    fn direction(&mut self, corr: bool, sigma_mu: f64) -> (f64, f64) {
+        self.rhs.copy_from_slice(&self.rp);
+        for j in 0..self.n {
+            let mut gj = -self.rd[j];
+            if self.has_lo[j] {
+                gj += self.rcl(j, corr, sigma_mu) / self.sl[j];
+            }
+            if self.has_hi[j] {
+                gj -= self.rcu(j, corr, sigma_mu) / self.su[j];
+            }
+            self.g[j] = gj;
+            let t = self.dinv[j] * gj;
+            for e in self.c.col(j) {
+                self.rhs[self.c.rows[e]] -= self.c.vals[e] * t;
+            }
+        }
+        self.band.solve(&self.rhs, &mut self.dlam);
+        let mut ap = 1.0f64;
+        let mut ad = 1.0f64;
+        for j in 0..self.n {
+            let mut s = self.g[j];
+            for e in self.c.col(j) {
+                s += self.c.vals[e] * self.dlam[self.c.rows[e]];
+            }
+            self.dz[j] = self.dinv[j] * s;
+            self.dyl[j] = if self.has_lo[j] {
+                (self.rcl(j, corr, sigma_mu) - self.yl[j] * self.dz[j]) / self.sl[j]
+            } else {
+                0.0
+            };
+            self.dyu[j] = if self.has_hi[j] {
+                (self.rcu(j, corr, sigma_mu) + self.yu[j] * self.dz[j]) / self.su[j]
+            } else {
+                0.0
+            };
+            // Longest steps that keep the slacks and duals positive.
+            if self.has_lo[j] {
+                if self.dz[j] < 0.0 {
+                    ap = ap.min(-self.sl[j] / self.dz[j]);
+                }
+                if self.dyl[j] < 0.0 {
+                    ad = ad.min(-self.yl[j] / self.dyl[j]);
+                }
+            }
+            if self.has_hi[j] {
+                if self.dz[j] > 0.0 {
+                    ap = ap.min(self.su[j] / self.dz[j]);
+                }
+                if self.dyu[j] < 0.0 {
+                    ad = ad.min(-self.yu[j] / self.dyu[j]);
+                }
+            }
+        }
+        (ap, ad)
+    }
+
+    /// Mehrotra's centring target σ·μ from the predictor's steps `ap`, `ad`.
+    fn centring(&self, ap: f64, ad: f64, mu: f64) -> f64 {
+        let mut gap_aff = 0.0;
+        for j in 0..self.n {
+            if self.has_lo[j] {
+                gap_aff += (self.sl[j] + ap * self.dz[j]) * (self.yl[j] + ad * self.dyl[j]);
+            }
+            if self.has_hi[j] {
+                gap_aff += (self.su[j] - ap * self.dz[j]) * (self.yu[j] + ad * self.dyu[j]);
+            }
+        }
+        let mu_aff = if self.pairs > 0 {
+            gap_aff / self.pairs as f64
+        } else {
+            0.0
+        };
+        let sigma = if mu > 0.0 {
+            (mu_aff / mu).powi(3).min(1.0)
+        } else {
+            0.0
+        };
+        sigma * mu
+    }
+
+    /// Keeps the predictor's direction for the corrector's second-order term.
+    fn keep_predictor(&mut self) {
+        std::mem::swap(&mut self.adz, &mut self.dz);
+        std::mem::swap(&mut self.adyl, &mut self.dyl);
+        std::mem::swap(&mut self.adyu, &mut self.dyu);
+    }
+
+    /// Moves the iterates by the primal step `ap` and the dual step `ad`.
+    fn step(&mut self, ap: f64, ad: f64) {
+        for j in 0..self.n {
+            self.z[j] += ap * self.dz[j];
+            if self.has_lo[j] {
+                self.sl[j] += ap * self.dz[j];
+            }
+            if self.has_hi[j] {
+                self.su[j] -= ap * self.dz[j];
+            }
+            self.yl[j] += ad * self.dyl[j];
+            self.yu[j] += ad * self.dyu[j];
+        }
+        for r in 0..self.lp.rhs.len() {
+            self.lam[r] += ad * self.dlam[r];
+        }
     }
 }
 

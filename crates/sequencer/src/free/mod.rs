@@ -32,11 +32,13 @@
 //! more than solver noise on the ATOM cases).
 
 mod assemble;
+mod deliver;
 mod lp;
 mod mover;
 mod refine;
 mod solve;
 mod transcribe;
 
-pub(crate) use assemble::{assemble, from_constant};
-pub(crate) use solve::{solve_arc, End, Start};
+use assemble::{assemble, from_constant};
+pub(crate) use deliver::simulate_free;
+use solve::{solve_arc, End, Start};

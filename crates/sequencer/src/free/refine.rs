@@ -90,89 +90,50 @@ impl Flight<'_> {
     /// next beam-on state, the run-up and braking the fastest ones. `None` when a move does not
     /// exist or a beam leaves its window or a limit.
     fn realize(&mut self, tr: &Transcript) -> Option<FreeArc> {
-        let s = self;
-        let p = s.p;
+        let p = self.p;
         let n = p.len();
-        let lim = s.lim;
         let (on_s, off_s) = tr.anchors(n);
         let (lo, hi): (Vec<f64>, Vec<f64>) = (0..n).map(|k| p.window_edges(k)).unzip();
-        let clean = |x: FullState, k: usize| FullState {
-            pos: x.pos.clamp(lo[k], hi[k]),
-            vel: x.vel.clamp(0.0, lim.max_vel),
-            acc: x.acc.clamp(-lim.max_decel, lim.max_accel),
+        let a = Anchors {
+            on_s,
+            off_s,
+            lo,
+            hi,
+            lim: self.lim,
         };
-        let (start, end) = (s.start, s.end);
-        let rest_at = |k: usize| beam_at_rest(k, n, start, end);
         let mut moves = Vec::with_capacity(2 * n + 1);
         let mut beam_on = vec![0.0; n];
-        let (mut cur, run_up) = if start == Start::RunUp {
-            let r = s.mover.run_up(clean(on_s[0], 0))?;
+        let (mut cur, run_up) = if self.start == Start::RunUp {
+            let r = self.mover.run_up(a.clean(a.on_s[0], 0))?;
             (r.end(), Some(r))
         } else {
-            (FullState::rest(clean(on_s[0], 0).pos), None)
+            (FullState::rest(a.clean(a.on_s[0], 0).pos), None)
         };
         let mut t = 0.0;
         let tol = 1e-10 * (1.0 + p.travel_deg.last().copied().unwrap_or(0.0));
-        for k in 0..n {
+        for (k, on) in beam_on.iter_mut().enumerate() {
             if k > 0 {
-                let to = if rest_at(k) {
-                    FullState::rest(clean(on_s[k], k).pos)
-                } else {
-                    clean(on_s[k], k)
-                };
-                let ruckig = s.mover.solve(cur, to, p.elst[k]);
-                // Into a beam at rest: braking to rest wherever the gantry stops does, if that is
-                // inside the window (the exact stop the transcript aims at can be a hair out of
-                // reach after the linearisation).
-                let ruckig = ruckig.or_else(|| {
-                    if !rest_at(k) {
-                        return None;
-                    }
-                    brake_into_window(s.mover, cur, lo[k], hi[k], p.elst[k])
-                });
-                let mv = match ruckig {
-                    Some(mv) => mv,
-                    // Ruckig finds no move where the transcript's sits on a limit (exactly one
-                    // move fits): fly the transcript's own pieces, at least the ELST long.
-                    None => pieces_from(cur, tr.switch_segments(k), Some(p.elst[k]), &lim)?,
-                };
-                let c = s.mover.end_within_limits(&mv)?;
+                let mv = self.switch_into(k, cur, tr, &a)?;
+                let c = self.mover.end_within_limits(&mv)?;
                 t += mv.duration();
                 cur = c;
                 moves.push(mv);
             }
-            beam_on[k] = t;
-            if cur.pos < lo[k] - tol {
+            *on = t;
+            if cur.pos < a.lo[k] - tol {
                 return None;
             }
-            let t_k = p.irradiation_s[k];
-            if rest_at(k) && (cur.vel.abs() > 1e-12 || cur.acc.abs() > 1e-12) {
-                return None;
-            }
-            let mv = if rest_at(k) {
-                FullMove::dwell(cur.pos, t_k)
-            } else {
-                let to = clean(off_s[k], k);
-                let ruckig = s.mover.solve(cur, to, t_k);
-                match ruckig {
-                    Some(mv) if mv.duration() <= t_k * (1.0 + 1e-12) => mv,
-                    _ => pieces_from(cur, scaled_to(tr.beam_segments(k), t_k), None, &lim)?,
-                }
-            };
-            // Exactly the irradiation time (Ruckig's duration may be off by rounding), so that
-            // beam edges and move joins coincide.
-            let mut mv = mv;
-            trim_to(&mut mv, t_k);
-            let c = s.mover.end_within_limits(&mv)?;
-            if c.pos > hi[k] + tol {
+            let mv = self.beam(k, cur, tr, &a)?;
+            let c = self.mover.end_within_limits(&mv)?;
+            if c.pos > a.hi[k] + tol {
                 return None;
             }
             cur = c;
-            t += t_k;
+            t += p.irradiation_s[k];
             moves.push(mv);
         }
-        if end == End::Brake {
-            let mv = brake_after_last_beam(s.mover, cur, tr, &lim)?;
+        if self.end == End::Brake {
+            let mv = self.brake_after(cur, tr)?;
             t += mv.duration();
             moves.push(mv);
         }
@@ -183,6 +144,120 @@ impl Flight<'_> {
             beam_on,
             total: lead + t,
         })
+    }
+
+    /// Whether layer `k` is irradiated at rest.
+    fn rest_at(&self, k: usize) -> bool {
+        beam_at_rest(k, self.p.len(), self.start, self.end)
+    }
+
+    /// The switch from `cur` into layer `k`: the fastest move lasting its ELST to the
+    /// transcript's beam-on state; into a beam at rest, braking to rest where that stops inside
+    /// the window; else the transcript's own pieces.
+    fn switch_into(
+        &mut self,
+        k: usize,
+        cur: FullState,
+        tr: &Transcript,
+        a: &Anchors,
+    ) -> Option<FullMove> {
+        let p = self.p;
+        let to = if self.rest_at(k) {
+            FullState::rest(a.clean(a.on_s[k], k).pos)
+        } else {
+            a.clean(a.on_s[k], k)
+        };
+        let ruckig = self.mover.solve(cur, to, p.elst[k]);
+        // Into a beam at rest: braking to rest wherever the gantry stops does, if that is
+        // inside the window (the exact stop the transcript aims at can be a hair out of
+        // reach after the linearisation).
+        let ruckig = ruckig.or_else(|| {
+            if !self.rest_at(k) {
+                return None;
+            }
+            let mut mv = self.mover.brake(cur)?;
+            let stop = mv.end().pos;
+            if stop < a.lo[k] || stop > a.hi[k] {
+                return None;
+            }
+            let d = mv.duration();
+            if d < p.elst[k] {
+                mv.segments.push(Segment {
+                    duration: p.elst[k] - d,
+                    jerk: 0.0,
+                });
+            }
+            Some(mv)
+        });
+        match ruckig {
+            Some(mv) => Some(mv),
+            // Ruckig finds no move where the transcript's sits on a limit (exactly one
+            // move fits): fly the transcript's own pieces, at least the ELST long.
+            None => pieces_from(cur, tr.switch_segments(k), Some(p.elst[k]), &self.lim),
+        }
+    }
+
+    /// Layer `k`'s beam from `cur`, lasting exactly its irradiation time: a dwell at rest, the
+    /// fastest move to the transcript's beam-off state, or the transcript's own pieces.
+    fn beam(&mut self, k: usize, cur: FullState, tr: &Transcript, a: &Anchors) -> Option<FullMove> {
+        let t_k = self.p.irradiation_s[k];
+        if self.rest_at(k) && (cur.vel.abs() > 1e-12 || cur.acc.abs() > 1e-12) {
+            return None;
+        }
+        let mv = if self.rest_at(k) {
+            FullMove::dwell(cur.pos, t_k)
+        } else {
+            let to = a.clean(a.off_s[k], k);
+            let ruckig = self.mover.solve(cur, to, t_k);
+            match ruckig {
+                Some(mv) if mv.duration() <= t_k * (1.0 + 1e-12) => mv,
+                _ => pieces_from(cur, scaled_to(tr.beam_segments(k), t_k), None, &self.lim)?,
+            }
+        };
+        // Exactly the irradiation time (Ruckig's duration may be off by rounding), so that
+        // beam edges and move joins coincide.
+        let mut mv = mv;
+        let excess = mv.duration() - t_k;
+        if let Some(last) = mv.segments.last_mut() {
+            if last.duration > excess {
+                last.duration -= excess;
+            }
+        }
+        Some(mv)
+    }
+
+    /// The braking to rest after the last beam (the fastest, else the transcript's pieces).
+    fn brake_after(&mut self, cur: FullState, tr: &Transcript) -> Option<FullMove> {
+        let lim = self.lim;
+        let mv = match self.mover.brake(cur) {
+            Some(mv) => mv,
+            None => pieces_from(cur, tr.brake_segments(), None, &lim)?,
+        };
+        let stop = self.mover.end_within_limits(&mv)?;
+        if stop.vel.abs() > 1e-9 * lim.max_vel || stop.acc.abs() > 1e-9 * lim.max_accel {
+            return None;
+        }
+        Some(mv)
+    }
+}
+
+/// A transcript's beam-on and beam-off states and the windows they are kept in.
+struct Anchors {
+    on_s: Vec<FullState>,
+    off_s: Vec<FullState>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    lim: Limits,
+}
+
+impl Anchors {
+    /// State `x` at layer `k` clamped into its window and the limits.
+    fn clean(&self, x: FullState, k: usize) -> FullState {
+        FullState {
+            pos: x.pos.clamp(self.lo[k], self.hi[k]),
+            vel: x.vel.clamp(0.0, self.lim.max_vel),
+            acc: x.acc.clamp(-self.lim.max_decel, self.lim.max_accel),
+        }
     }
 }
 
@@ -250,57 +325,4 @@ fn pieces_from(
         start: from,
         segments: segs,
     })
-}
-
-/// Braking to rest from `cur`, if the gantry stops inside `[lo, hi]`; padded with a dwell to
-/// last at least `elst`.
-fn brake_into_window(
-    mover: &mut Mover,
-    cur: FullState,
-    lo: f64,
-    hi: f64,
-    elst: f64,
-) -> Option<FullMove> {
-    let mut mv = mover.brake(cur)?;
-    let stop = mv.end().pos;
-    if stop < lo || stop > hi {
-        return None;
-    }
-    let d = mv.duration();
-    if d < elst {
-        mv.segments.push(Segment {
-            duration: elst - d,
-            jerk: 0.0,
-        });
-    }
-    Some(mv)
-}
-
-/// Shortens the last segment of `mv` by what it lasts beyond `t_k` (when that segment is longer).
-fn trim_to(mv: &mut FullMove, t_k: f64) {
-    let excess = mv.duration() - t_k;
-    if let Some(last) = mv.segments.last_mut() {
-        if last.duration > excess {
-            last.duration -= excess;
-        }
-    }
-}
-
-/// The braking after the last beam from `cur` (the transcript's own pieces where Ruckig finds
-/// none); `None` unless it ends at rest within the limits.
-fn brake_after_last_beam(
-    mover: &mut Mover,
-    cur: FullState,
-    tr: &Transcript,
-    lim: &Limits,
-) -> Option<FullMove> {
-    let mv = match mover.brake(cur) {
-        Some(mv) => mv,
-        None => pieces_from(cur, tr.brake_segments(), None, lim)?,
-    };
-    let stop = mover.end_within_limits(&mv)?;
-    if stop.vel.abs() > 1e-9 * lim.max_vel || stop.acc.abs() > 1e-9 * lim.max_accel {
-        return None;
-    }
-    Some(mv)
 }

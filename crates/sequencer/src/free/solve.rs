@@ -217,35 +217,10 @@ pub(crate) fn solve_arc(
         end,
         mover: Mover::new(lim, false),
     };
-    let on0 = |k: usize| beam_on_state(p, speeds, k);
-    let off0 = |k: usize| beam_off_state(p, speeds, k);
-    let mut cut_after = initial_cuts(p, lim, start, end, speeds);
-    let build = |cut_after: &[bool]| spans(n, start, end, cut_after);
-    // Split stretches whose fastest move outruns a beam at the start, until every one fits.
-    let mut stretches = build(&cut_after);
-    for _ in 0..n {
-        let mut split = None;
-        for st in &stretches {
-            if st.at_rest || st.first == st.last {
-                continue;
-            }
-            let (on, off) = (on0(st.first), off0(st.last));
-            if s.solve_stretch(*st, on, off).is_none() {
-                // Cut in the middle of the failing stretch.
-                split = Some((st.first + st.last) / 2);
-                break;
-            }
-        }
-        match split {
-            Some(k) => {
-                cut_after[k] = true;
-                stretches = build(&cut_after);
-            }
-            None => break,
-        }
-    }
-    let (on, off) = anchor_states(p, lim, end, speeds, &stretches);
-    let anchored = finish(&mut s, &State { stretches, on, off });
+    let cut_after = initial_cuts(p, lim, start, end, speeds);
+    let stretches = fitting_stretches(&mut s, cut_after, speeds);
+    let state = anchor_states(p, lim, end, stretches, speeds);
+    let anchored = finish(&mut s, &state);
     // The transcription refined from each seed, the anchored moves and the constant-speed
     // schedule: where long switches at shared control points make the problem rugged (the
     // bundled lung plan), the two lead to different local optima, 1.3 % apart.
@@ -264,8 +239,8 @@ pub(crate) fn solve_arc(
         .min_by(|a, b| a.total.total_cmp(&b.total))
 }
 
-/// Where layer `k`'s beam starts at the constant-speed schedule `speeds`.
-fn beam_on_state(p: &ArcProblem, speeds: &[f64], k: usize) -> FullState {
+/// Layer `k`'s beam-on state at constant speed `speeds[k]`, its sweep centred on its angle.
+fn constant_on(p: &ArcProblem, speeds: &[f64], k: usize) -> FullState {
     FullState {
         pos: p.travel_deg[k] - 0.5 * speeds[k] * p.irradiation_s[k],
         vel: speeds[k],
@@ -273,8 +248,8 @@ fn beam_on_state(p: &ArcProblem, speeds: &[f64], k: usize) -> FullState {
     }
 }
 
-/// Where layer `k`'s beam ends at the constant-speed schedule `speeds`.
-fn beam_off_state(p: &ArcProblem, speeds: &[f64], k: usize) -> FullState {
+/// Layer `k`'s beam-off state at constant speed `speeds[k]`.
+fn constant_off(p: &ArcProblem, speeds: &[f64], k: usize) -> FullState {
     FullState {
         pos: p.travel_deg[k] + 0.5 * speeds[k] * p.irradiation_s[k],
         vel: speeds[k],
@@ -282,11 +257,11 @@ fn beam_off_state(p: &ArcProblem, speeds: &[f64], k: usize) -> FullState {
     }
 }
 
-/// The first cuts between stretches: after each layer whose switch is long against the moves.
+/// Where the arc is cut into stretches: its ends at rest, and the switches that are long against
+/// the moves between layers (the gantry must slow down for them, so a single fast move cannot
+/// span them).
 fn initial_cuts(p: &ArcProblem, lim: &Limits, start: Start, end: End, speeds: &[f64]) -> Vec<bool> {
     let n = p.len();
-    // Cuts: the arc's ends at rest, and the switches that are long against the moves between
-    // layers (the gantry must slow down for them, so a single fast move cannot span them).
     let mut durations: Vec<f64> = (0..n - 1)
         .filter_map(|k| p.cost(k, speeds[k], speeds[k + 1], lim))
         .collect();
@@ -304,8 +279,8 @@ fn initial_cuts(p: &ArcProblem, lim: &Limits, start: Start, end: End, speeds: &[
     cut_after
 }
 
-/// The stretches of `n` layers between the cuts `cut_after`.
-fn spans(n: usize, start: Start, end: End, cut_after: &[bool]) -> Vec<LayerSpan> {
+/// The stretches between the cuts `cut_after` of an arc of `n` layers.
+fn stretches_of(cut_after: &[bool], n: usize, start: Start, end: End) -> Vec<LayerSpan> {
     let mut out = Vec::new();
     let mut first = 0;
     for k in 0..n {
@@ -322,23 +297,55 @@ fn spans(n: usize, start: Start, end: End, cut_after: &[bool]) -> Vec<LayerSpan>
     out
 }
 
-/// The anchor states of the stretches: at rest or at the constant-speed schedule's beam ends.
+/// The stretches of `cut_after`, a stretch whose fastest move outruns a beam at the start
+/// split in the middle until every one fits.
+fn fitting_stretches(s: &mut Solver, mut cut_after: Vec<bool>, speeds: &[f64]) -> Vec<LayerSpan> {
+    let (p, start, end) = (s.p, s.start, s.end);
+    let n = p.len();
+    let mut stretches = stretches_of(&cut_after, n, start, end);
+    for _ in 0..n {
+        let mut split = None;
+        for st in &stretches {
+            if st.at_rest || st.first == st.last {
+                continue;
+            }
+            let (on, off) = (
+                constant_on(p, speeds, st.first),
+                constant_off(p, speeds, st.last),
+            );
+            if s.solve_stretch(*st, on, off).is_none() {
+                // Cut in the middle of the failing stretch.
+                split = Some((st.first + st.last) / 2);
+                break;
+            }
+        }
+        match split {
+            Some(k) => {
+                cut_after[k] = true;
+                stretches = stretches_of(&cut_after, n, start, end);
+            }
+            None => break,
+        }
+    }
+    stretches
+}
+
+/// Each stretch's first beam-on and last beam-off state: at rest for a stretch at rest, else at
+/// the constant speeds; with `End::Brake`, the last at rest where the gantry has braked.
 fn anchor_states(
     p: &ArcProblem,
     lim: &Limits,
     end: End,
+    stretches: Vec<LayerSpan>,
     speeds: &[f64],
-    stretches: &[LayerSpan],
-) -> (Vec<FullState>, Vec<FullState>) {
-    let on0 = |k: usize| beam_on_state(p, speeds, k);
-    let off0 = |k: usize| beam_off_state(p, speeds, k);
+) -> State {
     let on: Vec<FullState> = stretches
         .iter()
         .map(|st| {
             if st.at_rest {
                 FullState::rest(p.travel_deg[st.first])
             } else {
-                on0(st.first)
+                constant_on(p, speeds, st.first)
             }
         })
         .collect();
@@ -348,7 +355,7 @@ fn anchor_states(
             if st.at_rest {
                 FullState::rest(p.travel_deg[st.last])
             } else {
-                off0(st.last)
+                constant_off(p, speeds, st.last)
             }
         })
         .collect();
@@ -361,7 +368,7 @@ fn anchor_states(
             *last = FullState::rest(last.pos + stop);
         }
     }
-    (on, off)
+    State { stretches, on, off }
 }
 
 /// Builds the moves and beam times of the final anchor states.

@@ -51,9 +51,7 @@ struct Stage {
 
 /// Pieces per stage kind (a stage keeps more where its seed has more segments). The exact build
 /// re-flies every switch, run-up and braking as a time-optimal move between the transcript's
-/// states, so their pieces only have to tell which states a stage can join; 5 per switch and 2
-/// per beam gave the same ATOM prostate total as 8 and 3 (to 1 ms) in less time, measured
-/// during development, before the solver's last fixes.
+/// states, so their pieces only have to tell which states a stage can join: a few suffice.
 const BEAM_PIECES: usize = 2;
 const MOVE_PIECES: usize = 5;
 
@@ -274,42 +272,74 @@ impl Transcript {
     ) -> Option<Transcript> {
         // The limits a hair inside, so that the exact integration of the solution keeps them.
         let inner = 1.0 - LIMIT_MARGIN;
-        let (jm, am, dm, vm) = (
-            lim.max_jerk * inner,
-            lim.max_accel * inner,
-            lim.max_decel * inner,
-            lim.max_vel * inner,
-        );
+        let inner_lim = InnerLimits {
+            jm: lim.max_jerk * inner,
+            am: lim.max_accel * inner,
+            dm: lim.max_decel * inner,
+            vm: lim.max_vel * inner,
+        };
+        let mut lp = Lp::default();
+        let kinds = self.node_kinds(p, start, end);
+        let clock = self.stage_clocks();
+        let vars = Vars {
+            nodes: self.node_vars(&mut lp, &kinds, lim, &inner_lim, radius),
+            pieces: self.piece_vars(&mut lp, &kinds.rest_piece, inner_lim.jm, radius),
+        };
+        // Rows, piece by piece along the arc (so the normal matrix is banded).
+        for st in &self.stages {
+            let last = st.first + st.count - 1;
+            for q in st.first..=last {
+                self.clock_row(&mut lp, p, st, q, &vars, &clock);
+                self.motion_rows(&mut lp, q, &vars);
+                if !kinds.rest_piece[q] {
+                    self.speed_turn_rows(&mut lp, q, &vars, lim);
+                }
+            }
+        }
+        let z = lp.solve()?;
+        if z.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        Some(self.moved_by(&z, &vars, lim))
+    }
+
+    /// What each node must be (at rest, inside a window from below or above) and where each
+    /// stage begins.
+    fn node_kinds(&self, p: &ArcProblem, start: Start, end: End) -> NodeKinds {
         let n = p.len();
         let np = self.jerk.len();
         let inf = f64::INFINITY;
-        let mut lp = Lp::default();
-        // What each node must be: at rest, inside a window from below or above.
-        let mut rest = vec![false; np + 1];
-        let mut rest_piece = vec![false; np];
-        let mut floor = vec![-inf; np + 1];
-        let mut ceil = vec![inf; np + 1];
-        let mut first_of_stage = vec![false; np + 1];
+        let mut k = NodeKinds {
+            rest: vec![false; np + 1],
+            rest_piece: vec![false; np],
+            floor: vec![-inf; np + 1],
+            ceil: vec![inf; np + 1],
+            first_of_stage: vec![false; np + 1],
+        };
         for st in &self.stages {
             let (a, b) = (st.first, st.first + st.count);
-            first_of_stage[a] = true;
+            k.first_of_stage[a] = true;
             match st.kind {
-                StageKind::Beam(k) => {
-                    let (lo, hi) = p.window_edges(k);
-                    floor[a] = lo + GATE_MARGIN_DEG;
-                    ceil[b] = hi - GATE_MARGIN_DEG;
-                    if beam_at_rest(k, n, start, end) {
-                        rest[a..=b].iter_mut().for_each(|r| *r = true);
-                        rest_piece[a..b].iter_mut().for_each(|r| *r = true);
+                StageKind::Beam(layer) => {
+                    let (lo, hi) = p.window_edges(layer);
+                    k.floor[a] = lo + GATE_MARGIN_DEG;
+                    k.ceil[b] = hi - GATE_MARGIN_DEG;
+                    if beam_at_rest(layer, n, start, end) {
+                        k.rest[a..=b].iter_mut().for_each(|r| *r = true);
+                        k.rest_piece[a..b].iter_mut().for_each(|r| *r = true);
                     }
                 }
-                StageKind::RunUp => rest[a] = true,
-                StageKind::Brake => rest[b] = true,
+                StageKind::RunUp => k.rest[a] = true,
+                StageKind::Brake => k.rest[b] = true,
                 StageKind::Switch(_) => {}
             }
         }
-        // Clock of each node: time since its stage began (0 at a stage's first node).
-        let mut clock = vec![0.0; np + 1];
+        k
+    }
+
+    /// Clock of each node: time since its stage began (0 at a stage's first node).
+    fn stage_clocks(&self) -> Vec<f64> {
+        let mut clock = vec![0.0; self.jerk.len() + 1];
         for st in &self.stages {
             let span = st.first..st.first + st.count;
             let mut c = 0.0;
@@ -318,18 +348,25 @@ impl Transcript {
                 c += d;
             }
         }
-        // Variables (changes from the current values), node by node.
-        struct Node {
-            x: usize,
-            v: usize,
-            a: usize,
-            c: Option<usize>,
-        }
+        clock
+    }
+
+    /// The variables of every node (changes from the current values), node by node.
+    fn node_vars(
+        &self,
+        lp: &mut Lp,
+        kinds: &NodeKinds,
+        lim: &Limits,
+        inner: &InnerLimits,
+        radius: f64,
+    ) -> Vec<Node> {
+        let np = self.jerk.len();
+        let inf = f64::INFINITY;
         let mut nodes = Vec::with_capacity(np + 1);
         for q in 0..=np {
             let s = self.state[q];
-            let x = lp.var(floor[q] - s.pos, ceil[q] - s.pos, 0.0);
-            let (v, a) = if rest[q] {
+            let x = lp.var(kinds.floor[q] - s.pos, kinds.ceil[q] - s.pos, 0.0);
+            let (v, a) = if kinds.rest[q] {
                 (lp.var(-s.vel, -s.vel, 0.0), lp.var(-s.acc, -s.acc, 0.0))
             } else {
                 // Speed and acceleration change within the trust region too: their products
@@ -339,13 +376,23 @@ impl Transcript {
                     2.0 * radius * lim.max_accel.max(lim.max_decel),
                 );
                 (
-                    lp.var((-s.vel).max(-rv), (vm - s.vel).min(rv), 0.0),
-                    lp.var((-dm - s.acc).max(-ra), (am - s.acc).min(ra), 0.0),
+                    lp.var((-s.vel).max(-rv), (inner.vm - s.vel).min(rv), 0.0),
+                    lp.var(
+                        (-inner.dm - s.acc).max(-ra),
+                        (inner.am - s.acc).min(ra),
+                        0.0,
+                    ),
                 )
             };
-            let c = (q < np && !first_of_stage[q]).then(|| lp.var(-inf, inf, 0.0));
+            let c = (q < np && !kinds.first_of_stage[q]).then(|| lp.var(-inf, inf, 0.0));
             nodes.push(Node { x, v, a, c });
         }
+        nodes
+    }
+
+    /// The jerk and duration variables of every piece, inside their trust regions.
+    fn piece_vars(&self, lp: &mut Lp, rest_piece: &[bool], jm: f64, radius: f64) -> PieceVars {
+        let np = self.jerk.len();
         let mut jerk = Vec::with_capacity(np);
         let mut dur = Vec::with_capacity(np);
         for st in &self.stages {
@@ -363,121 +410,193 @@ impl Transcript {
                 dur.push(lp.var((-d).max(-rd), rd, 1.0));
             }
         }
-        // Rows, piece by piece along the arc (so the normal matrix is banded).
-        for st in &self.stages {
-            let last = st.first + st.count - 1;
-            for q in st.first..=last {
-                let s = self.state[q];
-                let (u, d) = (self.jerk[q], self.dur[q]);
-                let (nq, nn) = (&nodes[q], &nodes[q + 1]);
-                let c_here = nq.c.map(|c| (c, 1.0));
-                if q < last {
-                    // The next node's clock.
-                    let mut t = vec![(dur[q], -1.0)];
-                    if let Some(c) = nn.c {
-                        t.push((c, 1.0));
-                    }
-                    if let Some((c, _)) = c_here {
-                        t.push((c, -1.0));
-                    }
-                    lp.row(&t, clock[q] + d - clock[q + 1]);
-                } else {
-                    let mut t = vec![(dur[q], 1.0)];
-                    if let Some(ch) = c_here {
-                        t.push(ch);
-                    }
-                    let elapsed = clock[q] + d;
-                    match st.kind {
-                        StageKind::Beam(k) => lp.row(&t, p.irradiation_s[k] - elapsed),
-                        StageKind::Switch(k) => {
-                            let slack = lp.var(0.0, inf, 0.0);
-                            t.push((slack, -1.0));
-                            lp.row(&t, p.elst[k] - elapsed);
-                        }
-                        StageKind::RunUp | StageKind::Brake => {}
-                    }
+        PieceVars { jerk, dur }
+    }
+
+    /// The clock row of piece `q` of stage `st`: inside a stage, the next node's clock; at its
+    /// last piece, the stage's duration (a beam's irradiation time, at least a switch's ELST).
+    fn clock_row(
+        &self,
+        lp: &mut Lp,
+        p: &ArcProblem,
+        st: &Stage,
+        q: usize,
+        vars: &Vars,
+        clock: &[f64],
+    ) {
+        let inf = f64::INFINITY;
+        let last = st.first + st.count - 1;
+        let d = self.dur[q];
+        let dur = &vars.pieces.dur;
+        let (nq, nn) = (&vars.nodes[q], &vars.nodes[q + 1]);
+        let c_here = nq.c.map(|c| (c, 1.0));
+        if q < last {
+            // The next node's clock.
+            let mut t = vec![(dur[q], -1.0)];
+            if let Some(c) = nn.c {
+                t.push((c, 1.0));
+            }
+            if let Some((c, _)) = c_here {
+                t.push((c, -1.0));
+            }
+            lp.row(&t, clock[q] + d - clock[q + 1]);
+        } else {
+            let mut t = vec![(dur[q], 1.0)];
+            if let Some(ch) = c_here {
+                t.push(ch);
+            }
+            let elapsed = clock[q] + d;
+            match st.kind {
+                StageKind::Beam(k) => lp.row(&t, p.irradiation_s[k] - elapsed),
+                StageKind::Switch(k) => {
+                    let slack = lp.var(0.0, inf, 0.0);
+                    t.push((slack, -1.0));
+                    lp.row(&t, p.elst[k] - elapsed);
                 }
-                let f = s.after(d, u);
-                let next = self.state[q + 1];
-                let d2 = d * d;
-                lp.row(
-                    &[
-                        (nn.x, 1.0),
-                        (nq.x, -1.0),
-                        (nq.v, -d),
-                        (nq.a, -0.5 * d2),
-                        (jerk[q], -d2 * d / 6.0),
-                        (dur[q], -(s.vel + s.acc * d + 0.5 * u * d2)),
-                    ],
-                    f.pos - next.pos,
-                );
-                lp.row(
-                    &[
-                        (nn.v, 1.0),
-                        (nq.v, -1.0),
-                        (nq.a, -d),
-                        (jerk[q], -0.5 * d2),
-                        (dur[q], -(s.acc + u * d)),
-                    ],
-                    f.vel - next.vel,
-                );
-                lp.row(
-                    &[(nn.a, 1.0), (nq.a, -1.0), (jerk[q], -d), (dur[q], -u)],
-                    f.acc - next.acc,
-                );
-                // Braking that turns into speeding up inside a piece reaches its lowest speed
-                // v - a²/(2u) there, between the joins where the speed is bounded: keep it
-                // non-negative (2·u·v ≥ a², linearised) where it comes near zero.
-                if !rest_piece[q] && s.acc < 0.0 && u > 0.0 && -s.acc / u < 1.2 * d {
-                    let low = s.vel - s.acc * s.acc / (2.0 * u);
-                    if low < 0.1 * lim.max_vel {
-                        let slack = lp.var(0.0, inf, 0.0);
-                        lp.row(
-                            &[
-                                (jerk[q], 2.0 * s.vel),
-                                (nq.v, 2.0 * u),
-                                (nq.a, -2.0 * s.acc),
-                                (slack, -1.0),
-                            ],
-                            s.acc * s.acc - 2.0 * u * s.vel,
-                        );
-                    }
-                }
-                // Likewise speeding up that turns into braking peaks at v + a²/(2|u|): keep it
-                // at most V (2·|u|·(V - v) ≥ a², linearised) where it comes near V.
-                if !rest_piece[q] && s.acc > 0.0 && u < 0.0 && -s.acc / u < 1.2 * d {
-                    let peak = s.vel - s.acc * s.acc / (2.0 * u);
-                    if peak > 0.9 * lim.max_vel {
-                        let slack = lp.var(0.0, inf, 0.0);
-                        let room = lim.max_vel - s.vel;
-                        lp.row(
-                            &[
-                                (jerk[q], -2.0 * room),
-                                (nq.v, 2.0 * u),
-                                (nq.a, -2.0 * s.acc),
-                                (slack, -1.0),
-                            ],
-                            s.acc * s.acc + 2.0 * u * room,
-                        );
-                    }
-                }
+                StageKind::RunUp | StageKind::Brake => {}
             }
         }
-        let z = lp.solve()?;
-        if z.iter().any(|v| !v.is_finite()) {
-            return None;
+    }
+
+    /// Piece `q`'s end state, linearised in its start state, jerk and duration, is the next
+    /// node's state: one row each for position, speed and acceleration.
+    fn motion_rows(&self, lp: &mut Lp, q: usize, vars: &Vars) {
+        let s = self.state[q];
+        let (u, d) = (self.jerk[q], self.dur[q]);
+        let (nq, nn) = (&vars.nodes[q], &vars.nodes[q + 1]);
+        let (jerk, dur) = (&vars.pieces.jerk, &vars.pieces.dur);
+        let f = s.after(d, u);
+        let next = self.state[q + 1];
+        let d2 = d * d;
+        lp.row(
+            &[
+                (nn.x, 1.0),
+                (nq.x, -1.0),
+                (nq.v, -d),
+                (nq.a, -0.5 * d2),
+                (jerk[q], -d2 * d / 6.0),
+                (dur[q], -(s.vel + s.acc * d + 0.5 * u * d2)),
+            ],
+            f.pos - next.pos,
+        );
+        lp.row(
+            &[
+                (nn.v, 1.0),
+                (nq.v, -1.0),
+                (nq.a, -d),
+                (jerk[q], -0.5 * d2),
+                (dur[q], -(s.acc + u * d)),
+            ],
+            f.vel - next.vel,
+        );
+        lp.row(
+            &[(nn.a, 1.0), (nq.a, -1.0), (jerk[q], -d), (dur[q], -u)],
+            f.acc - next.acc,
+        );
+    }
+
+    /// Speed bounds inside moving piece `q`, where its acceleration changes sign: the joins
+    /// bound the speed only at the piece's ends.
+    fn speed_turn_rows(&self, lp: &mut Lp, q: usize, vars: &Vars, lim: &Limits) {
+        let inf = f64::INFINITY;
+        let s = self.state[q];
+        let (u, d) = (self.jerk[q], self.dur[q]);
+        let nq = &vars.nodes[q];
+        let jerk = &vars.pieces.jerk;
+        // Braking that turns into speeding up inside a piece reaches its lowest speed
+        // v - a²/(2u) there, between the joins where the speed is bounded: keep it
+        // non-negative (2·u·v ≥ a², linearised) where it comes near zero.
+        if s.acc < 0.0 && u > 0.0 && -s.acc / u < 1.2 * d {
+            let low = s.vel - s.acc * s.acc / (2.0 * u);
+            if low < 0.1 * lim.max_vel {
+                let slack = lp.var(0.0, inf, 0.0);
+                lp.row(
+                    &[
+                        (jerk[q], 2.0 * s.vel),
+                        (nq.v, 2.0 * u),
+                        (nq.a, -2.0 * s.acc),
+                        (slack, -1.0),
+                    ],
+                    s.acc * s.acc - 2.0 * u * s.vel,
+                );
+            }
         }
+        // Likewise speeding up that turns into braking peaks at v + a²/(2|u|): keep it
+        // at most V (2·|u|·(V - v) ≥ a², linearised) where it comes near V.
+        if s.acc > 0.0 && u < 0.0 && -s.acc / u < 1.2 * d {
+            let peak = s.vel - s.acc * s.acc / (2.0 * u);
+            if peak > 0.9 * lim.max_vel {
+                let slack = lp.var(0.0, inf, 0.0);
+                let room = lim.max_vel - s.vel;
+                lp.row(
+                    &[
+                        (jerk[q], -2.0 * room),
+                        (nq.v, 2.0 * u),
+                        (nq.a, -2.0 * s.acc),
+                        (slack, -1.0),
+                    ],
+                    s.acc * s.acc + 2.0 * u * room,
+                );
+            }
+        }
+    }
+
+    /// This transcript moved by the linear programme's solution `z` (jerks clamped to J,
+    /// durations to non-negative).
+    fn moved_by(&self, z: &[f64], vars: &Vars, lim: &Limits) -> Transcript {
         let mut out = self.clone();
-        for (q, nd) in nodes.iter().enumerate() {
+        for (q, nd) in vars.nodes.iter().enumerate() {
             let s = &mut out.state[q];
             s.pos += z[nd.x];
             s.vel += z[nd.v];
             s.acc += z[nd.a];
         }
-        for q in 0..np {
-            out.jerk[q] = (out.jerk[q] + z[jerk[q]]).clamp(-lim.max_jerk, lim.max_jerk);
-            out.dur[q] = (out.dur[q] + z[dur[q]]).max(0.0);
+        for q in 0..self.jerk.len() {
+            out.jerk[q] = (out.jerk[q] + z[vars.pieces.jerk[q]]).clamp(-lim.max_jerk, lim.max_jerk);
+            out.dur[q] = (out.dur[q] + z[vars.pieces.dur[q]]).max(0.0);
         }
-        Some(out)
+        out
     }
+}
+
+/// The gantry limits a hair inside, so that the exact integration of a step's solution keeps
+/// them.
+struct InnerLimits {
+    jm: f64,
+    am: f64,
+    dm: f64,
+    vm: f64,
+}
+
+/// What each node of a step must be.
+struct NodeKinds {
+    /// At rest (speed and acceleration fixed at zero).
+    rest: Vec<bool>,
+    /// Pieces inside a beam at rest (jerk fixed at zero).
+    rest_piece: Vec<bool>,
+    /// Lowest and highest position (a beam's window edges; infinite elsewhere).
+    floor: Vec<f64>,
+    ceil: Vec<f64>,
+    first_of_stage: Vec<bool>,
+}
+
+/// A node's variables (changes from the current values): position, speed, acceleration, and
+/// its clock inside its stage (none at a stage's first node).
+struct Node {
+    x: usize,
+    v: usize,
+    a: usize,
+    c: Option<usize>,
+}
+
+/// Every piece's jerk and duration variables.
+struct PieceVars {
+    jerk: Vec<usize>,
+    dur: Vec<usize>,
+}
+
+/// The variables of one step.
+struct Vars {
+    nodes: Vec<Node>,
+    pieces: PieceVars,
 }

@@ -1,31 +1,24 @@
-//! Schedule choice: the layer speeds of every arc, by the options' schedule.
+//! Choosing the layer speeds of every arc: the options' schedule, on a servo period if one is set.
 
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::Limits;
 
 use crate::optimal::{optimal, speed_free_scan};
-use crate::problem::ArcProblem;
-use crate::scan::{moving_time, moving_time_on, polished_scan, scan, scan_converged};
+use crate::prescribed::prescribed_speeds;
+use crate::problem::{arc_time_on_grid, moving_time, moving_time_on, ArcProblem};
+use crate::scan::{polished_scan, scan, scan_converged};
 use crate::{Options, Schedule, SpeedBound, Violation};
-
-use super::prescribed::prescribed_speeds;
-
-/// Time of one arc at layer speeds `v` with every transition on the servo period (infinite when
-/// a transition has no such duration).
-pub(crate) fn arc_time_on_grid(p: &ArcProblem, v: &[f64], lim: &Limits, period: f64) -> f64 {
-    moving_time_on(p, lim, v, Some(period)) + p.irradiation_s.iter().sum::<f64>()
-}
 
 /// Layer speeds chosen for every arc (magnitudes, delivery order), what bounds each, and the
 /// prescribed speeds that could not be delivered.
-pub(super) struct ChosenSpeeds {
-    pub(super) speeds: Vec<Vec<f64>>,
-    pub(super) bounds: Vec<Vec<SpeedBound>>,
-    pub(super) violations: Vec<Violation>,
+pub(crate) struct ChosenSpeeds {
+    pub(crate) speeds: Vec<Vec<f64>>,
+    pub(crate) bounds: Vec<Vec<SpeedBound>>,
+    pub(crate) violations: Vec<Violation>,
 }
 
 /// Runs the options' schedule on every arc.
-pub(super) fn choose_speeds(
+pub(crate) fn choose_speeds(
     arcs: &[ResolvedArc],
     problems: &[ArcProblem],
     limits: &Limits,
@@ -57,7 +50,8 @@ pub(super) fn choose_speeds(
 }
 
 /// The scan's speeds, from the scan of the arc without V ([`speed_free_scan`]: the same start
-/// at every V that cuts none of its speeds, so raising V does not move it). On a servo period, the continuous scan's speeds are kept where their
+/// at every V that cuts none of its speeds, so raising V does not move it). On a servo period,
+/// the continuous scan's speeds are kept where their
 /// transitions fit the grid and lowered only where not, so a period never shortens a transition
 /// (a scan from the caps on a fine grid could settle on other, faster speeds); the scan from the
 /// caps is the fallback when that repair does not settle.
@@ -134,8 +128,8 @@ fn optimal_speeds(
     let repaired = scan(p, limits, &best, &b, true, period);
     let direct = scan(p, limits, &p.speed_cap, &p.cap_bound, true, period);
     let seeded = scan_converged(p, limits, &seed, &seed_bounds, true, period);
-    // The scan from the caps (the seed before the V-free one) repaired on the grid: one more
-    // start, so the V-free seed never makes a servo-period total longer than it was.
+    // The scan from the caps (not the V-free seed) repaired on the grid: one more start, so a
+    // servo-period total is never longer than the one the caps' scan gives.
     let capped = scan(p, limits, &p.speed_cap, &p.cap_bound, true, None);
     let capped = scan_converged(p, limits, &capped.0, &capped.1, true, period);
     let scanned = on_period(p, limits, fast, period);

@@ -1,15 +1,15 @@
-//! Rebalance: a lower end speed into an ELST-bound transition that keeps the braking before it
-//! faster.
+//! Rebalance: where the scan braked into a transition that lasts exactly its ELST, a lower end
+//! speed lets the braking chain before it stay faster.
 
+use crate::problem::ArcProblem;
+use crate::scan::{highest_end, highest_start};
+use crate::stops::lower_speed_up_after;
 use arcsim_planner::Limits;
 
-use super::{highest_end, highest_start, lower_speed_up_after};
-use crate::problem::ArcProblem;
-
 /// End speeds, as fractions of the scan's, that [`rebalance`] tries: every 2.5 % from half down
-/// to rest. With four (0.5, 0.25, 0.1, 0) the choice jumped between far-apart fractions as a
-/// limit changed: at J 0.287, D 0.698 the ATOM head-and-neck case took 347.14 s at A 0.47 and
-/// 347.51 s at every A from 0.6 up (issue 30); the finer steps cost about a third more scan time.
+/// to rest. Fine steps keep the choice from jumping between far-apart fractions as a limit
+/// changes (a few coarse ones make the total step with A on the ATOM head-and-neck case); they
+/// cost about a third more scan time than four.
 const REBALANCE_END_SPEEDS: [f64; 21] = [
     0.5, 0.475, 0.45, 0.425, 0.4, 0.375, 0.35, 0.325, 0.3, 0.275, 0.25, 0.225, 0.2, 0.175, 0.15,
     0.125, 0.1, 0.075, 0.05, 0.025, 0.0,
@@ -24,7 +24,7 @@ const REBALANCE_END_SPEEDS: [f64; 21] = [
 /// reach that start (and be reached), and the speed-up after it lowered as the passes would. The
 /// largest gain over the transitions changed, each costed exactly, is kept. Returns the ranges
 /// of transitions changed.
-pub(super) fn rebalance(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, usize)> {
+pub(crate) fn rebalance(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, usize)> {
     let n = p.len();
     let mut changed = Vec::new();
     for k in 1..n.saturating_sub(2) {

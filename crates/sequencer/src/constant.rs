@@ -1,11 +1,12 @@
-//! Constant-speed assembly: every transition solved at the chosen speeds, the rows and the
-//! timeline built, timed and verified.
+//! The constant-speed delivery: each layer irradiated at one speed, centred in its window, and
+//! the jerk-limited moves between layers, built, timed and verified.
 
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::{Limits, Move, MoveAnalysis, Profile, Reversal};
 
 use crate::problem::ArcProblem;
-use crate::raise::{label_by_raise, move_duration};
+use crate::raise::{label_by_raise, move_duration, timed};
+use crate::schedule::ChosenSpeeds;
 use crate::servo::grid_duration;
 use crate::timeline::{Piece, PieceKind, Timeline};
 use crate::verify::{margins, verify_timeline};
@@ -14,9 +15,7 @@ use crate::{
     SequenceError, SpeedBound, TransitionRow, Violation,
 };
 
-use super::ChosenSpeeds;
-
-pub(super) fn limiter_counts(transitions: &[TransitionRow]) -> LimiterCounts {
+pub(crate) fn limiter_counts(transitions: &[TransitionRow]) -> LimiterCounts {
     let mut counts = LimiterCounts::default();
     for tr in transitions {
         match tr.limited_by {
@@ -64,15 +63,11 @@ fn solve_move(
     };
     let planner = |e: arcsim_planner::PlannerError| infeasible(e.into());
     let analysis = MoveAnalysis::new(&mv, lim, Reversal::Forbid).map_err(planner)?;
-    let shape = analysis.min_time_phases();
-    let min_time = shape.duration();
-    let duration = if elst > min_time {
-        analysis
-            .shortest_duration_at_least(elst)
-            .ok_or_else(|| infeasible(Infeasibility::CannotLastElst { elst_s: elst }))?
-    } else {
-        min_time
-    };
+    let timed = timed(&analysis);
+    let min_time = timed.min_time;
+    let duration = timed
+        .at_least(elst)
+        .ok_or_else(|| infeasible(Infeasibility::CannotLastElst { elst_s: elst }))?;
     let limiter = if duration > 0.0 {
         label_by_raise(duration, elst, lim, |l| move_duration(&mv, elst, l))
     } else {
@@ -123,7 +118,7 @@ fn push_profile(
 }
 
 /// Builds, times and verifies the constant-speed delivery at the chosen speeds.
-pub(super) fn assemble(
+pub(crate) fn assemble(
     arcs: &[ResolvedArc],
     problems: &[ArcProblem],
     chosen: &ChosenSpeeds,

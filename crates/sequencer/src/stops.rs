@@ -1,9 +1,9 @@
-//! Stop avoidance: lower speeds where the scan left a transition stopping to last its ELST.
+//! Stop avoidance: lower the speeds of a transition that stops and dwells to last its ELST
+//! until it lasts the ELST without the stop (or the stop fits within it).
 
-use arcsim_planner::Limits;
-
-use super::{highest_start, lower_speed_up_after};
 use crate::problem::ArcProblem;
+use crate::scan::{highest_end, highest_start};
+use arcsim_planner::Limits;
 
 /// Whether transition `k` at `vs`, `ve` lasts its ELST without stopping (the ELST is in the
 /// first interval of its feasible durations), so it costs no more than the ELST.
@@ -24,7 +24,7 @@ fn lasts_elst_without_stop(p: &ArcProblem, k: usize, vs: f64, ve: f64, lim: &Lim
 /// transition last exactly the ELST, for a much smaller lowering). The one that shortens the
 /// transitions it changes most is kept; the scan then settles the result again.
 /// Returns the ranges of transitions changed.
-pub(super) fn avoid_stops(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, usize)> {
+pub(crate) fn avoid_stops(p: &ArcProblem, lim: &Limits, v: &mut Vec<f64>) -> Vec<(usize, usize)> {
     let mut changed = Vec::new();
     for k in 0..p.len().saturating_sub(1) {
         let e = p.elst[k + 1];
@@ -123,4 +123,20 @@ fn lowered(
     let last = lower_speed_up_after(p, k, &mut w, lim);
     let range = (first.saturating_sub(1), (last + 1).min(w.len() - 2));
     (w, range)
+}
+
+/// Lowers the speeds after layer `k + 1` that rise above what the layer before them can reach,
+/// as the scan's forward pass would, until one already can; returns the last transition index
+/// `last` such that layers up to `last + 1` may have changed.
+pub(crate) fn lower_speed_up_after(p: &ArcProblem, k: usize, w: &mut [f64], lim: &Limits) -> usize {
+    let mut last = k;
+    while last + 2 < w.len() && w[last + 2] > w[last + 1] {
+        let b = highest_end(p, last + 1, w[last + 1], lim);
+        if w[last + 2] <= b {
+            break;
+        }
+        w[last + 2] = b;
+        last += 1;
+    }
+    last
 }

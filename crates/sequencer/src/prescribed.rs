@@ -1,5 +1,5 @@
-//! Prescribed-speed correction: the plan's required speeds, lowered where they cannot be
-//! delivered, and every point where they could not.
+//! Prescribed speeds: the plan's required speeds, checked, and lowered where they cannot be
+//! delivered.
 
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::{Limits, MoveAnalysis, Reversal};
@@ -10,7 +10,7 @@ use crate::{SpeedBound, Violation};
 
 /// The prescribed speeds, lowered by the scan where they cannot be delivered, and every point
 /// where they could not.
-pub(super) fn prescribed_speeds(
+pub(crate) fn prescribed_speeds(
     arc: &ResolvedArc,
     p: &ArcProblem,
     limits: &Limits,
@@ -58,29 +58,8 @@ fn prescribed_caps(
     };
     for k in 0..n {
         let Some(v) = req[k] else { continue };
-        if (k == 0 || k + 1 == n) && v > 0.0 {
-            flag(
-                k,
-                v,
-                "the first and last layers of an arc are delivered at rest".into(),
-            );
-        } else if v > lim.max_vel * (1.0 + 1e-12) {
-            flag(
-                k,
-                v,
-                format!("above the gantry speed limit V = {} deg/s", lim.max_vel),
-            );
-        } else if v * p.irradiation_s[k] > p.window[k] * (1.0 + 1e-12) {
-            flag(
-                k,
-                v,
-                format!(
-                    "sweeps {:.4} deg in {:.4} s, more than the {:.4} deg window",
-                    v * p.irradiation_s[k],
-                    p.irradiation_s[k],
-                    p.window[k]
-                ),
-            );
+        if let Some(why) = layer_violation(p, k, v, lim) {
+            flag(k, v, why);
         }
         if k > 0 && k + 1 < n && v < caps[k] {
             caps[k] = v;
@@ -100,21 +79,57 @@ fn prescribed_caps(
                 b.min(p.speed_cap[k + 1])
             },
         );
-        if p.cost(k, a, b, lim).is_none() {
-            let mv = p.transition_move(k, a, b);
-            let why = match MoveAnalysis::new(&mv, lim, Reversal::Forbid) {
-                Err(e) => format!(
-                    "transition to the next layer does not fit its {:.4} deg gap: {e}",
-                    mv.distance
-                ),
-                Ok(_) => format!(
-                    "transition to the next layer cannot last its {:.3} s energy switch",
-                    p.elst[k + 1]
-                ),
-            };
+        if let Some(why) = transition_violation(p, k, (a, b), lim) {
             flag(k, req[k].unwrap_or(a), why);
         }
     }
     found.sort_by_key(|v| v.layer);
     (caps, bounds, found)
+}
+
+/// Why layer `k` cannot be delivered at the prescribed speed `v` (an end of the arc not at
+/// rest, above V, or sweeping more than its window); `None` when it can.
+fn layer_violation(p: &ArcProblem, k: usize, v: f64, lim: &Limits) -> Option<String> {
+    let n = p.len();
+    if (k == 0 || k + 1 == n) && v > 0.0 {
+        Some("the first and last layers of an arc are delivered at rest".into())
+    } else if v > lim.max_vel * (1.0 + 1e-12) {
+        Some(format!(
+            "above the gantry speed limit V = {} deg/s",
+            lim.max_vel
+        ))
+    } else if v * p.irradiation_s[k] > p.window[k] * (1.0 + 1e-12) {
+        Some(format!(
+            "sweeps {:.4} deg in {:.4} s, more than the {:.4} deg window",
+            v * p.irradiation_s[k],
+            p.irradiation_s[k],
+            p.window[k]
+        ))
+    } else {
+        None
+    }
+}
+
+/// Why transition `k` has no move at the speeds `(a, b)` (it does not fit its gap or cannot
+/// last its ELST); `None` when it has one.
+fn transition_violation(
+    p: &ArcProblem,
+    k: usize,
+    (a, b): (f64, f64),
+    lim: &Limits,
+) -> Option<String> {
+    if p.cost(k, a, b, lim).is_some() {
+        return None;
+    }
+    let mv = p.transition_move(k, a, b);
+    Some(match MoveAnalysis::new(&mv, lim, Reversal::Forbid) {
+        Err(e) => format!(
+            "transition to the next layer does not fit its {:.4} deg gap: {e}",
+            mv.distance
+        ),
+        Ok(_) => format!(
+            "transition to the next layer cannot last its {:.3} s energy switch",
+            p.elst[k + 1]
+        ),
+    })
 }

@@ -1,8 +1,7 @@
-//! Polish: a local search over single speeds and pairs of neighbours after the scan.
-
-use arcsim_planner::Limits;
+//! Polish: a local search after the scan that moves single speeds and pairs of neighbours.
 
 use crate::problem::ArcProblem;
+use arcsim_planner::Limits;
 
 /// First relative step of [`polish`]; it halves down to [`POLISH_LAST_STEP`].
 const POLISH_FIRST_STEP: f64 = 0.1;
@@ -84,4 +83,78 @@ pub(crate) fn polish(p: &ArcProblem, lim: &Limits, v: &mut [f64]) -> bool {
         }
     }
     changed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::moving_time;
+    use crate::problem::tests::{random_arc_of, random_limits};
+    use crate::scan::{polished_scan, scan, stop_avoiding_scan};
+    use crate::SpeedBound;
+    use arcsim_plan::ResolvedArc;
+    use arcsim_test_support::Rng;
+
+    /// A random arc of closely spaced layers with short irradiation times and ELSTs of
+    /// 0–2 s: the setting where transitions barely exceed their ELSTs.
+    fn random_arc(rng: &mut Rng) -> ResolvedArc {
+        let n = 4 + rng.below(12);
+        random_arc_of(
+            rng,
+            n,
+            (0.2, 3.0),
+            (0.05, 1.0),
+            (0.2, 3.0),
+            &[0.0, 0.3, 0.5, 1.0, 2.0],
+        )
+    }
+
+    /// The polish keeps only moves that shorten the arc: on random arcs and limits its schedule
+    /// is never longer than the scan it starts from, every transition has a move, and every
+    /// speed stays within its cap; it shortens some.
+    #[test]
+    fn polish_never_lengthens_the_scan_and_keeps_it_feasible() {
+        let mut rng = Rng::new(0x9011_5800);
+        let (mut shorter, mut cases) = (0, 0);
+        for _ in 0..300 {
+            let lim = random_limits(&mut rng);
+            let p = ArcProblem::new(&random_arc(&mut rng), &lim);
+            let settled = scan(&p, &lim, &p.speed_cap, &p.cap_bound, true, None);
+            let (start, _) = stop_avoiding_scan(&p, &lim, settled.clone());
+            let before = moving_time(&p, &lim, &start);
+            assert!(before.is_finite(), "the scan is feasible");
+            let (v, bounds) = polished_scan(&p, &lim, settled);
+            let after = moving_time(&p, &lim, &v);
+            cases += 1;
+            assert!(
+                after <= before,
+                "polish lengthened {p:?} on {lim:?}: {before} -> {after} s"
+            );
+            for k in 0..p.len() {
+                assert!(
+                    (0.0..=p.speed_cap[k]).contains(&v[k]),
+                    "speed {} of layer {k} outside [0, {}]",
+                    v[k],
+                    p.speed_cap[k]
+                );
+                if v[k] != start[k] {
+                    assert_eq!(bounds[k], SpeedBound::Optimised);
+                }
+                if k + 1 < p.len() {
+                    assert!(
+                        p.cost(k, v[k], v[k + 1], &lim).is_some(),
+                        "transition {k} infeasible"
+                    );
+                }
+            }
+            if after < before * (1.0 - 1e-9) {
+                shorter += 1;
+            }
+        }
+        assert!(
+            shorter >= cases / 4,
+            "polish shortened only {shorter} of {cases} random arcs"
+        );
+        println!("polish shortened {shorter} of {cases} random arcs");
+    }
 }

@@ -1,0 +1,75 @@
+//! A free-motion delivery: every arc solved from its constant-speed schedule, assembled and
+//! verified by integration.
+
+use arcsim_plan::ResolvedArc;
+use arcsim_planner::Limits;
+
+use super as free;
+use crate::problem::ArcProblem;
+use crate::timeline::Timeline;
+use crate::verify::{margins, verify_timeline};
+use crate::{ArcEnds, Breakdown, Delivery, Infeasibility, Motion, Options, SequenceError};
+
+/// Free motion: each arc solved from its constant-speed schedule (kept where nothing faster is
+/// found), assembled and verified by integration.
+pub(crate) fn simulate_free(
+    arcs: &[ResolvedArc],
+    problems: &[ArcProblem],
+    speeds: &[Vec<f64>],
+    limits: &Limits,
+    opts: &Options,
+    constant: Delivery,
+) -> Result<Delivery, SequenceError> {
+    let mut solved = Vec::with_capacity(arcs.len());
+    let mut constant_arcs = Vec::with_capacity(arcs.len());
+    for (ai, ((arc, p), v)) in arcs.iter().zip(problems).zip(speeds).enumerate() {
+        let base = free::from_constant(p, limits, v).ok_or(SequenceError::Infeasible {
+            arc: arc.arc_index,
+            layer: 0,
+            reason: Infeasibility::FreeMotionRebuild,
+        })?;
+        let (start, end) = match opts.arc_ends {
+            ArcEnds::Rest => (free::Start::Rest, free::End::Rest),
+            ArcEnds::Free if ai + 1 == arcs.len() => (free::Start::RunUp, free::End::Free),
+            ArcEnds::Free => (free::Start::RunUp, free::End::Brake),
+        };
+        let best = match free::solve_arc(p, limits, start, end, v) {
+            Some(f) if f.total < base.total => f,
+            _ => base.clone(),
+        };
+        solved.push(best);
+        constant_arcs.push(base);
+    }
+    let mut a = free::assemble(arcs, problems, &solved, limits)?;
+    if a.total > constant.total_s {
+        // Between arcs the braking and run-up of free ends can cost more than they save.
+        a = free::assemble(arcs, problems, &constant_arcs, limits)?;
+    }
+    let energy_switching_s: f64 = a.transitions.iter().map(|tr| tr.elst_s).sum();
+    let lost_s: f64 = a.transitions.iter().map(|tr| tr.lost_s).sum::<f64>() + a.lead_s;
+    let counts = crate::constant::limiter_counts(&a.transitions);
+    let tl = Timeline {
+        pieces: std::mem::take(&mut a.pieces),
+    };
+    verify_timeline(&tl, problems, &a.layers, &a.transitions, limits, true)?;
+    let margins = opts
+        .build_timeline
+        .then(|| margins(&tl, &a.layers, &a.transitions, limits));
+    Ok(Delivery {
+        schedule: opts.schedule,
+        motion: Motion::Free,
+        arc_ends: opts.arc_ends,
+        constant_speed_total_s: Some(constant.total_s),
+        total_s: a.total,
+        breakdown: Breakdown::of(arcs, energy_switching_s, lost_s),
+        limits: (*limits).into(),
+        servo_period_s: None,
+        lost_time: crate::LostTime::of(&a.layers, &a.transitions),
+        layers: a.layers,
+        transitions: a.transitions,
+        limiter_counts: counts,
+        margins,
+        violations: constant.violations,
+        timeline: opts.build_timeline.then_some(tl),
+    })
+}
