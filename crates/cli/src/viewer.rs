@@ -20,16 +20,16 @@ pub fn output(
     let opts = ViewerOptions { sample_dt_s: dt };
     if let Some(path) = rrd {
         crate::output::write_via_path(path, |tmp| {
-            arcsim_viewer::save_delivery_with_spots(tmp, title, d, spots, &opts)
+            arcsim_viewer::save_delivery(tmp, title, d, spots, &opts)
                 .map_err(|e| CliError::failed(format!("--rrd {}: {e}", path.display())))
         })?;
     }
     if spawn {
-        arcsim_viewer::spawn_delivery_with_spots(title, d, spots, &opts)
+        arcsim_viewer::spawn_delivery(title, d, spots, &opts)
             .map_err(|e| CliError::failed(format!("--spawn: {e}")))?;
     }
     if let Some(url) = connect {
-        arcsim_viewer::connect_delivery_with_spots(url, title, d, spots, &opts)
+        arcsim_viewer::connect_delivery(url, title, d, spots, &opts)
             .map_err(|e| CliError::failed(format!("--connect: {e}")))?;
     }
     Ok(())

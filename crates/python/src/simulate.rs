@@ -260,13 +260,7 @@ impl Delivery {
         let opts = arcsim_viewer::ViewerOptions { sample_dt_s: dt };
         let spots = self.spot_rows(py)?;
         py.detach(|| {
-            arcsim_viewer::save_delivery_with_spots(
-                &path,
-                &self.plan.name,
-                &self.delivery,
-                &spots,
-                &opts,
-            )
+            arcsim_viewer::save_delivery(&path, &self.plan.name, &self.delivery, &spots, &opts)
         })
         .map_err(|e| PyRuntimeError::new_err(format!("{}: {e}", path.display())))
     }

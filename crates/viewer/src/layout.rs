@@ -273,15 +273,11 @@ fn blueprint_msgs(
 }
 
 /// Sends the default delivery layout into `rec` and makes it the active one; call it before
-/// logging so a file starts with its layout.
-pub fn send_delivery_blueprint(rec: &RecordingStream) -> Result<(), ViewerError> {
-    send_blueprint(rec, &delivery_layout(false), TIME)
-}
-
-/// [`send_delivery_blueprint`] with a 2D beam's-eye view of the spots ([`paths::BEAM_EYE_VIEW`],
-/// logged by [`crate::log_spots`]) between the gantry and the layer log.
-pub fn send_delivery_blueprint_with_spots(rec: &RecordingStream) -> Result<(), ViewerError> {
-    send_blueprint(rec, &delivery_layout(true), TIME)
+/// logging so a file starts with its layout. `with_spots` adds a 2D beam's-eye view of the
+/// spots ([`paths::BEAM_EYE_VIEW`], logged by [`crate::log_spots`]) between the gantry and the
+/// layer log.
+pub fn send_delivery_blueprint(rec: &RecordingStream, with_spots: bool) -> Result<(), ViewerError> {
+    send_blueprint(rec, &delivery_layout(with_spots), TIME)
 }
 
 /// Sends layout `root` into `rec` as the active blueprint, paused.

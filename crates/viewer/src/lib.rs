@@ -3,9 +3,10 @@
 //! Writes arcsim results for the [Rerun](https://rerun.io) viewer (SDK 0.36.3): a simulated
 //! [`Delivery`](arcsim_sequencer::Delivery) as time series, a layer log, beam/switching phases and a 2D view of the gantry,
 //! with a default layout (blueprint); optionally the spots of the layer being delivered in a 2D
-//! beam's-eye view ([`log_spots`], [`save_delivery_with_spots`]). Output goes to an `.rrd` file ([`save_delivery`]), to a
-//! newly spawned viewer ([`spawn_delivery`], needs the `rerun` binary on `PATH`) or to a running
-//! viewer over gRPC ([`connect_delivery`]); [`log_delivery`] logs into any recording stream.
+//! beam's-eye view. Output goes to an `.rrd` file ([`save_delivery`]), to a newly spawned viewer
+//! ([`spawn_delivery`], needs the `rerun` binary on `PATH`) or to a running viewer over gRPC
+//! ([`connect_delivery`]). The steps they take are public for a caller's own recording stream:
+//! [`send_delivery_blueprint`], [`log_delivery`] and [`log_spots`].
 //! [`save_sweep`] writes the rows of an `arcsim-evaluator` sweep: per plan a tab of plots of the
 //! delivery time against each swept limit, one line per setting of the other limits.
 //!
@@ -25,12 +26,9 @@ mod sweep;
 
 pub use delivery::log_delivery;
 pub use error::ViewerError;
-pub use layout::{send_delivery_blueprint, send_delivery_blueprint_with_spots};
-pub use output::{
-    connect_delivery, connect_delivery_with_spots, save_delivery, save_delivery_with_spots,
-    spawn_delivery, spawn_delivery_with_spots, DELIVERY_APP_ID,
-};
-pub use spots::{log_spots, log_spots_with_energies, MAX_SPOT_UPDATES_PER_LAYER};
+pub use layout::send_delivery_blueprint;
+pub use output::{connect_delivery, save_delivery, spawn_delivery, DELIVERY_APP_ID};
+pub use spots::{log_spots, MAX_SPOT_UPDATES_PER_LAYER};
 pub use sweep::{
     save_sweep, COMBINATION, MAX_LINES, SWEEP_APP_ID, SWEEP_ROWS, SWEEP_SUMMARY, SWEEP_X,
 };

@@ -7,10 +7,7 @@ use arcsim_sequencer::{Delivery, SpotRow};
 use rerun::{RecordingStream, RecordingStreamBuilder, RecordingStreamError};
 
 use crate::delivery::check;
-use crate::{
-    log_delivery, log_spots_with_energies, send_delivery_blueprint,
-    send_delivery_blueprint_with_spots, ViewerError, ViewerOptions,
-};
+use crate::{log_delivery, log_spots, send_delivery_blueprint, ViewerError, ViewerOptions};
 
 /// Application id of delivery recordings (the viewer keeps one layout per application).
 pub const DELIVERY_APP_ID: &str = "arcsim-delivery";
@@ -34,13 +31,11 @@ fn finish(
     opts: &ViewerOptions,
     target: &str,
 ) -> Result<(), ViewerError> {
-    if spots.iter().any(|r| r.x_mm.is_some() && r.y_mm.is_some()) {
-        send_delivery_blueprint_with_spots(&rec)?;
-        log_delivery(&rec, delivery, opts)?;
-        log_spots_with_energies(&rec, spots, &layer_energies(delivery))?;
-    } else {
-        send_delivery_blueprint(&rec)?;
-        log_delivery(&rec, delivery, opts)?;
+    let with_spots = spots.iter().any(|r| r.x_mm.is_some() && r.y_mm.is_some());
+    send_delivery_blueprint(&rec, with_spots)?;
+    log_delivery(&rec, delivery, opts)?;
+    if with_spots {
+        log_spots(&rec, spots, &layer_energies(delivery))?;
     }
     rec.flush_with_timeout(SEND_TIMEOUT)
         .map_err(|source| ViewerError::Flush {
@@ -67,19 +62,10 @@ fn layer_energies(delivery: &Delivery) -> Vec<f64> {
 }
 
 /// Writes `delivery` to the `.rrd` file `path` (replaced if it exists), with the default layout.
+/// With `spots` (the rows of `arcsim_sequencer::spot_timeline` for this delivery) that have a
+/// position, it adds their beam's-eye view ([`crate::log_spots`], energies taken from the
+/// delivery); pass `&[]` for none.
 pub fn save_delivery(
-    path: &Path,
-    title: &str,
-    delivery: &Delivery,
-    opts: &ViewerOptions,
-) -> Result<(), ViewerError> {
-    save_delivery_with_spots(path, title, delivery, &[], opts)
-}
-
-/// [`save_delivery`] plus the beam's-eye view of `spots` ([`crate::log_spots`]; the rows of
-/// `arcsim_sequencer::spot_timeline` for this delivery, energies taken from the delivery). With
-/// no positioned spot it writes what [`save_delivery`] writes.
-pub fn save_delivery_with_spots(
     path: &Path,
     title: &str,
     delivery: &Delivery,
@@ -97,17 +83,9 @@ pub fn save_delivery_with_spots(
 }
 
 /// Starts a Rerun viewer (the `rerun` executable on `PATH`; an already running one on the
-/// default port 9876 is reused) and streams `delivery` to it.
+/// default port 9876 is reused) and streams `delivery` to it, with `spots` as in
+/// [`save_delivery`].
 pub fn spawn_delivery(
-    title: &str,
-    delivery: &Delivery,
-    opts: &ViewerOptions,
-) -> Result<(), ViewerError> {
-    spawn_delivery_with_spots(title, delivery, &[], opts)
-}
-
-/// [`spawn_delivery`] plus the beam's-eye view of `spots` (see [`save_delivery_with_spots`]).
-pub fn spawn_delivery_with_spots(
     title: &str,
     delivery: &Delivery,
     spots: &[SpotRow],
@@ -122,18 +100,9 @@ pub fn spawn_delivery_with_spots(
 }
 
 /// Streams `delivery` to a running viewer at a gRPC proxy URL such as
-/// `rerun+http://127.0.0.1:9876/proxy` (what `rerun` prints when it starts).
+/// `rerun+http://127.0.0.1:9876/proxy` (what `rerun` prints when it starts), with `spots` as in
+/// [`save_delivery`].
 pub fn connect_delivery(
-    url: &str,
-    title: &str,
-    delivery: &Delivery,
-    opts: &ViewerOptions,
-) -> Result<(), ViewerError> {
-    connect_delivery_with_spots(url, title, delivery, &[], opts)
-}
-
-/// [`connect_delivery`] plus the beam's-eye view of `spots` (see [`save_delivery_with_spots`]).
-pub fn connect_delivery_with_spots(
     url: &str,
     title: &str,
     delivery: &Delivery,

@@ -227,18 +227,13 @@ impl Columns {
     }
 }
 
-/// Logs the spots of each layer into `rec`, in a 2D beam's-eye view while the layer is delivered
-/// (see [`log_spots_with_energies`]; this one names no energies).
-pub fn log_spots(rec: &RecordingStream, spots: &[SpotRow]) -> Result<(), ViewerError> {
-    log_spots_with_energies(rec, spots, &[])
-}
-
 /// Logs the spots of each layer into `rec` on the delivery's timelines (`time`, `angle_cdeg`):
 /// a 2D beam's-eye view of the layer being delivered, its spots lit as they are delivered.
 ///
 /// `spots` are the rows of [`arcsim_sequencer::spot_timeline`] (delivery order; a layer's rows
 /// are consecutive). `energies_mev[i]` is the nominal energy of layer `i` (delivery order,
-/// e.g. from `Delivery::layers`), named in the layer's label; missing entries are left out.
+/// e.g. from `Delivery::layers`), named in the layer's label; missing entries (or `&[]`) are left
+/// out.
 ///
 /// What is shown (entity paths in [`crate::paths`]; positions in mm in the isocentre plane, with
 /// y negated so that +y points up on screen):
@@ -261,7 +256,7 @@ pub fn log_spots(rec: &RecordingStream, spots: &[SpotRow]) -> Result<(), ViewerE
 /// (colours are a partial update of the same points), so a layer costs at most
 /// `n` positions + 64·n colours + `rows` highlighted points, and a layer of up to 64 rows is
 /// shown spot by spot.
-pub fn log_spots_with_energies(
+pub fn log_spots(
     rec: &RecordingStream,
     spots: &[SpotRow],
     energies_mev: &[f64],

@@ -22,7 +22,7 @@ fn bad_url_is_an_error() {
         "not a url",
         "rerun+http://127.0.0.1:9876/catalog",
     ] {
-        let err = connect_delivery(url, "lung", &lung(), &ViewerOptions::default());
+        let err = connect_delivery(url, "lung", &lung(), &[], &ViewerOptions::default());
         assert!(
             matches!(err, Err(ViewerError::Url { .. })),
             "{url}: {err:?}"
@@ -38,6 +38,7 @@ fn unreachable_viewer_is_an_error() {
         "rerun+http://127.0.0.1:9/proxy",
         "lung",
         &lung(),
+        &[],
         &ViewerOptions::default(),
     );
     assert!(matches!(err, Err(ViewerError::Flush { .. })), "{err:?}");
@@ -52,5 +53,5 @@ fn unreachable_viewer_is_an_error() {
 #[ignore = "needs a running viewer: ARCSIM_RERUN_URL=rerun+http://127.0.0.1:9876/proxy"]
 fn running_viewer_gets_the_delivery() {
     let url = std::env::var("ARCSIM_RERUN_URL").expect("ARCSIM_RERUN_URL");
-    connect_delivery(&url, "lung (scan)", &lung(), &ViewerOptions::default()).expect("sent");
+    connect_delivery(&url, "lung (scan)", &lung(), &[], &ViewerOptions::default()).expect("sent");
 }

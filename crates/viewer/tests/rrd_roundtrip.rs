@@ -95,7 +95,7 @@ fn prostate_scan_round_trip() {
     let tl = d.timeline.as_ref().expect("timeline");
     let opts = ViewerOptions { sample_dt_s: 0.05 };
     let path = out_path("prostate-scan.rrd");
-    save_delivery(&path, "prostate (scan)", &d, &opts).expect("save");
+    save_delivery(&path, "prostate (scan)", &d, &[], &opts).expect("save");
     let rrd = read_rrd(&path);
 
     for p in [
@@ -299,7 +299,7 @@ fn prostate_scan_round_trip() {
 fn two_arcs_log_signed_speed() {
     let d = simulated("plans/two-arc.json", Schedule::Scan);
     let path = out_path("two-arc.rrd");
-    save_delivery(&path, "two-arc", &d, &ViewerOptions::default()).expect("save");
+    save_delivery(&path, "two-arc", &d, &[], &ViewerOptions::default()).expect("save");
     let speed = read_rrd(&path).scalar_rows(paths::SPEED);
     assert!(speed.iter().any(|r| r.values[0] > 1.0), "clockwise arc");
     assert!(
@@ -318,14 +318,14 @@ fn bad_inputs_are_errors() {
     let d = simulated("plans/lung.json", Schedule::StepAndShoot);
     let path = out_path("never.rrd");
     for dt in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let err = save_delivery(&path, "x", &d, &ViewerOptions { sample_dt_s: dt });
+        let err = save_delivery(&path, "x", &d, &[], &ViewerOptions { sample_dt_s: dt });
         assert!(
             matches!(err, Err(ViewerError::InvalidSampleDt(_))),
             "{dt}: {err:?}"
         );
     }
     assert!(!path.exists(), "nothing written for a bad dt");
-    let err = save_delivery(&path, "x", &d, &ViewerOptions { sample_dt_s: 1e-6 });
+    let err = save_delivery(&path, "x", &d, &[], &ViewerOptions { sample_dt_s: 1e-6 });
     assert!(!path.exists(), "nothing written for a tiny dt");
     assert!(
         matches!(err, Err(ViewerError::TooManySamples { .. })),
@@ -334,7 +334,7 @@ fn bad_inputs_are_errors() {
 
     let mut no_timeline = d.clone();
     no_timeline.timeline = None;
-    let err = save_delivery(&path, "x", &no_timeline, &ViewerOptions::default());
+    let err = save_delivery(&path, "x", &no_timeline, &[], &ViewerOptions::default());
     assert!(matches!(err, Err(ViewerError::NoTimeline)), "{err:?}");
 
     assert!(
@@ -343,7 +343,7 @@ fn bad_inputs_are_errors() {
     );
 
     let missing_dir = out_path("no-such-dir").join("out.rrd");
-    let err = save_delivery(&missing_dir, "x", &d, &ViewerOptions::default());
+    let err = save_delivery(&missing_dir, "x", &d, &[], &ViewerOptions::default());
     assert!(matches!(err, Err(ViewerError::Save { .. })), "{err:?}");
 }
 

@@ -30,7 +30,7 @@ fn spawn_without_viewer_is_a_clear_error() {
     let machine =
         arcsim_plan::load_machine(root.join("scenarios/machine-atom.json")).expect("machine");
     let d = simulate(&plan, &machine, &Options::new(Schedule::Scan)).expect("simulation");
-    let err = spawn_delivery("lung", &d, &ViewerOptions::default());
+    let err = spawn_delivery("lung", &d, &[], &ViewerOptions::default());
     assert!(matches!(err, Err(ViewerError::Spawn(_))), "{err:?}");
     let message = err.map_err(|e| e.to_string()).expect_err("error");
     assert!(

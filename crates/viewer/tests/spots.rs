@@ -139,8 +139,8 @@ fn write(name: &str, spots: &[SpotRow], energies: &[f64]) -> PathBuf {
         .enabled(true)
         .save(&path)
         .expect("rrd");
-    arcsim_viewer::send_delivery_blueprint_with_spots(&rec).expect("blueprint");
-    arcsim_viewer::log_spots_with_energies(&rec, spots, energies).expect("log spots");
+    arcsim_viewer::send_delivery_blueprint(&rec, true).expect("blueprint");
+    arcsim_viewer::log_spots(&rec, spots, energies).expect("log spots");
     rec.flush_blocking().expect("flush");
     drop(rec);
     path
@@ -286,7 +286,7 @@ fn no_positions_log_nothing() {
     );
 }
 
-/// `save_delivery_with_spots` lays the view out and names each layer's energy; without
+/// `save_delivery` with spots lays the view out and names each layer's energy; without
 /// positioned spots it writes what `save_delivery` writes.
 #[test]
 fn save_delivery_with_spots_adds_the_view() {
@@ -316,7 +316,7 @@ fn save_delivery_with_spots_adds_the_view() {
     let opts = arcsim_viewer::ViewerOptions { sample_dt_s: 0.1 };
 
     let path = out_path("delivery-spots.rrd");
-    arcsim_viewer::save_delivery_with_spots(&path, "spots", &d, &spots, &opts).expect("save");
+    arcsim_viewer::save_delivery(&path, "spots", &d, &spots, &opts).expect("save");
     let rrd = read_rrd(&path);
     assert!(rrd
         .blueprint_names
@@ -342,7 +342,7 @@ fn save_delivery_with_spots_adds_the_view() {
     for r in &mut spots {
         r.x_mm = None;
     }
-    arcsim_viewer::save_delivery_with_spots(&plain, "no spots", &d, &spots, &opts).expect("save");
+    arcsim_viewer::save_delivery(&plain, "no spots", &d, &spots, &opts).expect("save");
     let rrd = read_rrd(&plain);
     assert!(!rrd
         .blueprint_names
