@@ -55,19 +55,8 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// The plan in `bytes`, read from the input called `name` in messages. A DICOM RT Ion Plan
 /// (recognised by content, or by `dicom_extension` so a broken one gets a DICOM message) is
 /// imported and named after `stem` when it has neither RTPlanLabel nor RTPlanName; anything else
-/// must be an `arcsim-plan/1` JSON document. The warnings of a DICOM import are dropped: see
-/// [`plan_from_bytes_warned`].
-pub fn plan_from_bytes(
-    name: &str,
-    stem: Option<&str>,
-    dicom_extension: bool,
-    bytes: &[u8],
-) -> Result<ArcPlan, AppError> {
-    plan_from_bytes_warned(name, stem, dicom_extension, bytes).map(|(plan, _)| plan)
-}
-
-/// [`plan_from_bytes`], with the warnings of a DICOM import, each starting with `name` (a JSON
-/// plan has none).
+/// must be an `arcsim-plan/1` JSON document. Also returns the warnings of a DICOM import, each starting
+/// with `name` (a JSON plan has none).
 pub fn plan_from_bytes_warned(
     name: &str,
     stem: Option<&str>,
@@ -99,7 +88,7 @@ pub fn plan_from_bytes_warned(
     Ok((arcsim_plan::parse_plan(text, name)?, Vec::new()))
 }
 
-/// Reads the plan file at `path` (named by its path in messages) with [`plan_from_bytes`];
+/// Reads the plan file at `path` (named by its path in messages) with [`plan_from_bytes_warned`];
 /// returns it with the SHA-256 of its bytes.
 pub fn read_plan_file(path: &std::path::Path) -> Result<(ArcPlan, String), AppError> {
     read_plan_file_warned(path).map(|(plan, sha256, _)| (plan, sha256))
@@ -150,14 +139,14 @@ mod tests {
 
     #[test]
     fn plans_are_told_apart_by_content() {
-        let err = plan_from_bytes("x.json", None, false, &[0xff, 0xfe]).unwrap_err();
+        let err = plan_from_bytes_warned("x.json", None, false, &[0xff, 0xfe]).unwrap_err();
         assert!(
             err.to_string().starts_with("x.json: neither a DICOM file"),
             "{err}"
         );
-        let err = plan_from_bytes("x.dcm", None, true, b"{}").unwrap_err();
+        let err = plan_from_bytes_warned("x.dcm", None, true, b"{}").unwrap_err();
         assert!(matches!(err, AppError::Dicom { .. }), "{err}");
-        let err = plan_from_bytes("x.json", None, false, b"{}").unwrap_err();
+        let err = plan_from_bytes_warned("x.json", None, false, b"{}").unwrap_err();
         assert!(matches!(err, AppError::Plan(_)), "{err}");
     }
 }

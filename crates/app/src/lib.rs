@@ -4,7 +4,7 @@
 //! What the `arcsim` command does around the engine, as a library, so that every front end (the
 //! CLI, the Python package) reads the same files the same way and writes the same result:
 //!
-//! - [`plan_from_bytes`]: a plan file is native JSON or a DICOM RT Ion Plan, told apart by content
+//! - [`plan_from_bytes_warned`]: a plan file is native JSON or a DICOM RT Ion Plan, told apart by content
 //!   ("DICM" after the 128-byte preamble) or a `.dcm`/`.dicom` extension, not by trust in the name;
 //! - [`machine_from_text`] and [`builtin_machine`]: machine models, the ATOM machine built in;
 //! - [`SimulateRequest::options`]: `simulate`'s defaults (free motion unless a servo period applies
@@ -20,7 +20,7 @@ mod request;
 
 pub use document::{OptionsOut, Provenance, ResultDocument, Source, RESULT_FORMAT};
 pub use inputs::{
-    builtin_machine, machine_from_text, plan_from_bytes, plan_from_bytes_warned, read_plan_file,
+    builtin_machine, machine_from_text, plan_from_bytes_warned, read_plan_file,
     read_plan_file_warned, sha256_hex, AppError, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
 };
 pub use moves::{MoveError, MoveRequest, SolvedMove};

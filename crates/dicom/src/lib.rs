@@ -108,17 +108,9 @@ pub fn read_rt_ion_plan_from_bytes(bytes: &[u8]) -> Result<ArcPlan, DicomImportE
     import(bytes, DEFAULT_PLAN_NAME).map(|i| i.plan)
 }
 
-/// As [`read_rt_ion_plan_from_bytes`], naming the plan `fallback_name` (usually the file stem) when
-/// the file has neither RTPlanLabel nor RTPlanName; for callers that read the file themselves.
-/// The warnings of the import are dropped.
-pub fn read_rt_ion_plan_from_bytes_named(
-    bytes: &[u8],
-    fallback_name: &str,
-) -> Result<ArcPlan, DicomImportError> {
-    import(bytes, fallback_name).map(|i| i.plan)
-}
-
-/// As [`read_rt_ion_plan_from_bytes_named`], with the warnings of the import.
+/// As [`read_rt_ion_plan_from_bytes`], with the warnings of the import, naming the plan
+/// `fallback_name` (usually the file stem) when the file has neither RTPlanLabel nor RTPlanName;
+/// for callers that read the file themselves.
 pub fn import_rt_ion_plan_from_bytes(
     bytes: &[u8],
     fallback_name: &str,

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::{FigureKind, Report, ReportError};
+use crate::{FigureKind, Report};
 
 /// Text for HTML content and attribute values.
 fn escape(s: &str) -> String {
@@ -118,20 +118,6 @@ impl Report {
             .iter()
             .flat_map(|s| &s.figures)
             .map(|f| (dir.join(format!("{}.svg", f.file_stem)), f.svg.as_str()))
-            .collect()
-    }
-
-    /// Writes every figure to `dir` (which must exist) as [`Report::svg_files`] names them.
-    pub fn write_svgs(&self, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
-        self.svg_files(dir)
-            .into_iter()
-            .map(|(path, svg)| {
-                std::fs::write(&path, svg).map_err(|source| ReportError::Io {
-                    path: path.display().to_string(),
-                    source,
-                })?;
-                Ok(path)
-            })
             .collect()
     }
 }

@@ -6,7 +6,7 @@
 //! breakdown (beam on / energy switching / gantry) of the base, cheapest and fastest settings.
 //!
 //! Figures are SVG drawn with `plotters` ([`figures`]); [`Report::to_html`] puts them in one
-//! self-contained HTML file and [`Report::write_svgs`] writes them as separate files.
+//! self-contained HTML file and [`Report::svg_files`] names them as separate files.
 
 #![warn(missing_docs)]
 
@@ -16,7 +16,7 @@ mod model;
 
 pub use model::{build, Figure, FigureKind, Report, Section};
 
-/// What can go wrong while drawing or writing a report.
+/// What can go wrong while drawing a report.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
     /// `plotters` failed to draw a figure (a bug, or a value it cannot place).
@@ -26,13 +26,5 @@ pub enum ReportError {
         figure: String,
         /// What `plotters` reported.
         message: String,
-    },
-    /// Writing a file failed.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: String,
-        /// Why it failed.
-        source: std::io::Error,
     },
 }
