@@ -246,6 +246,7 @@ fn scanning_setup(dir: &Path, axes: &str) -> String {
         scan_speed_mm_per_s: Some(5000.0),
         scan_speed_x_mm_per_s: None,
         scan_speed_y_mm_per_s: None,
+        scan_distance: Default::default(),
         min_spot_time_s: 0.0,
         settling_time_s: 0.0,
         max_mu_per_spot: None,

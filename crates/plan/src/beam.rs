@@ -5,8 +5,9 @@
 //!   spot takes `max(MU × s_per_mu, min_spot_time_s)` and consecutive spots are a fixed
 //!   `spot_switch_time_s` apart.
 //! - `scanning`: the dose rate depends on the energy (`s_per_mu_by_energy`, interpolated), the
-//!   scanning magnets move the beam between spots at a finite speed (the slower axis sets the
-//!   time), each move may add a settling time, a spot above `max_mu_per_spot` is split over extra
+//!   scanning magnets move the beam between spots at a finite speed (`scan_distance`: the slower
+//!   axis sets the time, or the straight-line distance at one speed), each move may add a
+//!   settling time, a spot above `max_mu_per_spot` is split over extra
 //!   paintings, and a layer may carry a fixed overhead before its first spot.
 //!
 //! Both kinds lay a layer's spots out as [`SpotEvent`]s (start and end relative to the layer's
@@ -41,7 +42,7 @@ pub struct PerMuBeam {
     pub min_spot_time_s: f64,
 }
 
-/// The `scanning` beam model. Typical numbers: OpenTPS's PBS timing (`scenarios/machine-opentps.json`).
+/// The `scanning` beam model. Typical numbers: OpenTPS's PBS timing (`scenarios/machine-opentps-pbs.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ScanningBeam {
@@ -57,6 +58,9 @@ pub struct ScanningBeam {
     /// Scanning speed along y, mm/s.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scan_speed_y_mm_per_s: Option<f64>,
+    /// Which distance the scanning speed covers between two spots (default `per_axis`).
+    #[serde(default, skip_serializing_if = "ScanDistance::is_per_axis")]
+    pub scan_distance: ScanDistance,
     /// Shortest time one spot can take, s.
     #[serde(default)]
     pub min_spot_time_s: f64,
@@ -167,10 +171,36 @@ impl ScanningBeam {
         }
     }
 
-    /// Time to move the spot from `a` to `b` (mm): the slower axis sets it, plus the settling time.
+    /// Time to move the spot from `a` to `b` (mm) as [`ScanDistance`] says, plus the settling
+    /// time.
     pub fn move_time_s(&self, a: [f64; 2], b: [f64; 2]) -> f64 {
         let (vx, vy) = self.speeds_mm_per_s();
-        ((b[0] - a[0]).abs() / vx).max((b[1] - a[1]).abs() / vy) + self.settling_time_s
+        let (dx, dy) = ((b[0] - a[0]).abs(), (b[1] - a[1]).abs());
+        let scan = match self.scan_distance {
+            ScanDistance::PerAxis => (dx / vx).max(dy / vy),
+            ScanDistance::Euclidean => dx.hypot(dy) / vx,
+        };
+        scan + self.settling_time_s
+    }
+}
+
+/// How the time of a spot-to-spot move follows from the distance. Both occur in real machines:
+/// two scanning magnets that move together, each at its own speed, versus one speed along the
+/// path (OpenTPS's `SimpleBeamDeliveryTimings`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ScanDistance {
+    /// The axes move at the same time, each at its speed: `max(|dx| / vx, |dy| / vy)`.
+    #[default]
+    PerAxis,
+    /// The straight-line distance at one speed (`scan_speed_mm_per_s`): `hypot(dx, dy) / v`.
+    Euclidean,
+}
+
+impl ScanDistance {
+    /// Whether this is the default, `per_axis` (left out when a machine is written).
+    pub fn is_per_axis(&self) -> bool {
+        *self == ScanDistance::PerAxis
     }
 }
 

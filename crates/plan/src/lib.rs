@@ -21,8 +21,8 @@ mod zero;
 
 pub use atom::{atom_case_plan, ATOM_PLACEHOLDER_MIN_ENERGY_MEV};
 pub use beam::{
-    layer_beam_time, time_spots, BeamModel, LayerBeamTime, PerMuBeam, ScanningBeam, SpotEvent,
-    SpotTimingError, MAX_SPOT_DELIVERIES,
+    layer_beam_time, time_spots, BeamModel, LayerBeamTime, PerMuBeam, ScanDistance, ScanningBeam,
+    SpotEvent, SpotTimingError, MAX_SPOT_DELIVERIES,
 };
 pub use error::{fmt_num, PlanError, PlanIssue};
 pub use generate::{generate, to_json, PlanKind};

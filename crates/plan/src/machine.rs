@@ -4,6 +4,7 @@
 use crate::error::{fmt_num, At, PlanIssue};
 use crate::model::{poly, BeamModel, ElstModel, GantryLimitsSpec, Machine, MACHINE_FORMAT};
 use crate::validate::ENERGY_RANGE_MEV;
+use crate::ScanDistance;
 
 /// Gantry limits arcsim accepts. They span every real gantry (V 1–10 deg/s, A 0.1–5 deg/s²,
 /// J 0.1–10 deg/s³) by orders of magnitude for what-if studies; beyond them a move's durations
@@ -226,6 +227,12 @@ fn beam(m: &mut Checker, beam: &BeamModel) {
                     "beam.scan_speed_mm_per_s",
                     "expected either `scan_speed_mm_per_s` (both axes) or both `scan_speed_x_mm_per_s` and `scan_speed_y_mm_per_s`".into(),
                 ),
+            }
+            if b.scan_distance == ScanDistance::Euclidean && b.scan_speed_mm_per_s.is_none() {
+                m.push(
+                    "beam.scan_distance",
+                    "\"euclidean\" covers the straight-line distance at one speed: expected `scan_speed_mm_per_s`, not one speed per axis".into(),
+                );
             }
             for (field, v) in speeds {
                 if let Some(v) = v {

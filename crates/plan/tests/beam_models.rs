@@ -3,7 +3,7 @@
 
 use arcsim_plan::{
     layer_beam_time, parse_machine, parse_plan, resolve, time_spots, BeamModel, Machine, PerMuBeam,
-    PlanError, ScanningBeam, SpotEvent, Spots,
+    PlanError, ScanDistance, ScanningBeam, SpotEvent, Spots,
 };
 use arcsim_test_support::Rng;
 use serde_json::{json, Value};
@@ -14,6 +14,7 @@ fn scanning(speed: Option<f64>, xy: Option<(f64, f64)>) -> ScanningBeam {
         scan_speed_mm_per_s: speed,
         scan_speed_x_mm_per_s: xy.map(|v| v.0),
         scan_speed_y_mm_per_s: xy.map(|v| v.1),
+        scan_distance: ScanDistance::PerAxis,
         min_spot_time_s: 0.00025,
         settling_time_s: 0.001,
         max_mu_per_spot: None,
@@ -68,6 +69,27 @@ fn scanning_layer_by_hand() {
     assert!(close(irr, 0.01 + 0.02 + 0.00025), "{irr}");
     assert!(close(scan, 0.5 + 0.002 + 0.005), "{scan}");
     assert_eq!(ev[2].position_mm, Some([10.0, 20.0]));
+}
+
+/// The same three spots with the straight-line distance at 8 m/s (`euclidean`): the moves of
+/// 10 mm and 20 mm take 1.25 and 2.5 ms (+1 ms settling each); a diagonal move of 30 mm in x and
+/// 40 mm in y covers 50 mm in 6.25 ms, where `per_axis` takes the longer axis, 40 mm in 5 ms.
+#[test]
+fn euclidean_scanning_by_hand() {
+    let mut b = scanning(Some(8_000.0), None);
+    b.scan_distance = ScanDistance::Euclidean;
+    let beam = BeamModel::Scanning(b.clone());
+    let s = spots(&[1.0, 2.0, 0.001], &[[0.0, 0.0], [10.0, 0.0], [10.0, 20.0]]);
+    let (ev, irr, scan) = events(&s, 100.0, &beam);
+    let want = [(0.5, 0.51), (0.51225, 0.53225), (0.53575, 0.536)];
+    for (e, (t0, t1)) in ev.iter().zip(want) {
+        assert!(close(e.start_s, t0) && close(e.end_s, t1), "{e:?}");
+    }
+    assert!(close(irr, 0.01 + 0.02 + 0.00025), "{irr}");
+    assert!(close(scan, 0.5 + 0.00225 + 0.0035), "{scan}");
+    assert!(close(b.move_time_s([0.0, 0.0], [30.0, -40.0]), 0.00725));
+    b.scan_distance = ScanDistance::PerAxis;
+    assert!(close(b.move_time_s([0.0, 0.0], [30.0, -40.0]), 0.006));
 }
 
 /// A spot above `max_mu_per_spot` is split into equal parts over extra passes; lighter spots are
@@ -241,6 +263,32 @@ fn machine_files_of_both_kinds() {
     let e = issues(&bad);
     assert!(
         e.contains("beam.scan_speed_mm_per_s") && e.contains("either"),
+        "{e}"
+    );
+    let mut euclid = scan.clone();
+    euclid["beam"]["scan_distance"] = json!("euclidean");
+    let m = parse_machine(&euclid.to_string(), "m.json").expect("euclidean");
+    let again = parse_machine(&serde_json::to_string(&m).expect("json"), "again").expect("again");
+    assert_eq!(again, m);
+    let written = serde_json::to_value(&m).expect("json");
+    assert_eq!(written["beam"]["scan_distance"], json!("euclidean"));
+    let plain = serde_json::to_value(parse_machine(&scan.to_string(), "m.json").expect("scan"))
+        .expect("json");
+    assert!(plain["beam"].get("scan_distance").is_none(), "{plain}");
+    let mut bad = euclid.clone();
+    bad["beam"]["scan_distance"] = json!("diagonal");
+    let e = issues(&bad);
+    assert!(e.contains("diagonal") && e.contains("euclidean"), "{e}");
+    let mut bad = euclid;
+    bad["beam"]
+        .as_object_mut()
+        .expect("beam")
+        .remove("scan_speed_mm_per_s");
+    bad["beam"]["scan_speed_x_mm_per_s"] = json!(8000);
+    bad["beam"]["scan_speed_y_mm_per_s"] = json!(4000);
+    let e = issues(&bad);
+    assert!(
+        e.contains("beam.scan_distance") && e.contains("one speed"),
         "{e}"
     );
     let mut bad = scan.clone();

@@ -4,4 +4,5 @@ mod atom_cases;
 mod beam_models;
 mod bundled;
 mod machine_resolve;
+mod opentps;
 mod validation;
