@@ -171,6 +171,8 @@ fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
             *down_s = s.elst_down_s.unwrap_or(*down_s);
         }
         ElstModel::Polynomial { down_s, .. } => *down_s = s.elst_down_s.unwrap_or(*down_s),
+        // A loaded sweep sets neither on a table model.
+        ElstModel::ByEnergy { .. } | ElstModel::ByEnergyPair { .. } => {}
     }
     let resolved = match s.window_deg {
         None => arcsim_plan::resolve(plan, &m),

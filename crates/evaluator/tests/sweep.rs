@@ -962,3 +962,60 @@ fn csv_writes_the_limit_used_in_every_column() {
     let back = ev.rows_from_csv("fast.csv", &table).expect("read back");
     assert_eq!(csv(&back), table);
 }
+
+/// An ELST table has no single up or down time: sweeping either is refused, naming the model;
+/// other axes run, and the ELST columns of the rows stay empty and read back.
+#[test]
+fn elst_tables_are_not_swept_but_run() {
+    let dir = temp_dir().join("elst-table-sweep");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let mut machine: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(scenarios().join("machine-atom.json")).expect("machine"),
+    )
+    .expect("machine json");
+    machine["name"] = "pairs".into();
+    machine["elst"] = serde_json::json!({
+        "kind": "by_energy_pair",
+        "energies_mev": [100, 200],
+        "switch_s": [[0.4, 5.0], [0.6, 0.4]],
+        "same_s": 0.1
+    });
+    std::fs::write(dir.join("machine-pairs.json"), machine.to_string()).expect("write");
+    let plan = scenarios().join("../plans/prostate.json");
+    let sweep = |axes: &str| {
+        format!(
+            r#"{{"format": "arcsim-sweep/1", "name": "t", "plans": [{plan:?}],
+                "machine": "machine-pairs.json", "axes": {axes}, "schedules": ["scan"]}}"#,
+            plan = plan.display().to_string()
+        )
+    };
+    for (axis, expected) in [
+        ("elst_up_s", "expected a constant one to sweep the upward"),
+        (
+            "elst_down_s",
+            "expected a constant or polynomial one to sweep the downward",
+        ),
+    ] {
+        let text = sweep(&format!("{{\"{axis}\": [0.5, 1]}}"));
+        let e = match crate::util::from_text_in(&text, &dir) {
+            Ok(_) => panic!("{axis}: expected an error"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.starts_with(&format!(
+                "test-sweep.json: axes.{axis}: machine \"pairs\" has a by energy pair ELST model"
+            )) && e.contains(expected),
+            "{e}"
+        );
+    }
+    let text = sweep("{\"jerk_deg_per_s3\": [0.5, 1]}");
+    let ev =
+        Evaluator::new(crate::util::from_text_in(&text, &dir).expect("sweep")).expect("prepare");
+    let rows = ev.run_collect(&[0, 1]);
+    assert!(rows.iter().all(|r| r.outcome.is_some()), "{rows:?}");
+    let table = csv(&rows);
+    let line = table.lines().nth(1).expect("row 0");
+    assert!(line.contains(",scan,0.5,0.5,5,,,1,"), "{line}");
+    let back = ev.rows_from_csv("pairs.csv", &table).expect("read back");
+    assert_eq!(csv(&back), table);
+}

@@ -17,7 +17,7 @@
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
-use crate::model::{EnergyLayer, Spots};
+use crate::model::{interpolate_clamped, EnergyLayer, Spots};
 
 /// How long a layer's spots take to deliver.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -142,20 +142,7 @@ impl BeamModel {
 impl ScanningBeam {
     /// Seconds per MU at `energy_mev`: linear between the table's rows, clamped at its ends.
     pub fn s_per_mu_at(&self, energy_mev: f64) -> f64 {
-        let rows = &self.s_per_mu_by_energy;
-        let Some(first) = rows.first() else {
-            return f64::NAN;
-        };
-        if energy_mev <= first[0] {
-            return first[1];
-        }
-        for w in rows.windows(2) {
-            let ([e0, r0], [e1, r1]) = (w[0], w[1]);
-            if energy_mev <= e1 {
-                return r0 + (r1 - r0) * (energy_mev - e0) / (e1 - e0);
-            }
-        }
-        rows[rows.len() - 1][1]
+        interpolate_clamped(&self.s_per_mu_by_energy, energy_mev)
     }
 
     /// Scanning speeds along x and y, mm/s.

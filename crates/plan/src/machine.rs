@@ -155,6 +155,95 @@ fn elst(m: &mut Checker, elst: &ElstModel) {
                 }
             }
         }
+        ElstModel::ByEnergy {
+            up_s_by_energy,
+            down_s_by_energy,
+            same_s,
+        } => {
+            switch_time(m, "elst.same_s", *same_s);
+            for (name, rows) in [
+                ("elst.up_s_by_energy", up_s_by_energy),
+                ("elst.down_s_by_energy", down_s_by_energy),
+            ] {
+                if rows.is_empty() || rows.len() > MAX_ELST_TABLE_ROWS {
+                    m.push(
+                        name,
+                        format!("{} rows; expected 1 to {MAX_ELST_TABLE_ROWS} rows of [energy MeV, switching time s]", rows.len()),
+                    );
+                }
+                let energies: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+                increasing_energies(m, name, "][0]", &energies);
+                for (i, row) in rows.iter().enumerate() {
+                    switch_time(m, &format!("{name}[{i}][1]"), row[1]);
+                }
+            }
+        }
+        ElstModel::ByEnergyPair {
+            energies_mev,
+            switch_s,
+            same_s,
+        } => {
+            switch_time(m, "elst.same_s", *same_s);
+            let n = energies_mev.len();
+            if n == 0 || n > MAX_ELST_TABLE_ROWS {
+                m.push(
+                    "elst.energies_mev",
+                    format!("{n} energies; expected 1 to {MAX_ELST_TABLE_ROWS}"),
+                );
+            }
+            increasing_energies(m, "elst.energies_mev", "]", energies_mev);
+            if switch_s.len() != n {
+                m.push(
+                    "elst.switch_s",
+                    format!(
+                        "{} rows; expected one per energy of `energies_mev` ({n})",
+                        switch_s.len()
+                    ),
+                );
+            }
+            for (i, row) in switch_s.iter().enumerate() {
+                if row.len() != n {
+                    m.push(
+                        &format!("elst.switch_s[{i}]"),
+                        format!(
+                            "{} columns; expected one per energy of `energies_mev` ({n})",
+                            row.len()
+                        ),
+                    );
+                }
+                for (j, x) in row.iter().enumerate() {
+                    switch_time(m, &format!("elst.switch_s[{i}][{j}]"), *x);
+                }
+            }
+        }
+    }
+}
+
+/// Most rows of an ELST table (and energies of a pair table's grid).
+pub const MAX_ELST_TABLE_ROWS: usize = 1000;
+
+/// A switching time: finite, >= 0 and at most [`MAX_SWITCH_TIME_S`].
+fn switch_time(m: &mut Checker, field: &str, x: f64) {
+    m.check(field, x, false, "s");
+    m.at_most(field, x, MAX_SWITCH_TIME_S, "s");
+}
+
+/// A table's energies: each in the accepted range and above the one before. `field` and `tail`
+/// name entry `i` as `{field}[{i}{tail}`.
+fn increasing_energies(m: &mut Checker, field: &str, tail: &str, energies: &[f64]) {
+    for (i, e) in energies.iter().enumerate() {
+        let at = format!("{field}[{i}{tail}");
+        m.range(&at, *e, ENERGY_RANGE_MEV, "MeV");
+        if i > 0 && (e.is_nan() || *e <= energies[i - 1]) {
+            m.push(
+                &at,
+                format!(
+                    "energy {} MeV does not rise above the previous {} MeV; expected strictly increasing energies",
+                    fmt_num(*e),
+                    fmt_num(energies[i - 1])
+                ),
+            );
+        }
     }
 }
 

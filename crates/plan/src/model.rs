@@ -186,6 +186,81 @@ pub enum ElstModel {
         /// Coefficients of the upward time in the energy step, lowest power first.
         up_coeffs_s: Vec<f64>,
     },
+    /// Tables by the target energy, one for upward and one for downward switches: `[MeV, s]`
+    /// rows, energies strictly increasing, interpolated linearly in the energy switched to and
+    /// clamped to the first / last row outside them.
+    ByEnergy {
+        /// Seconds for a switch up to an energy, by that energy.
+        up_s_by_energy: Vec<[f64; 2]>,
+        /// Seconds for a switch down to an energy, by that energy.
+        down_s_by_energy: Vec<[f64; 2]>,
+        /// Seconds between two layers of the same energy.
+        same_s: f64,
+    },
+    /// A table by energy pair: `switch_s[i][j]` is the time from `energies_mev[i]` to
+    /// `energies_mev[j]`; other pairs are interpolated bilinearly in (from, to) inside the grid
+    /// and clamped to its edges outside it.
+    ByEnergyPair {
+        /// Grid energies, MeV, strictly increasing.
+        energies_mev: Vec<f64>,
+        /// Switching times, seconds: one row per energy switched from, one column per energy
+        /// switched to.
+        switch_s: Vec<Vec<f64>>,
+        /// Seconds between two layers of the same energy.
+        same_s: f64,
+    },
+}
+
+/// `rows` (`[x, y]`, x strictly increasing) interpolated linearly at `x`, clamped to the first /
+/// last row outside them; NaN without rows.
+pub(crate) fn interpolate_clamped(rows: &[[f64; 2]], x: f64) -> f64 {
+    let Some(first) = rows.first() else {
+        return f64::NAN;
+    };
+    if x <= first[0] {
+        return first[1];
+    }
+    for w in rows.windows(2) {
+        let ([x0, y0], [x1, y1]) = (w[0], w[1]);
+        if x <= x1 {
+            return y0 + (y1 - y0) * (x - x0) / (x1 - x0);
+        }
+    }
+    rows[rows.len() - 1][1]
+}
+
+/// Where `x` falls on the increasing `grid`: the cell's lower index and the fraction across it,
+/// clamped to the grid (a one-point grid is its only point).
+fn grid_cell(grid: &[f64], x: f64) -> (usize, f64) {
+    let n = grid.len();
+    if n < 2 || x <= grid[0] {
+        return (0, 0.0);
+    }
+    if x >= grid[n - 1] {
+        return (n - 2, 1.0);
+    }
+    let i = grid
+        .partition_point(|&g| g <= x)
+        .saturating_sub(1)
+        .min(n - 2);
+    (i, (x - grid[i]) / (grid[i + 1] - grid[i]))
+}
+
+/// The `ByEnergyPair` table at (`from`, `to`), bilinear (see [`ElstModel::ByEnergyPair`]).
+fn pair_table(energies: &[f64], table: &[Vec<f64>], from: f64, to: f64) -> f64 {
+    let at = |i: usize, j: usize| {
+        table
+            .get(i)
+            .and_then(|row| row.get(j))
+            .copied()
+            .unwrap_or(f64::NAN)
+    };
+    if energies.len() < 2 {
+        return at(0, 0);
+    }
+    let ((i, u), (j, w)) = (grid_cell(energies, from), grid_cell(energies, to));
+    (1.0 - u) * ((1.0 - w) * at(i, j) + w * at(i, j + 1))
+        + u * ((1.0 - w) * at(i + 1, j) + w * at(i + 1, j + 1))
 }
 
 /// Value of the polynomial `Σ c[i] x^i` (Horner's scheme, highest power first).
@@ -200,19 +275,59 @@ impl ElstModel {
     /// Seconds needed to switch the beam from `e_from_mev` to `e_to_mev`.
     pub fn switch_time_s(&self, e_from_mev: f64, e_to_mev: f64) -> f64 {
         let de = e_to_mev - e_from_mev;
-        let (down, same) = match self {
-            ElstModel::Constant { down_s, same_s, .. }
-            | ElstModel::Polynomial { down_s, same_s, .. } => (*down_s, *same_s),
-        };
         if de.abs() <= SAME_ENERGY_TOLERANCE_MEV {
-            same
-        } else if de < 0.0 {
-            down
-        } else {
-            match self {
-                ElstModel::Constant { up_s, .. } => *up_s,
-                ElstModel::Polynomial { up_coeffs_s, .. } => poly(up_coeffs_s, de),
+            return self.same_s();
+        }
+        let up = de > 0.0;
+        match self {
+            ElstModel::Constant { up_s, down_s, .. } => {
+                if up {
+                    *up_s
+                } else {
+                    *down_s
+                }
             }
+            ElstModel::Polynomial {
+                up_coeffs_s,
+                down_s,
+                ..
+            } => {
+                if up {
+                    poly(up_coeffs_s, de)
+                } else {
+                    *down_s
+                }
+            }
+            ElstModel::ByEnergy {
+                up_s_by_energy,
+                down_s_by_energy,
+                ..
+            } => interpolate_clamped(if up { up_s_by_energy } else { down_s_by_energy }, e_to_mev),
+            ElstModel::ByEnergyPair {
+                energies_mev,
+                switch_s,
+                ..
+            } => pair_table(energies_mev, switch_s, e_from_mev, e_to_mev),
+        }
+    }
+
+    /// Seconds between two layers of the same energy.
+    pub fn same_s(&self) -> f64 {
+        match self {
+            ElstModel::Constant { same_s, .. }
+            | ElstModel::Polynomial { same_s, .. }
+            | ElstModel::ByEnergy { same_s, .. }
+            | ElstModel::ByEnergyPair { same_s, .. } => *same_s,
+        }
+    }
+
+    /// The model's `kind` as machine files name it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            ElstModel::Constant { .. } => "constant",
+            ElstModel::Polynomial { .. } => "polynomial",
+            ElstModel::ByEnergy { .. } => "by_energy",
+            ElstModel::ByEnergyPair { .. } => "by_energy_pair",
         }
     }
 }

@@ -120,9 +120,15 @@ pub fn machine_warnings(m: &Machine, source: &str) -> Vec<Warning> {
         ElstModel::Polynomial { down_s, same_s, .. } => {
             vec![("elst.down_s", *down_s), ("elst.same_s", *same_s)]
         }
+        ElstModel::ByEnergy { same_s, .. } | ElstModel::ByEnergyPair { same_s, .. } => {
+            vec![("elst.same_s", *same_s)]
+        }
     };
     for (field, x) in elst {
         c.range(field, x, (0.0, 60.0), "s", None, Some(MS));
+    }
+    for (field, x) in elst_table_entries(&m.elst) {
+        c.range(&field, x, (0.0, 60.0), "s", None, Some(MS));
     }
     if let Some(ts) = m.servo_period_s {
         c.range("servo_period_s", ts, (1e-4, 0.1), "s", None, Some(MS));
@@ -259,4 +265,35 @@ pub fn plan_warnings(p: &ArcPlan, source: &str) -> Vec<Warning> {
         c.range(&name, p.value, p.range, p.unit, None, p.slip);
     }
     c.out
+}
+
+/// The switching times of an ELST table, each with its field.
+fn elst_table_entries(elst: &ElstModel) -> Vec<(String, f64)> {
+    match elst {
+        ElstModel::ByEnergy {
+            up_s_by_energy,
+            down_s_by_energy,
+            ..
+        } => [
+            ("elst.up_s_by_energy", up_s_by_energy),
+            ("elst.down_s_by_energy", down_s_by_energy),
+        ]
+        .into_iter()
+        .flat_map(|(name, rows)| {
+            rows.iter()
+                .enumerate()
+                .map(move |(i, r)| (format!("{name}[{i}][1]"), r[1]))
+        })
+        .collect(),
+        ElstModel::ByEnergyPair { switch_s, .. } => switch_s
+            .iter()
+            .enumerate()
+            .flat_map(|(i, row)| {
+                row.iter()
+                    .enumerate()
+                    .map(move |(j, x)| (format!("elst.switch_s[{i}][{j}]"), *x))
+            })
+            .collect(),
+        ElstModel::Constant { .. } | ElstModel::Polynomial { .. } => Vec::new(),
+    }
 }

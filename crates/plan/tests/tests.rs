@@ -3,6 +3,7 @@
 mod atom_cases;
 mod beam_models;
 mod bundled;
+mod elst_tables;
 mod machine_resolve;
 mod opentps;
 mod validation;

@@ -396,7 +396,7 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
         },
         defaults: arcsim_evaluator::Defaults {
             elst_up_s: Some(5.0),
-            elst_down_s: 0.5,
+            elst_down_s: Some(0.5),
             window_deg: 1.0,
             scan_speed_mm_per_s: None,
             dose_rate_scale: 1.0,

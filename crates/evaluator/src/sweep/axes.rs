@@ -77,11 +77,23 @@ pub(super) fn expand_runs(
                 let (a, at) = pick(f);
                 let field = format!("{at}.{}", axis.field());
                 let Some(a) = a else { return Ok(None) };
-                if axis == Axis::ElstUp && matches!(machine.elst, ElstModel::Polynomial { .. }) {
+                let swept = match axis {
+                    Axis::ElstUp => matches!(machine.elst, ElstModel::Constant { .. }),
+                    Axis::ElstDown => matches!(
+                        machine.elst,
+                        ElstModel::Constant { .. } | ElstModel::Polynomial { .. }
+                    ),
+                    _ => true,
+                };
+                if !swept {
+                    let (direction, expected) = match axis {
+                        Axis::ElstUp => ("upward", "a constant one"),
+                        _ => ("downward", "a constant or polynomial one"),
+                    };
                     return Err(EvalError::sweep(
                         file,
                         field,
-                        format!("machine \"{}\" has a polynomial ELST model; expected a constant one to sweep the upward switching time", machine.name),
+                        format!("machine \"{}\" has a {} ELST model; expected {expected} to sweep the {direction} switching time", machine.name, machine.elst.kind().replace('_', " ")),
                     ));
                 }
                 if axis == Axis::ScanSpeed && matches!(machine.beam, BeamModel::PerMu(_)) {
@@ -342,6 +354,8 @@ pub(super) fn check_machine_values(
                     *if axis == Axis::ElstUp { up_s } else { down_s } = x;
                 }
                 ElstModel::Polynomial { down_s, .. } => *down_s = x,
+                // Refused when the sweep is loaded (no single up or down time to set).
+                ElstModel::ByEnergy { .. } | ElstModel::ByEnergyPair { .. } => {}
             },
             Axis::Window => m.default_window_deg = x,
             Axis::ScanSpeed => {

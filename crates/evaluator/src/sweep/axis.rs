@@ -80,11 +80,11 @@ impl Setting {
     }
 
     /// The value of one axis, the base machine's (`defaults`) where the setting keeps it (`None`
-    /// only for the upward ELST of a polynomial ELST model).
+    /// where the ELST model has no single value: see [`Defaults`]).
     pub fn get_or(&self, axis: Axis, defaults: &Defaults) -> Option<f64> {
         self.get(axis).or(match axis {
             Axis::ElstUp => defaults.elst_up_s,
-            Axis::ElstDown => Some(defaults.elst_down_s),
+            Axis::ElstDown => defaults.elst_down_s,
             Axis::Window => Some(defaults.window_deg),
             Axis::ScanSpeed => defaults.scan_speed_mm_per_s,
             Axis::DoseRateScale => Some(defaults.dose_rate_scale),

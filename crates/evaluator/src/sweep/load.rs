@@ -84,12 +84,13 @@ impl Sweep {
         match axis {
             Axis::ElstUp => match self.machine.elst {
                 ElstModel::Constant { up_s, .. } => Some(up_s),
-                ElstModel::Polynomial { .. } => None,
+                _ => None,
             },
             Axis::ElstDown => match self.machine.elst {
                 ElstModel::Constant { down_s, .. } | ElstModel::Polynomial { down_s, .. } => {
                     Some(down_s)
                 }
+                _ => None,
             },
             Axis::Window => Some(self.machine.default_window_deg),
             Axis::ScanSpeed => single_scan_speed(&self.machine.beam),
@@ -102,9 +103,7 @@ impl Sweep {
     pub fn defaults(&self) -> Defaults {
         Defaults {
             elst_up_s: self.base_value(Axis::ElstUp),
-            elst_down_s: match self.machine.elst {
-                ElstModel::Constant { down_s, .. } | ElstModel::Polynomial { down_s, .. } => down_s,
-            },
+            elst_down_s: self.base_value(Axis::ElstDown),
             window_deg: self.machine.default_window_deg,
             scan_speed_mm_per_s: single_scan_speed(&self.machine.beam),
             dose_rate_scale: 1.0,

@@ -57,11 +57,11 @@ pub struct Setting {
 /// combination that does not sweep them runs with, and what the CSV's limit columns hold for them.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Defaults {
-    /// Upward ELST (s); `None` for a polynomial ELST model (no single value; the axis cannot be
-    /// swept then).
+    /// Upward ELST (s); `None` for a polynomial or table ELST model (no single value; the axis
+    /// cannot be swept then).
     pub elst_up_s: Option<f64>,
-    /// Downward ELST (s).
-    pub elst_down_s: f64,
+    /// Downward ELST (s); `None` for a table ELST model.
+    pub elst_down_s: Option<f64>,
     /// The machine's default window (deg). Control points with a window of their own keep it
     /// unless the window is swept.
     pub window_deg: f64,
