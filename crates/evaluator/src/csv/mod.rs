@@ -9,7 +9,8 @@
 //! is not swept (it is then the machine's `default_window_deg`, used by the control points without
 //! a window of their own; a swept window replaces every control point's). `dose_rate_scale` is 1
 //! when not swept (the machine's own dose rate). A column is empty only where the machine has no
-//! single value: `elst_up_s` for a polynomial ELST model, `scan_speed_mm_per_s` for a `per_mu`
+//! single value: `elst_up_s` for a polynomial ELST model, both ELST columns for an ELST table
+//! (`by_energy`, `by_energy_pair`), `scan_speed_mm_per_s` for a `per_mu`
 //! beam model (no scanning speed) or a `scanning` one with separate x and y speeds.
 //!
 //! Tables with an earlier header ([`CSV_HEADER_V2`]: without the certificate's `lower_bound_s` and

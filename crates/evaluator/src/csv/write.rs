@@ -41,8 +41,8 @@ pub fn write_csv_header(out: &mut impl Write) -> std::io::Result<()> {
 }
 
 /// Writes one row as one line. The limit columns hold the values used (see the module
-/// documentation); empty fields: a result the row does not have (and the upward ELST of a
-/// polynomial ELST model).
+/// documentation); empty fields: a result the row does not have, and an ELST the machine's model
+/// has no single value for.
 pub fn write_csv_row(out: &mut impl Write, r: &Row) -> std::io::Result<()> {
     let fields: Vec<String> = COLUMNS.iter().map(|c| field_text(c.field, r)).collect();
     write_records(out, [fields.iter().map(String::as_str)])
