@@ -159,62 +159,65 @@ fn elst(m: &mut Checker, elst: &ElstModel) {
             up_s_by_energy,
             down_s_by_energy,
             same_s,
-        } => {
-            switch_time(m, "elst.same_s", *same_s);
-            for (name, rows) in [
-                ("elst.up_s_by_energy", up_s_by_energy),
-                ("elst.down_s_by_energy", down_s_by_energy),
-            ] {
-                if rows.is_empty() || rows.len() > MAX_ELST_TABLE_ROWS {
-                    m.push(
-                        name,
-                        format!("{} rows; expected 1 to {MAX_ELST_TABLE_ROWS} rows of [energy MeV, switching time s]", rows.len()),
-                    );
-                }
-                let energies: Vec<f64> = rows.iter().map(|r| r[0]).collect();
-                increasing_energies(m, name, "][0]", &energies);
-                for (i, row) in rows.iter().enumerate() {
-                    switch_time(m, &format!("{name}[{i}][1]"), row[1]);
-                }
-            }
-        }
+        } => elst_by_energy(m, up_s_by_energy, down_s_by_energy, *same_s),
         ElstModel::ByEnergyPair {
             energies_mev,
             switch_s,
             same_s,
-        } => {
-            switch_time(m, "elst.same_s", *same_s);
-            let n = energies_mev.len();
-            if n == 0 || n > MAX_ELST_TABLE_ROWS {
-                m.push(
-                    "elst.energies_mev",
-                    format!("{n} energies; expected 1 to {MAX_ELST_TABLE_ROWS}"),
-                );
-            }
-            increasing_energies(m, "elst.energies_mev", "]", energies_mev);
-            if switch_s.len() != n {
-                m.push(
-                    "elst.switch_s",
-                    format!(
-                        "{} rows; expected one per energy of `energies_mev` ({n})",
-                        switch_s.len()
-                    ),
-                );
-            }
-            for (i, row) in switch_s.iter().enumerate() {
-                if row.len() != n {
-                    m.push(
-                        &format!("elst.switch_s[{i}]"),
-                        format!(
-                            "{} columns; expected one per energy of `energies_mev` ({n})",
-                            row.len()
-                        ),
-                    );
-                }
-                for (j, x) in row.iter().enumerate() {
-                    switch_time(m, &format!("elst.switch_s[{i}][{j}]"), *x);
-                }
-            }
+        } => elst_by_energy_pair(m, energies_mev, switch_s, *same_s),
+    }
+}
+
+/// The rules of a `by_energy` ELST model.
+fn elst_by_energy(m: &mut Checker, up: &[[f64; 2]], down: &[[f64; 2]], same_s: f64) {
+    switch_time(m, "elst.same_s", same_s);
+    for (name, rows) in [("elst.up_s_by_energy", up), ("elst.down_s_by_energy", down)] {
+        if rows.is_empty() || rows.len() > MAX_ELST_TABLE_ROWS {
+            m.push(
+                name,
+                format!("{} rows; expected 1 to {MAX_ELST_TABLE_ROWS} rows of [energy MeV, switching time s]", rows.len()),
+            );
+        }
+        let energies: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+        increasing_energies(m, name, "][0]", &energies);
+        for (i, row) in rows.iter().enumerate() {
+            switch_time(m, &format!("{name}[{i}][1]"), row[1]);
+        }
+    }
+}
+
+/// The rules of a `by_energy_pair` ELST model.
+fn elst_by_energy_pair(m: &mut Checker, energies_mev: &[f64], switch_s: &[Vec<f64>], same_s: f64) {
+    switch_time(m, "elst.same_s", same_s);
+    let n = energies_mev.len();
+    if n == 0 || n > MAX_ELST_TABLE_ROWS {
+        m.push(
+            "elst.energies_mev",
+            format!("{n} energies; expected 1 to {MAX_ELST_TABLE_ROWS}"),
+        );
+    }
+    increasing_energies(m, "elst.energies_mev", "]", energies_mev);
+    if switch_s.len() != n {
+        m.push(
+            "elst.switch_s",
+            format!(
+                "{} rows; expected one per energy of `energies_mev` ({n})",
+                switch_s.len()
+            ),
+        );
+    }
+    for (i, row) in switch_s.iter().enumerate() {
+        if row.len() != n {
+            m.push(
+                &format!("elst.switch_s[{i}]"),
+                format!(
+                    "{} columns; expected one per energy of `energies_mev` ({n})",
+                    row.len()
+                ),
+            );
+        }
+        for (j, x) in row.iter().enumerate() {
+            switch_time(m, &format!("elst.switch_s[{i}][{j}]"), *x);
         }
     }
 }

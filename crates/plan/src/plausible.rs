@@ -107,27 +107,7 @@ pub fn machine_warnings(m: &Machine, source: &str) -> Vec<Warning> {
         Some(rad),
         None,
     );
-    let elst: Vec<(&str, f64)> = match &m.elst {
-        ElstModel::Constant {
-            up_s,
-            down_s,
-            same_s,
-        } => vec![
-            ("elst.up_s", *up_s),
-            ("elst.down_s", *down_s),
-            ("elst.same_s", *same_s),
-        ],
-        ElstModel::Polynomial { down_s, same_s, .. } => {
-            vec![("elst.down_s", *down_s), ("elst.same_s", *same_s)]
-        }
-        ElstModel::ByEnergy { same_s, .. } | ElstModel::ByEnergyPair { same_s, .. } => {
-            vec![("elst.same_s", *same_s)]
-        }
-    };
-    for (field, x) in elst {
-        c.range(field, x, (0.0, 60.0), "s", None, Some(MS));
-    }
-    for (field, x) in elst_table_entries(&m.elst) {
+    for (field, x) in elst_values(&m.elst) {
         c.range(&field, x, (0.0, 60.0), "s", None, Some(MS));
     }
     if let Some(ts) = m.servo_period_s {
@@ -296,4 +276,18 @@ fn elst_table_entries(elst: &ElstModel) -> Vec<(String, f64)> {
             .collect(),
         ElstModel::Constant { .. } | ElstModel::Polynomial { .. } => Vec::new(),
     }
+}
+
+/// Every switching time of an ELST model, each with its field.
+fn elst_values(elst: &ElstModel) -> Vec<(String, f64)> {
+    let mut values: Vec<(String, f64)> = match elst {
+        ElstModel::Constant { up_s, down_s, .. } => {
+            vec![("elst.up_s".into(), *up_s), ("elst.down_s".into(), *down_s)]
+        }
+        ElstModel::Polynomial { down_s, .. } => vec![("elst.down_s".into(), *down_s)],
+        ElstModel::ByEnergy { .. } | ElstModel::ByEnergyPair { .. } => Vec::new(),
+    };
+    values.push(("elst.same_s".into(), elst.same_s()));
+    values.extend(elst_table_entries(elst));
+    values
 }

@@ -77,24 +77,8 @@ pub(super) fn expand_runs(
                 let (a, at) = pick(f);
                 let field = format!("{at}.{}", axis.field());
                 let Some(a) = a else { return Ok(None) };
-                let swept = match axis {
-                    Axis::ElstUp => matches!(machine.elst, ElstModel::Constant { .. }),
-                    Axis::ElstDown => matches!(
-                        machine.elst,
-                        ElstModel::Constant { .. } | ElstModel::Polynomial { .. }
-                    ),
-                    _ => true,
-                };
-                if !swept {
-                    let (direction, expected) = match axis {
-                        Axis::ElstUp => ("upward", "a constant one"),
-                        _ => ("downward", "a constant or polynomial one"),
-                    };
-                    return Err(EvalError::sweep(
-                        file,
-                        field,
-                        format!("machine \"{}\" has a {} ELST model; expected {expected} to sweep the {direction} switching time", machine.name, machine.elst.kind().replace('_', " ")),
-                    ));
+                if let Some(why) = elst_not_sweepable(axis, machine) {
+                    return Err(EvalError::sweep(file, field, why));
                 }
                 if axis == Axis::ScanSpeed && matches!(machine.beam, BeamModel::PerMu(_)) {
                     return Err(EvalError::sweep(
@@ -378,4 +362,28 @@ pub(super) fn check_machine_values(
         }
     }
     Ok(())
+}
+
+/// Why `axis` cannot be swept on `machine`'s ELST model (no single up or down time), if so.
+fn elst_not_sweepable(axis: Axis, machine: &Machine) -> Option<String> {
+    let swept = match axis {
+        Axis::ElstUp => matches!(machine.elst, ElstModel::Constant { .. }),
+        Axis::ElstDown => matches!(
+            machine.elst,
+            ElstModel::Constant { .. } | ElstModel::Polynomial { .. }
+        ),
+        _ => true,
+    };
+    if swept {
+        return None;
+    }
+    let (direction, expected) = match axis {
+        Axis::ElstUp => ("upward", "a constant one"),
+        _ => ("downward", "a constant or polynomial one"),
+    };
+    Some(format!(
+        "machine \"{}\" has a {} ELST model; expected {expected} to sweep the {direction} switching time",
+        machine.name,
+        machine.elst.kind().replace('_', " ")
+    ))
 }
