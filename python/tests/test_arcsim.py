@@ -72,8 +72,10 @@ def test_certify_equals_the_cli(tmp_path):
     assert c == expected["certificate"]
     assert 0 < c["lower_bound_s"] <= d.total_s
     assert c["gap_s"] == pytest.approx(d.total_s - c["lower_bound_s"], rel=1e-12)
-    with pytest.raises(ValueError, match="constant"):
-        arcsim.simulate(arcsim.load_plan("plans/lung.json"), motion="free").certify()
+    free_expected = cli_json(tmp_path, "simulate", "plans/lung.json", "--certify")
+    f = arcsim.simulate(arcsim.load_plan("plans/lung.json"), motion="free").certify()
+    assert f == free_expected["certificate"]
+    assert 0 < f["lower_bound_s"] <= free_expected["total_s"]
 
 
 def test_spots_equal_the_cli_on_a_scanning_machine(tmp_path):

@@ -11,6 +11,7 @@ use arcsim_evaluator::{
     merge_csv, write_csv_header, write_csv_row, EvalError, Evaluator, Results, Row, Shard,
     ShardIndices, Sweep, RESULTS_FORMAT,
 };
+use arcsim_sequencer::Motion;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::output::AtomicFile;
@@ -143,28 +144,39 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
 }
 
-/// With `"certify": true`: how many rows are certified and the largest gap (relative), named.
+/// With `"certify": true`, a line per motion: how many rows are certified and the largest gap
+/// (relative), named.
 fn certificate_line(rows: &[arcsim_evaluator::Row]) -> Option<String> {
-    let gaps: Vec<(f64, &arcsim_evaluator::Row)> = rows
-        .iter()
-        .filter_map(|r| {
-            let o = r.outcome?;
-            Some((o.gap_s? / o.total_s, r))
-        })
-        .collect();
-    let (worst, r) = gaps.iter().copied().max_by(|a, b| a.0.total_cmp(&b.0))?;
-    let s = &r.setting;
-    Some(format!(
-        "certificate: {} constant-speed rows bounded; largest gap {:.3} % (row {}: {}, {}, J {} A {} V {})\n",
-        gaps.len(),
-        100.0 * worst,
-        r.index,
-        r.plan,
-        r.schedule.name(),
-        s.jerk_deg_per_s3,
-        s.accel_deg_per_s2,
-        s.speed_deg_per_s
-    ))
+    let mut text = String::new();
+    for (motion, what) in [
+        (Motion::Constant, "constant-speed"),
+        (Motion::Free, "free-motion"),
+    ] {
+        let gaps: Vec<(f64, &arcsim_evaluator::Row)> = rows
+            .iter()
+            .filter(|r| r.schedule.motion == motion)
+            .filter_map(|r| {
+                let o = r.outcome?;
+                Some((o.gap_s? / o.total_s, r))
+            })
+            .collect();
+        let Some((worst, r)) = gaps.iter().copied().max_by(|a, b| a.0.total_cmp(&b.0)) else {
+            continue;
+        };
+        let s = &r.setting;
+        text.push_str(&format!(
+            "certificate: {} {what} rows bounded; largest gap {:.3} % (row {}: {}, {}, J {} A {} V {})\n",
+            gaps.len(),
+            100.0 * worst,
+            r.index,
+            r.plan,
+            r.schedule.name(),
+            s.jerk_deg_per_s3,
+            s.accel_deg_per_s2,
+            s.speed_deg_per_s
+        ));
+    }
+    (!text.is_empty()).then_some(text)
 }
 
 /// `--shard K/N`, or every combination without it.

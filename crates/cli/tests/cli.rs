@@ -502,7 +502,8 @@ fn certified_sweep_writes_the_columns_and_the_largest_gap() {
 }
 
 /// `--certify` prints a lower bound of every constant-speed schedule and the gap to it, writes
-/// both with --json, holds on a servo period too, and is refused with free motion.
+/// both with --json, and holds on a servo period too; with free motion it bounds every free
+/// motion, below the free total and above every beam and ELST in sequence.
 #[test]
 fn simulate_certify_prints_and_writes_the_bound() {
     let dir = temp_dir();
@@ -549,8 +550,30 @@ fn simulate_certify_prints_and_writes_the_bound() {
         let t = v["total_s"].as_f64().expect("total_s");
         assert!(g >= 0.0 && (t - lb - g).abs() < 1e-9, "{c}");
     }
-    let o = arcsim(&["simulate", "plans/lung.json", "--certify"]);
-    let (_, err) = text(&o);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("--motion constant"), "{err}");
+    let o = arcsim(&[
+        "simulate",
+        "plans/lung.json",
+        "--certify",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("(no free motion is faster; a loose bound)"),
+        "{out}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
+    let (lb, g, t) = (
+        v["certificate"]["lower_bound_s"].as_f64().expect("bound"),
+        v["certificate"]["gap_s"].as_f64().expect("gap"),
+        v["total_s"].as_f64().expect("total"),
+    );
+    let b = &v["breakdown"];
+    let floor =
+        b["beam_on_s"].as_f64().expect("beam") + b["energy_switching_s"].as_f64().expect("elst");
+    assert!(lb <= t && lb >= floor * (1.0 - 1e-8), "{lb} {floor} {t}");
+    assert!((t - lb - g).abs() < 1e-9 * t);
+    assert_eq!(v["motion"], "free", "{v}");
 }

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use arcsim_plan::{ArcPlan, ElstModel, Machine, ResolvedArc};
 use arcsim_planner::Limits;
 use arcsim_sequencer::{
-    certify, machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Motion, Options,
+    certify, machine_limits, simulate_resolved, Breakdown, LimiterCounts, Margins, Options,
     SequenceError, CERTIFY_ROUNDS,
 };
 use rayon::prelude::*;
@@ -59,8 +59,9 @@ pub struct Outcome {
     pub breakdown: Breakdown,
     /// Base machine's total / this total (same plan and schedule); `None` when the base is infeasible.
     pub speedup: Option<f64>,
-    /// The certificate's lower bound of every constant-speed schedule (s), when the sweep asks
-    /// for it (`"certify": true`) and the row has constant motion.
+    /// The certificate's lower bound (s), when the sweep asks for it (`"certify": true`): of
+    /// every constant-speed schedule on a constant-speed row, of every free motion on a
+    /// free-motion row.
     pub lower_bound_s: Option<f64>,
     /// `total_s` minus `lower_bound_s`: at most this much is left to gain (s).
     pub gap_s: Option<f64>,
@@ -392,7 +393,7 @@ impl Evaluator {
         self.simulate_variant(&variants[&key(plan, s)], schedule, s, base_total_s, false)
     }
 
-    /// `certify`: also the certificate of a constant-speed row (the sweep's rows; not the base
+    /// `certify`: also the row's certificate (the sweep's rows; not the base
     /// totals and the summary's extra settings, which need only totals).
     fn simulate_variant(
         &self,
@@ -414,10 +415,9 @@ impl Evaluator {
             arc_ends: schedule.arc_ends,
         };
         let limits = self.limits(s);
-        let certifies = certify_row && opts.motion == Motion::Constant;
         let result = catch_unwind(AssertUnwindSafe(|| {
             let d = simulate_resolved(arcs, &limits, &opts)?;
-            let certificate = if certifies {
+            let certificate = if certify_row {
                 Some(certify(arcs, &limits, &d, CERTIFY_ROUNDS)?)
             } else {
                 None

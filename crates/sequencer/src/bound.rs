@@ -575,12 +575,15 @@ fn reduce_cells(p: &ArcProblem, lim: &Limits, cells: &mut [Vec<Span>]) {
     }
 }
 
-/// A proven lower bound of the delivery time over every choice of constant layer speeds, and
-/// how far a delivery is above it.
+/// A proven lower bound of the delivery time and how far a delivery is above it: over every
+/// choice of constant layer speeds for a constant-speed delivery, over every free motion for a
+/// free-motion one.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Certificate {
-    /// No schedule of these layers with a constant speed per layer is faster on this machine
-    /// (s); on a servo period, none whose transitions last whole periods.
+    /// Constant motion: no schedule of these layers with a constant speed per layer is faster on
+    /// this machine (s); on a servo period, none whose transitions last whole periods. Free
+    /// motion: no delivery with these windows, ELSTs, limits and arc ends is faster (a far
+    /// looser bound: it leaves out the jerk limit; docs/model.md).
     pub lower_bound_s: f64,
     /// The delivery's total minus the bound (s): at most this much is left to gain.
     pub gap_s: f64,
@@ -589,9 +592,10 @@ pub struct Certificate {
 /// Rounds of bound, prune and split that [`certify`] runs at most.
 pub const CERTIFY_ROUNDS: usize = 12;
 
-/// The certificate of a constant-speed delivery of `arcs` on `limits` (any schedule): a lower
+/// The certificate of a delivery of `arcs` on `limits`. Constant motion (any schedule): a lower
 /// bound of every constant-speed schedule, within 0.01 % of the delivery's total or as close
-/// as `rounds` rounds get.
+/// as `rounds` rounds get. Free motion: a lower bound of every free-motion delivery with the
+/// delivery's arc ends (closed forms and one dynamic programme; `rounds` unused).
 pub fn certify(
     arcs: &[ResolvedArc],
     limits: &Limits,
@@ -599,8 +603,16 @@ pub fn certify(
     rounds: usize,
 ) -> Result<Certificate, SequenceError> {
     limits.validate().map_err(SequenceError::Limits)?;
-    if delivery.motion != Motion::Constant {
-        return Err(InputError::CertifyFreeMotion.into());
+    if delivery.motion == Motion::Free {
+        let problems: Vec<ArcProblem> = arcs.iter().map(|a| ArcProblem::new(a, limits)).collect();
+        if delivery.layers.len() != problems.iter().map(ArcProblem::len).sum::<usize>() {
+            return Err(InputError::DeliveryNotOfArcs.into());
+        }
+        let bound = crate::free::plan_lower_bound(&problems, limits, delivery.arc_ends);
+        return Ok(Certificate {
+            lower_bound_s: bound,
+            gap_s: (delivery.total_s - bound).max(0.0),
+        });
     }
     let period = delivery.servo_period_s;
     let mut first = 0;

@@ -96,9 +96,6 @@ pub enum InputError {
         /// Why the beam model cannot time them.
         reason: SpotTimingError,
     },
-    /// A certificate asked of a free-motion delivery.
-    #[error("the certificate bounds constant-speed schedules; free motion has none")]
-    CertifyFreeMotion,
     /// A delivery whose layers are not those of the arcs given.
     #[error("the delivery does not belong to these arcs")]
     DeliveryNotOfArcs,

@@ -1,10 +1,14 @@
 //! Free motion: timelines checked independently of the sequencer (sampled every millisecond),
-//! never slower than constant speed, and the ATOM article's local-search result beaten.
+//! never slower than constant speed, never faster than its certificate's bound, and the ATOM
+//! article's local-search result beaten.
 
 use crate::util::{check_limits_at, machine};
 use arcsim_plan::generate::{generate, PlanKind};
-use arcsim_plan::{parse_machine, ArcPlan, Machine};
-use arcsim_sequencer::{simulate, ArcEnds, Delivery, Motion, Options, PieceKind, Schedule};
+use arcsim_plan::{parse_machine, resolve, ArcPlan, Machine};
+use arcsim_sequencer::{
+    certify, machine_limits, simulate, ArcEnds, Delivery, Motion, Options, PieceKind, Schedule,
+    CERTIFY_ROUNDS,
+};
 
 fn free(ends: ArcEnds) -> Options {
     Options {
@@ -185,10 +189,22 @@ fn plans() -> Vec<(String, ArcPlan)> {
     out
 }
 
-/// Free motion of `plan` on `m`: never slower than `constant_s`, the breakdown adds up, and the
-/// timeline passes [`check_sampled`] every `dt` seconds.
+/// Free motion of `plan` on `m`: never slower than `constant_s`, the breakdown adds up, the
+/// timeline passes [`check_sampled`] every `dt` seconds, and the certificate's bound lies
+/// between every beam and ELST in sequence and the delivery.
 fn checked_free(plan: &ArcPlan, m: &Machine, ends: ArcEnds, constant_s: f64, dt: f64, what: &str) {
     let d = simulate(plan, m, &free(ends)).unwrap_or_else(|e| panic!("{what}: {e}"));
+    let arcs = resolve(plan, m).expect("resolve");
+    let limits = machine_limits(m).expect("limits");
+    let c = certify(&arcs, &limits, &d, CERTIFY_ROUNDS).unwrap_or_else(|e| panic!("{what}: {e}"));
+    let floor = d.breakdown.beam_on_s + d.breakdown.energy_switching_s;
+    assert!(
+        c.lower_bound_s <= d.total_s && c.lower_bound_s >= floor * (1.0 - 1e-8),
+        "{what}: bound {} outside [{floor}, {}]",
+        c.lower_bound_s,
+        d.total_s
+    );
+    assert!((d.total_s - c.lower_bound_s - c.gap_s).abs() <= 1e-9 * d.total_s);
     assert!(
         d.total_s <= constant_s + 1e-9,
         "{what}: free {} > constant {constant_s}",

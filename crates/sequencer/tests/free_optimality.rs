@@ -7,12 +7,12 @@
 //! every switch as rsruckig's time-optimal move between the two states lasting at least its ELST
 //! (called here directly, its result re-integrated and sampled here). Every point of that grid is
 //! a feasible delivery, so free motion (a local optimum over all deliveries) must never be slower
-//! than the grid's best.
+//! than the grid's best, and the free-motion certificate's lower bound never above it.
 
 use crate::util::{random_arc, ArcRanges};
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::Limits;
-use arcsim_sequencer::{simulate_resolved, ArcEnds, Motion, Options, Schedule};
+use arcsim_sequencer::{certify, simulate_resolved, ArcEnds, Motion, Options, Schedule};
 use arcsim_test_support::Rng;
 use rsruckig::prelude::*;
 
@@ -220,12 +220,20 @@ fn no_grid_of_deliveries_beats_free_motion_on_small_arcs() {
             arc_ends: ArcEnds::Rest,
             ..Options::new(Schedule::Optimal)
         };
-        let free = simulate_resolved(std::slice::from_ref(&arc), &lim, &opts)
-            .expect("free motion")
-            .total_s;
+        let arcs = std::slice::from_ref(&arc);
+        let delivery = simulate_resolved(arcs, &lim, &opts).expect("free motion");
+        let free = delivery.total_s;
+        let bound = certify(arcs, &lim, &delivery, 1)
+            .expect("certificate")
+            .lower_bound_s;
         let Some(best) = exhaustive(&arc, &lim, g) else {
             continue;
         };
+        // The certificate bounds every delivery, the grid's too.
+        assert!(
+            bound <= free && bound <= best,
+            "case {case}: bound {bound} above free {free} or grid {best}"
+        );
         compared += 1;
         println!("case {case} ({n} layers): free {free:.6} s, grid {best:.6} s");
         assert!(

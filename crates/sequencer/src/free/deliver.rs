@@ -8,7 +8,7 @@ use super as free;
 use crate::problem::ArcProblem;
 use crate::timeline::Timeline;
 use crate::verify::{margins, verify_timeline};
-use crate::{ArcEnds, Breakdown, Delivery, Infeasibility, Motion, Options, SequenceError};
+use crate::{Breakdown, Delivery, Infeasibility, Motion, Options, SequenceError};
 
 /// Free motion: each arc solved from its constant-speed schedule (kept where nothing faster is
 /// found), assembled and verified by integration.
@@ -28,11 +28,7 @@ pub(crate) fn simulate_free(
             layer: 0,
             reason: Infeasibility::FreeMotionRebuild,
         })?;
-        let (start, end) = match opts.arc_ends {
-            ArcEnds::Rest => (free::Start::Rest, free::End::Rest),
-            ArcEnds::Free if ai + 1 == arcs.len() => (free::Start::RunUp, free::End::Free),
-            ArcEnds::Free => (free::Start::RunUp, free::End::Brake),
-        };
+        let (start, end) = free::arc_ends(opts.arc_ends, ai + 1 == arcs.len());
         let best = match free::solve_arc(p, limits, start, end, v) {
             Some(f) if f.total < base.total => f,
             _ => base.clone(),

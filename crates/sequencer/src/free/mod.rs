@@ -30,8 +30,12 @@
 //! exact builds fail; the tests also check it against an exhaustive search on small arcs and
 //! against the problem's own laws (never slower than constant speed; a higher limit never costs
 //! more than solver noise on the ATOM cases).
+//!
+//! [`bound`] proves a lower bound of every free motion (the certificate of `--certify`): rigorous
+//! but loose, as it drops the jerk limit.
 
 mod assemble;
+mod bound;
 mod deliver;
 mod lp;
 mod mover;
@@ -40,5 +44,16 @@ mod solve;
 mod transcribe;
 
 use assemble::{assemble, from_constant};
+pub(crate) use bound::plan_lower_bound;
 pub(crate) use deliver::simulate_free;
 use solve::{solve_arc, End, Start};
+
+/// How arc `ai` starts and ends: both at rest, or with free ends a run-up before its first beam
+/// and braking after its last unless it is the plan's `last` arc.
+pub(crate) fn arc_ends(ends: crate::ArcEnds, last: bool) -> (Start, End) {
+    match ends {
+        crate::ArcEnds::Rest => (Start::Rest, End::Rest),
+        crate::ArcEnds::Free if last => (Start::RunUp, End::Free),
+        crate::ArcEnds::Free => (Start::RunUp, End::Brake),
+    }
+}
