@@ -151,6 +151,12 @@ struct Ipm<'a> {
     rp: Vec<f64>,
     rd: Vec<f64>,
     dinv: Vec<f64>,
+    /// Reciprocals of the slacks (zero without the bound), set with the normal matrix.
+    isl: Vec<f64>,
+    isu: Vec<f64>,
+    /// The complementarity targets of the direction being computed.
+    cl: Vec<f64>,
+    cu: Vec<f64>,
     g: Vec<f64>,
     dz: Vec<f64>,
     dyl: Vec<f64>,
@@ -215,6 +221,10 @@ impl<'a> Ipm<'a> {
             rp: vec![0.0; m],
             rd: vec![0.0; n],
             dinv: vec![0.0; n],
+            isl: vec![0.0; n],
+            isu: vec![0.0; n],
+            cl: vec![0.0; n],
+            cu: vec![0.0; n],
             g: vec![0.0; n],
             dz: vec![0.0; n],
             dyl: vec![0.0; n],
@@ -291,15 +301,21 @@ impl<'a> Ipm<'a> {
         for j in 0..self.n {
             if self.fixed[j] {
                 self.dinv[j] = 0.0;
+                self.isl[j] = 0.0;
+                self.isu[j] = 0.0;
                 continue;
             }
-            let mut d = REG_PRIMAL;
-            if self.has_lo[j] {
-                d += self.yl[j] / self.sl[j];
-            }
-            if self.has_hi[j] {
-                d += self.yu[j] / self.su[j];
-            }
+            self.isl[j] = if self.has_lo[j] {
+                1.0 / self.sl[j]
+            } else {
+                0.0
+            };
+            self.isu[j] = if self.has_hi[j] {
+                1.0 / self.su[j]
+            } else {
+                0.0
+            };
+            let d = REG_PRIMAL + self.yl[j] * self.isl[j] + self.yu[j] * self.isu[j];
             self.dinv[j] = 1.0 / d;
             let col = c.col(j);
             for a in col.clone() {
@@ -314,80 +330,61 @@ impl<'a> Ipm<'a> {
         self.band.factor();
     }
 
-    /// Complementarity target of variable `j`'s lower bound.
-    fn rcl(&self, j: usize, corr: bool, sigma_mu: f64) -> f64 {
-        sigma_mu
-            - self.sl[j] * self.yl[j]
-            - if corr {
-                self.adz[j] * self.adyl[j]
-            } else {
-                0.0
-            }
-    }
-
-    /// Complementarity target of variable `j`'s upper bound.
-    fn rcu(&self, j: usize, corr: bool, sigma_mu: f64) -> f64 {
-        sigma_mu - self.su[j] * self.yu[j]
-            + if corr {
-                self.adz[j] * self.adyu[j]
-            } else {
-                0.0
-            }
-    }
-
     /// The Newton direction towards the complementarity target `sigma_mu` (with the
     /// predictor's second-order term when `corr`), and the longest primal and dual steps that
-    /// keep the slacks and duals positive.
+    /// keep the slacks and duals positive. A missing bound has a zero reciprocal slack, so its
+    /// terms vanish without a branch.
     fn direction(&mut self, corr: bool, sigma_mu: f64) -> (f64, f64) {
+        let corr = if corr { 1.0 } else { 0.0 };
+        let n = self.n;
+        let (sl, su, yl, yu) = (&self.sl[..n], &self.su[..n], &self.yl[..n], &self.yu[..n]);
+        let (adz, adyl, adyu) = (&self.adz[..n], &self.adyl[..n], &self.adyu[..n]);
+        let (isl, isu) = (&self.isl[..n], &self.isu[..n]);
+        let (rd, dinv) = (&self.rd[..n], &self.dinv[..n]);
+        let (cl, cu, g) = (&mut self.cl[..n], &mut self.cu[..n], &mut self.g[..n]);
+        for j in 0..n {
+            cl[j] = sigma_mu - sl[j] * yl[j] - corr * adz[j] * adyl[j];
+            cu[j] = sigma_mu - su[j] * yu[j] + corr * adz[j] * adyu[j];
+            g[j] = -rd[j] + cl[j] * isl[j] - cu[j] * isu[j];
+        }
+        let c = &self.c;
         self.rhs.copy_from_slice(&self.rp);
-        for j in 0..self.n {
-            let mut gj = -self.rd[j];
-            if self.has_lo[j] {
-                gj += self.rcl(j, corr, sigma_mu) / self.sl[j];
-            }
-            if self.has_hi[j] {
-                gj -= self.rcu(j, corr, sigma_mu) / self.su[j];
-            }
-            self.g[j] = gj;
-            let t = self.dinv[j] * gj;
-            for e in self.c.col(j) {
-                self.rhs[self.c.rows[e]] -= self.c.vals[e] * t;
+        for j in 0..n {
+            let t = dinv[j] * g[j];
+            for e in c.col(j) {
+                self.rhs[c.rows[e]] -= c.vals[e] * t;
             }
         }
         self.band.solve(&self.rhs, &mut self.dlam);
         let mut ap = 1.0f64;
         let mut ad = 1.0f64;
-        for j in 0..self.n {
-            let mut s = self.g[j];
-            for e in self.c.col(j) {
-                s += self.c.vals[e] * self.dlam[self.c.rows[e]];
+        let (dz, dyl, dyu) = (&mut self.dz[..n], &mut self.dyl[..n], &mut self.dyu[..n]);
+        for j in 0..n {
+            let mut s = g[j];
+            for e in c.col(j) {
+                s += c.vals[e] * self.dlam[c.rows[e]];
             }
-            self.dz[j] = self.dinv[j] * s;
-            self.dyl[j] = if self.has_lo[j] {
-                (self.rcl(j, corr, sigma_mu) - self.yl[j] * self.dz[j]) / self.sl[j]
-            } else {
-                0.0
-            };
-            self.dyu[j] = if self.has_hi[j] {
-                (self.rcu(j, corr, sigma_mu) + self.yu[j] * self.dz[j]) / self.su[j]
-            } else {
-                0.0
-            };
+            let z = dinv[j] * s;
+            let l = (cl[j] - yl[j] * z) * isl[j];
+            let u = (cu[j] + yu[j] * z) * isu[j];
+            dz[j] = z;
+            dyl[j] = l;
+            dyu[j] = u;
             // Longest steps that keep the slacks and duals positive.
             if self.has_lo[j] {
-                if self.dz[j] < 0.0 {
-                    ap = ap.min(-self.sl[j] / self.dz[j]);
+                if z < 0.0 {
+                    ap = ap.min(-sl[j] / z);
                 }
-                if self.dyl[j] < 0.0 {
-                    ad = ad.min(-self.yl[j] / self.dyl[j]);
+                if l < 0.0 {
+                    ad = ad.min(-yl[j] / l);
                 }
             }
             if self.has_hi[j] {
-                if self.dz[j] > 0.0 {
-                    ap = ap.min(self.su[j] / self.dz[j]);
+                if z > 0.0 {
+                    ap = ap.min(su[j] / z);
                 }
-                if self.dyu[j] < 0.0 {
-                    ad = ad.min(-self.yu[j] / self.dyu[j]);
+                if u < 0.0 {
+                    ad = ad.min(-yu[j] / u);
                 }
             }
         }

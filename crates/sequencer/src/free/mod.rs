@@ -26,7 +26,7 @@
 //! The result is a local optimum of the transcribed problem. An independent optimiser (direct
 //! multiple shooting with IPOPT, `tests/oracle/` of the repository) gets within 0.05 % of it on
 //! the ATOM article cases and the bundled prostate and two-arc plans, and finds shorter
-//! deliveries on the bundled lung (0.42 %) and 722-layer head-neck (0.29 %), where many steps'
+//! deliveries on the bundled lung (0.12 %) and 722-layer head-neck (0.29 %), where many steps'
 //! exact builds fail; the tests also check it against an exhaustive search on small arcs and
 //! against the problem's own laws (never slower than constant speed; a higher limit never costs
 //! more than solver noise on the ATOM cases).
