@@ -371,3 +371,82 @@ fn scanning_machine_without_positions_names_the_layer() {
         "{err}"
     );
 }
+
+/// Bursts end to end (`scenarios/machine-proteusone-like.json`): in `--spots`, a layer's spots
+/// come in as many passes as its heaviest spot needs (1 MU per spot per burst), a new pass starts
+/// at least the burst switching time after the last spot of the one before, the spots of one
+/// pass follow each other within the scanning time, and every layer delivers its plan's MU.
+#[test]
+fn bursts_are_passes_apart_by_the_burst_switching_time() {
+    let dir = temp_dir().join("spots-bursts");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let (json, csv) = (dir.join("r.json"), dir.join("spots.csv"));
+    let machine = "scenarios/machine-proteusone-like.json";
+    let out = arcsim(&[
+        "simulate",
+        "plans/lung.json",
+        "--machine",
+        machine,
+        "--json",
+        path_str(&json),
+        "--spots",
+        path_str(&csv),
+    ]);
+    let (so, se) = text(&out);
+    assert!(out.status.success(), "{so}\n{se}");
+    let m: Value = serde_json::from_str(&std::fs::read_to_string(repo().join(machine)).expect("m"))
+        .expect("machine json");
+    let burst = f(&m["beam"]["burst_switching_time_s"]);
+    let max_mu = f(&m["beam"]["max_mu_per_spot"]);
+    assert!(burst > 0.0 && max_mu > 0.0);
+    let plan: Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("plans/lung.json")).expect("plan"),
+    )
+    .expect("plan json");
+    let layers: Vec<&Value> = plan["arcs"]
+        .as_array()
+        .expect("arcs")
+        .iter()
+        .flat_map(|a| a["control_points"].as_array().expect("cps"))
+        .flat_map(|cp| cp["layers"].as_array().expect("layers"))
+        .collect();
+    let table = std::fs::read_to_string(&csv).expect("csv");
+    let rows: Vec<Vec<f64>> = table
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|c| c.parse().expect("number")).collect())
+        .collect();
+    let mut bursts_seen = 0;
+    for (i, layer) in layers.iter().enumerate() {
+        let mine: Vec<&Vec<f64>> = rows.iter().filter(|r| r[0] as usize == i).collect();
+        // A list of spot MU, or a total shared equally.
+        let s = &layer["spots"];
+        let mu: Vec<f64> = match s["mu"].as_array() {
+            Some(list) => list.iter().map(f).collect(),
+            None => {
+                let n = s["count"].as_u64().expect("count") as usize;
+                vec![f(&s["total_mu"]) / n as f64; n]
+            }
+        };
+        let heaviest = mu.iter().copied().fold(0.0, f64::max);
+        let passes = (heaviest / max_mu).ceil().max(1.0);
+        let last_pass = mine.iter().map(|r| r[5]).fold(0.0, f64::max);
+        assert_eq!(last_pass + 1.0, passes, "layer {i}");
+        let delivered: f64 = mine.iter().map(|r| r[8]).sum();
+        let planned: f64 = mu.iter().sum();
+        assert!((delivered - planned).abs() <= 1e-9 * planned, "layer {i}");
+        for w in mine.windows(2) {
+            let gap = w[1][9] - w[0][10];
+            if w[1][5] > w[0][5] {
+                assert!(gap >= burst - 1e-9, "layer {i}: a burst after {gap} s");
+                bursts_seen += 1;
+            } else {
+                assert!(
+                    (0.0..burst).contains(&gap),
+                    "layer {i}: {gap} s between spots"
+                );
+            }
+        }
+    }
+    assert!(bursts_seen > 10, "only {bursts_seen} burst switches");
+}

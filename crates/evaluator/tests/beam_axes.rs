@@ -251,6 +251,7 @@ fn scanning_setup(dir: &Path, axes: &str) -> String {
         settling_time_s: 0.0,
         max_mu_per_spot: None,
         layer_overhead_s: 0.0,
+        burst_switching_time_s: 0.0,
     });
     std::fs::write(
         dir.join("machine-scanning.json"),

@@ -8,7 +8,8 @@
 //!   scanning magnets move the beam between spots at a finite speed (`scan_distance`: the slower
 //!   axis sets the time, or the straight-line distance at one speed), each move may add a
 //!   settling time, a spot above `max_mu_per_spot` is split over extra
-//!   paintings, and a layer may carry a fixed overhead before its first spot.
+//!   paintings, a layer may carry a fixed overhead before its first spot, and a synchrocyclotron
+//!   pauses between its bursts (`burst_switching_time_s`: each pass over the spots is a burst).
 //!
 //! Both kinds lay a layer's spots out as [`SpotEvent`]s (start and end relative to the layer's
 //! beam-on); the layer's beam-on time is where the last one ends. A plan's `paintings` repeat the
@@ -74,6 +75,17 @@ pub struct ScanningBeam {
     /// Fixed beam-on overhead of every layer, spent before its first spot, s.
     #[serde(default)]
     pub layer_overhead_s: f64,
+    /// Pause between two bursts of a layer, s (a synchrocyclotron's burst switching): every pass
+    /// over the layer's spots (a plan painting, or an extra pass for spots above
+    /// `max_mu_per_spot`) is one burst, and the beam waits this long before the next pass.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub burst_switching_time_s: f64,
+}
+
+/// Whether an optional time is absent (0): such fields are left out of written machine models, so
+/// older outputs read unchanged.
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl<'de> Deserialize<'de> for BeamModel {
@@ -213,7 +225,8 @@ pub struct SpotEvent {
 pub struct LayerBeamTime {
     /// Time the spots are irradiated.
     pub spot_irradiation_s: f64,
-    /// Time between spots (scanning or spot switching, settling) and the layer overhead.
+    /// Time between spots (scanning or spot switching, settling, burst switching) and the layer
+    /// overhead.
     pub scanning_s: f64,
 }
 
@@ -311,6 +324,11 @@ pub fn time_spots(
             let mut at: Option<[f64; 2]> = None;
             for plan_painting in 0..paintings {
                 for pass in 0..passes {
+                    // Every pass after the first is a new burst.
+                    if at.is_some() {
+                        t += b.burst_switching_time_s;
+                        time.scanning_s += b.burst_switching_time_s;
+                    }
                     for (spot, mu) in spot_mu(spots).enumerate() {
                         let mu = mu * scale;
                         let k = parts(mu);

@@ -335,6 +335,7 @@ fn beam(m: &mut Checker, beam: &BeamModel) {
                 ("beam.min_spot_time_s", b.min_spot_time_s),
                 ("beam.settling_time_s", b.settling_time_s),
                 ("beam.layer_overhead_s", b.layer_overhead_s),
+                ("beam.burst_switching_time_s", b.burst_switching_time_s),
             ] {
                 m.check(field, x, false, "s");
                 m.at_most(field, x, MAX_BEAM_TIME_S, "s");

@@ -349,7 +349,8 @@ pub struct ResolvedLayer {
     pub irradiation_s: f64,
     /// Of the beam-on time, the time the spots are irradiated (dose delivered), seconds.
     pub spot_irradiation_s: f64,
-    /// Of the beam-on time, the time between spots (scanning, settling, layer overhead), seconds.
+    /// Of the beam-on time, the time between spots (scanning, settling, burst switching, layer
+    /// overhead), seconds.
     pub scanning_s: f64,
     /// The gantry speed the plan prescribes through this layer, degrees per second, if any.
     pub required_speed_deg_per_s: Option<f64>,

@@ -19,6 +19,7 @@ fn scanning(speed: Option<f64>, xy: Option<(f64, f64)>) -> ScanningBeam {
         settling_time_s: 0.001,
         max_mu_per_spot: None,
         layer_overhead_s: 0.5,
+        burst_switching_time_s: 0.0,
     }
 }
 
@@ -112,6 +113,109 @@ fn heavy_spots_are_repainted() {
     assert!(close(irr, 8.0 * 0.010));
     // From spot 2 back to spot 0 at the start of the second pass: 2 mm at 1 m/s.
     assert!(close(ev[3].start_s - ev[2].end_s, 0.002));
+}
+
+/// Bursts (a synchrocyclotron): every pass over the spots after the first starts with the burst
+/// switching time, then the move back to its first spot. Worked out step by step on the layer of
+/// `heavy_spots_are_repainted` (three passes).
+#[test]
+fn bursts_by_hand() {
+    let mut b = scanning(Some(1000.0), None);
+    b.max_mu_per_spot = Some(1.5);
+    b.layer_overhead_s = 0.0;
+    b.settling_time_s = 0.0;
+    b.burst_switching_time_s = 0.15;
+    let beam = BeamModel::Scanning(b);
+    let s = spots(&[4.0, 1.0, 3.0], &[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]);
+    let (ev, irr, scan) = events(&s, 100.0, &beam);
+    // 0.010 s/MU at 100 MeV; 1 mm takes 0.001 s.
+    let (rate, mm) = (0.010, 0.001);
+    let burst = 0.15;
+    let mut t = 0.0;
+    let mut want = Vec::new();
+    // Burst 1: spot 0 (4/3 MU), 1 mm, spot 1 (1 MU), 1 mm, spot 2 (1.5 MU).
+    want.push(t);
+    t += 4.0 / 3.0 * rate + mm;
+    want.push(t);
+    t += rate + mm;
+    want.push(t);
+    t += 1.5 * rate;
+    // Burst 2: the pause, 2 mm back to spot 0, spot 0, 2 mm, spot 2.
+    t += burst + 2.0 * mm;
+    want.push(t);
+    t += 4.0 / 3.0 * rate + 2.0 * mm;
+    want.push(t);
+    t += 1.5 * rate;
+    // Burst 3: the pause, 2 mm back, spot 0.
+    t += burst + 2.0 * mm;
+    want.push(t);
+    t += 4.0 / 3.0 * rate;
+    let starts: Vec<f64> = ev.iter().map(|e| e.start_s).collect();
+    assert_eq!(starts.len(), want.len());
+    for (got, want) in starts.iter().zip(&want) {
+        assert!(close(*got, *want), "{starts:?} vs {want:?}");
+    }
+    assert!(close(irr, 8.0 * rate));
+    assert!(close(scan, 8.0 * mm + 2.0 * burst), "{scan}");
+    assert!(close(irr + scan, t));
+    // One pass: no burst switching at all.
+    let light = spots(&[1.0, 0.0], &[[0.0, 0.0], [1.0, 0.0]]);
+    let (ev, irr, scan) = events(&light, 100.0, &beam);
+    assert_eq!(ev.len(), 2);
+    assert!(
+        close(irr, rate + 0.00025) && close(scan, mm),
+        "{irr} {scan}"
+    );
+}
+
+/// Random layers with plan paintings and bursts against a sum written here: every painting
+/// delivers each spot's MU / paintings along the plan's order, each painting after the first
+/// starts with a burst switch and the move back to the first spot.
+#[test]
+fn random_bursts_match_an_independent_sum() {
+    let mut rng = Rng::new(29);
+    for case in 0..300 {
+        let n = 1 + (rng.unit() * 40.0) as usize;
+        let paintings = 1 + (rng.unit() * 4.0) as usize;
+        let v = rng.range(500.0, 20_000.0);
+        let mut b = scanning(Some(v), None);
+        b.settling_time_s = rng.range(0.0, 0.002);
+        b.layer_overhead_s = rng.range(0.0, 1.0);
+        b.min_spot_time_s = rng.range(0.0, 0.003);
+        b.burst_switching_time_s = rng.range(0.0, 0.3);
+        let mu: Vec<f64> = (0..n).map(|_| rng.range(0.0, 3.0)).collect();
+        let pos: Vec<[f64; 2]> = (0..n)
+            .map(|_| [rng.range(-100.0, 100.0), rng.range(-100.0, 100.0)])
+            .collect();
+        let rate = 0.010;
+        let p = paintings as f64;
+        let mv = |a: [f64; 2], c: [f64; 2]| {
+            f64::max((c[0] - a[0]).abs(), (c[1] - a[1]).abs()) / v + b.settling_time_s
+        };
+        let spot_s: f64 = mu
+            .iter()
+            .map(|m| (m / p * rate).max(b.min_spot_time_s))
+            .sum();
+        let within: f64 = pos.windows(2).map(|w| mv(w[0], w[1])).sum();
+        let back = mv(pos[n - 1], pos[0]) + b.burst_switching_time_s;
+        let want_irr = p * spot_s;
+        let want_scan = b.layer_overhead_s + p * within + (p - 1.0) * back;
+        let beam = BeamModel::Scanning(b);
+        let mut s = spots(&mu, &pos);
+        s.paintings = Some(paintings as u32);
+        let (ev, irr, scan) = events(&s, 150.0, &beam);
+        assert_eq!(ev.len(), n * paintings, "case {case}");
+        assert!(
+            (irr - want_irr).abs() <= 1e-12 * (1.0 + want_irr),
+            "case {case}"
+        );
+        assert!(
+            (scan - want_scan).abs() <= 1e-12 * (1.0 + want_scan),
+            "case {case}: {scan} vs {want_scan}"
+        );
+        let last = ev.last().map_or(0.0, |e| e.end_s);
+        assert!((last - irr - scan).abs() <= 1e-9, "case {case}");
+    }
 }
 
 /// Plan paintings repeat the list with MU / paintings; per_mu times them as the repeated list.
@@ -298,10 +402,24 @@ fn machine_files_of_both_kinds() {
         e.contains("beam.s_per_mu_by_energy[1][0]") && e.contains("increasing"),
         "{e}"
     );
-    let mut bad = scan;
+    let mut bad = scan.clone();
     bad["beam"]["s_per_mu_by_energy"] = json!([[100, -0.01]]);
     let e = issues(&bad);
     assert!(e.contains("beam.s_per_mu_by_energy[0][1]"), "{e}");
+    // Burst switching: written only when set, a located error when negative.
+    let mut bursts = scan.clone();
+    bursts["beam"]["burst_switching_time_s"] = json!(0.15);
+    let m = parse_machine(&bursts.to_string(), "m.json").expect("bursts");
+    let written = serde_json::to_value(&m).expect("json");
+    assert_eq!(written["beam"]["burst_switching_time_s"], json!(0.15));
+    assert!(
+        plain["beam"].get("burst_switching_time_s").is_none(),
+        "{plain}"
+    );
+    let mut bad = scan;
+    bad["beam"]["burst_switching_time_s"] = json!(-0.15);
+    let e = issues(&bad);
+    assert!(e.contains("beam.burst_switching_time_s"), "{e}");
 }
 
 fn plan_json(spots: Value) -> String {

@@ -83,7 +83,7 @@ fn every_bundled_plan_resolves_on_every_bundled_machine() {
     assert_eq!(plans.len(), 4, "{plans:?}");
     assert_eq!(
         machines.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(),
-        vec!["atom", "fast", "opentps-pbs", "opentps"]
+        vec!["atom", "fast", "opentps-pbs", "opentps", "proteusone-like"]
     );
     for p in &plans {
         let plan = load_plan(p).unwrap_or_else(|e| panic!("{e}"));
