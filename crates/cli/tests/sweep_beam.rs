@@ -120,6 +120,7 @@ fn older_shard_tables_still_merge() {
         "combinations",
         "scan_speed_mm_per_s",
         "dose_rate_scale",
+        "burst_switching_time_s",
         "spot_irradiation_s",
         "scanning_s",
         "lower_bound_s",

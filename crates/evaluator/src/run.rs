@@ -120,6 +120,7 @@ type VariantKey = (
     Option<u64>,
     Option<u64>,
     Option<u64>,
+    Option<u64>,
 );
 type Variants = HashMap<VariantKey, Arc<Resolved>>;
 
@@ -146,6 +147,7 @@ fn key(plan: usize, s: &Setting) -> VariantKey {
         s.elst_down_s.map(f64::to_bits),
         s.scan_speed_mm_per_s.map(f64::to_bits),
         s.dose_rate_scale.map(f64::to_bits),
+        s.burst_switching_time_s.map(f64::to_bits),
     )
 }
 
@@ -165,6 +167,12 @@ fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
     }
     if let Some(k) = s.dose_rate_scale {
         m.beam = m.beam.with_dose_rate_scale(k);
+    }
+    if let Some(b) = s.burst_switching_time_s {
+        // A sweep refuses a burst axis on a `per_mu` machine when it is loaded.
+        if let Some(beam) = m.beam.with_burst_switching_time(b) {
+            m.beam = beam;
+        }
     }
     match &mut m.elst {
         ElstModel::Constant { up_s, down_s, .. } => {

@@ -98,6 +98,9 @@ pub struct Axes {
     /// (2: twice the dose rate).
     #[serde(default)]
     pub dose_rate_scale: Option<AxisSpec>,
+    /// Pause between two bursts of a layer (s, ≥ 0); needs a `scanning` beam model.
+    #[serde(default)]
+    pub burst_switching_time_s: Option<AxisSpec>,
 }
 
 /// How a range's values are spaced.

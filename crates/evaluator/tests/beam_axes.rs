@@ -1,5 +1,6 @@
-//! The beam axes of a sweep: `dose_rate_scale` (any beam model) and `scan_speed_mm_per_s` (a
-//! `scanning` beam model only) change the resolved plan, and only its beam-on time; rows carry
+//! The beam axes of a sweep: `dose_rate_scale` (any beam model), `scan_speed_mm_per_s` and
+//! `burst_switching_time_s` (a `scanning` beam model only) change the resolved plan, and only
+//! its beam-on time; rows carry
 //! them and the split of the beam-on time (CSV and JSON), the CSV reads back, and an older
 //! arcsim's table without those columns still merges and reads back.
 
@@ -76,10 +77,11 @@ fn drop_columns(table: &str, names: &[&str]) -> String {
 
 /// The columns a V1 table does not have: the beam axes, the split of the beam-on time and
 /// (newer still) the certificate.
-const NEW_COLUMNS: [&str; 7] = [
+const NEW_COLUMNS: [&str; 8] = [
     "combinations",
     "scan_speed_mm_per_s",
     "dose_rate_scale",
+    "burst_switching_time_s",
     "spot_irradiation_s",
     "scanning_s",
     "lower_bound_s",
@@ -391,7 +393,7 @@ fn scan_speed_and_dose_rate_on_a_scanning_machine() {
         .collect();
     assert_eq!(merge_csv(&shards, Some(4)).expect("merge"), single);
     // A table whose scanning speed is another: located.
-    let other = single.replacen(",20000,1,ok,", ",30000,1,ok,", 1);
+    let other = single.replacen(",20000,1,0,ok,", ",30000,1,0,ok,", 1);
     assert_ne!(other, single);
     let err = ev
         .rows_from_csv("other.csv", &other)
@@ -516,4 +518,66 @@ fn older_tables_without_the_beam_columns_still_merge_and_read_back() {
         .expect_err("the beam axis is not in an older table")
         .to_string();
     assert!(err.contains("old.csv: line 2: row 0"), "{err}");
+}
+
+/// The burst switching axis on `scenarios/machine-proteusone-like.json`: only the time between
+/// spots changes, linearly in the pause (each layer pauses once per burst after its first); the
+/// column holds the swept value, or the machine's 0.15 s when not swept; the table reads back;
+/// a `per_mu` machine refuses the axis, naming the field and the model.
+#[test]
+fn burst_switching_time_is_swept_on_a_scanning_machine() {
+    let dir = scenarios();
+    let text = |axes: &str| {
+        format!(
+            r#"{{"format": "arcsim-sweep/1", "name": "bursts", "plans": ["../plans/lung.json"],
+                "machine": "machine-proteusone-like.json", "axes": {axes}, "schedules": ["scan"]}}"#
+        )
+    };
+    let ev = Evaluator::new(
+        from_text_in(&text(r#"{"burst_switching_time_s": [0, 0.15, 0.3]}"#), &dir).expect("sweep"),
+    )
+    .expect("prepare");
+    let rows = all_rows(&ev);
+    let b: Vec<_> = rows.iter().map(ok).map(|o| o.breakdown).collect();
+    assert_eq!(b.len(), 3);
+    for x in &b[1..] {
+        assert_eq!(x.spot_irradiation_s, b[0].spot_irradiation_s);
+        assert_eq!(x.energy_switching_s, b[0].energy_switching_s);
+    }
+    let (d1, d2) = (
+        b[1].scanning_s - b[0].scanning_s,
+        b[2].scanning_s - b[0].scanning_s,
+    );
+    assert!(d1 > 1.0, "bursts add {d1} s");
+    assert!(close(d2, 2.0 * d1, 1e-9), "{d1} {d2}");
+    // A whole number of pauses of 0.15 s.
+    let pauses = d1 / 0.15;
+    assert!((pauses - pauses.round()).abs() < 1e-6, "{pauses}");
+    let table = csv(&rows);
+    assert_eq!(
+        column(&table, "burst_switching_time_s"),
+        ["0", "0.15", "0.3"]
+    );
+    let back = ev.rows_from_csv("b.csv", &table).expect("read back");
+    assert_eq!(csv(&back), table);
+    // Not swept: the machine's own.
+    let ev = Evaluator::new(from_text_in(&text(r#"{}"#), &dir).expect("sweep")).expect("prepare");
+    let base = csv(&all_rows(&ev));
+    assert_eq!(column(&base, "burst_switching_time_s"), ["0.15"]);
+    assert_eq!(
+        column(&base, "total_s"),
+        [column(&table, "total_s")[1]],
+        "the machine's pause is the swept 0.15 s"
+    );
+    // A per_mu machine has no bursts.
+    let e = error_of(&atom_sweep(r#"{"burst_switching_time_s": [0.1]}"#), &dir);
+    assert!(
+        e.contains("axes.burst_switching_time_s") && e.contains("per_mu"),
+        "{e}"
+    );
+    let e = error_of(&text(r#"{"burst_switching_time_s": [-0.1]}"#), &dir);
+    assert!(e.contains("burst_switching_time_s"), "{e}");
+    // The bundled sweep of the README's question: 3 plans × (2·2·2·3 scan + 2·2·3 free) rows.
+    let sweep = arcsim_evaluator::Sweep::load(&dir.join("sweep-proteusone.json")).expect("loads");
+    assert_eq!(Evaluator::new(sweep).expect("prepare").len(), 108);
 }

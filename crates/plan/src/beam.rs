@@ -142,6 +142,26 @@ impl BeamModel {
         }
     }
 
+    /// The `scanning` model with `s` seconds between bursts; `None` for `per_mu`, which has no
+    /// bursts.
+    pub fn with_burst_switching_time(&self, s: f64) -> Option<BeamModel> {
+        match self {
+            BeamModel::PerMu(_) => None,
+            BeamModel::Scanning(b) => Some(BeamModel::Scanning(ScanningBeam {
+                burst_switching_time_s: s,
+                ..b.clone()
+            })),
+        }
+    }
+
+    /// The time between bursts of a `scanning` model (0 without bursts); `None` for `per_mu`.
+    pub fn burst_switching_time_s(&self) -> Option<f64> {
+        match self {
+            BeamModel::PerMu(_) => None,
+            BeamModel::Scanning(b) => Some(b.burst_switching_time_s),
+        }
+    }
+
     /// The name of the kind, as in the machine file.
     pub fn kind(&self) -> &'static str {
         match self {

@@ -278,13 +278,9 @@ fn beam(m: &mut Checker, beam: &BeamModel) {
                     format!("{} rows; expected 1 to {MAX_BEAM_TABLE_ROWS} rows of [energy MeV, s per MU]", rows.len()),
                 );
             }
-            for (i, [e, r]) in rows.iter().enumerate() {
-                m.range(
-                    &format!("beam.s_per_mu_by_energy[{i}][0]"),
-                    *e,
-                    ENERGY_RANGE_MEV,
-                    "MeV",
-                );
+            let energies: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+            increasing_energies(m, "beam.s_per_mu_by_energy", "][0]", &energies);
+            for (i, [_, r]) in rows.iter().enumerate() {
                 m.check(
                     &format!("beam.s_per_mu_by_energy[{i}][1]"),
                     *r,
@@ -297,16 +293,6 @@ fn beam(m: &mut Checker, beam: &BeamModel) {
                     MAX_BEAM_TIME_S,
                     "s/MU",
                 );
-                if i > 0 && (e.is_nan() || *e <= rows[i - 1][0]) {
-                    m.push(
-                        &format!("beam.s_per_mu_by_energy[{i}][0]"),
-                        format!(
-                            "energy {} MeV does not rise above the previous row's {} MeV; expected rows in strictly increasing energy",
-                            fmt_num(*e),
-                            fmt_num(rows[i - 1][0])
-                        ),
-                    );
-                }
             }
             let speeds = [
                 ("beam.scan_speed_mm_per_s", b.scan_speed_mm_per_s),

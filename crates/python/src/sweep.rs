@@ -27,6 +27,7 @@ const ROW_COLUMNS_FIRST: &[&str] = &[
     "window_deg",
     "scan_speed_mm_per_s",
     "dose_rate_scale",
+    "burst_switching_time_s",
     "total_s",
     "speedup",
     "breakdown.beam_on_s",

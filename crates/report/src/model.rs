@@ -141,12 +141,13 @@ fn distinct(mut v: Vec<f64>, max: usize) -> Vec<f64> {
 
 /// The axes other than J, A, V (each value of them gets heatmaps of its own), and the key of a
 /// setting's values on them.
-const OTHER_AXES: [Axis; 5] = [
+const OTHER_AXES: [Axis; 6] = [
     Axis::ElstUp,
     Axis::ElstDown,
     Axis::Window,
     Axis::ScanSpeed,
     Axis::DoseRateScale,
+    Axis::BurstSwitching,
 ];
 
 type OthersKey = [Option<f64>; OTHER_AXES.len()];

@@ -382,6 +382,7 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
             window_deg: None,
             scan_speed_mm_per_s: None,
             dose_rate_scale: None,
+            burst_switching_time_s: None,
         },
         status: if total.is_some() {
             Status::Ok
@@ -400,6 +401,7 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
             window_deg: 1.0,
             scan_speed_mm_per_s: None,
             dose_rate_scale: 1.0,
+            burst_switching_time_s: None,
         },
     }
 }

@@ -2,7 +2,7 @@
 //! the merge of shard outputs. Numbers are written in Rust's shortest round-trip form, so equal
 //! results give equal bytes; there are no timing fields.
 //!
-//! The limit columns (`jerk_deg_per_s3` to `dose_rate_scale`) follow one rule: each holds the
+//! The limit columns (`jerk_deg_per_s3` to `burst_switching_time_s`) follow one rule: each holds the
 //! value the combination uses, the swept one or else the base machine's ([`crate::Defaults`]).
 //! Two columns hold the machine's value where the plan can override it: `elst_up_s` and
 //! `elst_down_s` (layers with their own switching time keep it) and `window_deg` when the window
@@ -11,11 +11,13 @@
 //! when not swept (the machine's own dose rate). A column is empty only where the machine has no
 //! single value: `elst_up_s` for a polynomial ELST model, both ELST columns for an ELST table
 //! (`by_energy`, `by_energy_pair`), `scan_speed_mm_per_s` for a `per_mu`
-//! beam model (no scanning speed) or a `scanning` one with separate x and y speeds.
+//! beam model (no scanning speed) or a `scanning` one with separate x and y speeds,
+//! `burst_switching_time_s` for a `per_mu` beam model (no bursts).
 //!
-//! Tables with an earlier header ([`CSV_HEADER_V2`]: without the certificate's `lower_bound_s` and
-//! `gap_s`; [`CSV_HEADER_V1`]: also without the two beam axes and the split of the beam-on time)
-//! still merge (with tables of the same header) and read back.
+//! Tables with an earlier header ([`CSV_HEADER_V4`]: without `burst_switching_time_s`;
+//! [`CSV_HEADER_V3`]: also without `combinations`; [`CSV_HEADER_V2`]: also without the
+//! certificate's `lower_bound_s` and `gap_s`; [`CSV_HEADER_V1`]: also without the two beam axes and
+//! the split of the beam-on time) still merge (with tables of the same header) and read back.
 //!
 //! Every column is defined once, in `COLUMNS`: its name and how a row writes it and reads back
 //! into one. The writer, the reader and the merge all go through that list and the `csv` crate,
@@ -33,7 +35,7 @@ mod write;
 
 pub use lines::CsvLineNumbers;
 pub use merge::merge_csv;
-pub use schema::{CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2, CSV_HEADER_V3};
+pub use schema::{CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2, CSV_HEADER_V3, CSV_HEADER_V4};
 pub use write::{write_csv_header, write_csv_row};
 
 #[cfg(test)]

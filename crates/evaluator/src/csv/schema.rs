@@ -79,6 +79,7 @@ sweep_columns! {
     "window_deg" => Field::Limit(Axis::Window),
     "scan_speed_mm_per_s" => Field::Limit(Axis::ScanSpeed),
     "dose_rate_scale" => Field::Limit(Axis::DoseRateScale),
+    "burst_switching_time_s" => Field::Limit(Axis::BurstSwitching),
     "status" => Field::Status,
     "total_s" => outcome!(Number, total_s),
     "beam_on_s" => outcome!(Number, breakdown.beam_on_s),
@@ -103,7 +104,14 @@ sweep_columns! {
     "message" => Field::Message,
 }
 
-/// A header without the `combinations` column: [`CSV_HEADER`] without
+/// A header without the `burst_switching_time_s` column: [`CSV_HEADER`] without it. Such tables
+/// merge and read back (the base machine's burst switching).
+pub const CSV_HEADER_V4: &str = "index,combinations,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
+scan_speed_mm_per_s,dose_rate_scale,status,total_s,beam_on_s,spot_irradiation_s,scanning_s,energy_switching_s,lost_s,speedup,\
+lower_bound_s,gap_s,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,violations,speed_use,accel_use,jerk_use,\
+window_slack_deg,elst_slack_s,message";
+
+/// A header without the `combinations` column: [`CSV_HEADER_V4`] without
 /// it. Such tables merge (the sweep's size then comes from `--sweep`, or from the indices) and
 /// read back.
 pub const CSV_HEADER_V3: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
@@ -126,6 +134,9 @@ pub const CSV_HEADER_V1: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_p
 status,total_s,beam_on_s,energy_switching_s,lost_s,speedup,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,\
 violations,speed_use,accel_use,jerk_use,window_slack_deg,elst_slack_s,message";
 
+/// The burst axis's column, which the tables before [`CSV_HEADER`] do not have.
+const BURST_COLUMN: &str = "burst_switching_time_s";
+
 /// The certificate's columns, which [`CSV_HEADER_V2`]'s tables do not have.
 const CERTIFICATE_COLUMNS: [&str; 2] = ["lower_bound_s", "gap_s"];
 
@@ -134,6 +145,8 @@ const CERTIFICATE_COLUMNS: [&str; 2] = ["lower_bound_s", "gap_s"];
 pub(super) enum Layout {
     /// [`CSV_HEADER`]'s columns.
     Current,
+    /// [`CSV_HEADER_V4`]'s columns.
+    V4,
     /// [`CSV_HEADER_V3`]'s columns.
     V3,
     /// [`CSV_HEADER_V2`]'s columns.
@@ -144,15 +157,24 @@ pub(super) enum Layout {
 
 impl Layout {
     /// Newest first: a header is read as the first layout that has all of its columns.
-    const ALL: [Layout; 4] = [Layout::Current, Layout::V3, Layout::V2, Layout::V1];
+    const ALL: [Layout; 5] = [
+        Layout::Current,
+        Layout::V4,
+        Layout::V3,
+        Layout::V2,
+        Layout::V1,
+    ];
 
     /// Whether tables of this layout have `column`.
     fn has(self, column: &Column) -> bool {
         match self {
             Layout::Current => true,
-            Layout::V3 => column.name != "combinations",
+            Layout::V4 => column.name != BURST_COLUMN,
+            Layout::V3 => column.name != BURST_COLUMN && column.name != "combinations",
             Layout::V2 => {
-                column.name != "combinations" && !CERTIFICATE_COLUMNS.contains(&column.name)
+                column.name != BURST_COLUMN
+                    && column.name != "combinations"
+                    && !CERTIFICATE_COLUMNS.contains(&column.name)
             }
             Layout::V1 => CSV_HEADER_V1.split(',').any(|n| n == column.name),
         }
@@ -166,6 +188,7 @@ impl Layout {
     pub(super) fn describe(self) -> &'static str {
         match self {
             Layout::Current => "the current arcsim sweep CSV header",
+            Layout::V4 => "an older arcsim's header (without the burst_switching_time_s column)",
             Layout::V3 => "an older arcsim's header (without the combinations column)",
             Layout::V2 => "an older arcsim's header (without the lower_bound_s and gap_s columns)",
             Layout::V1 => "an older arcsim's header (without the scan_speed_mm_per_s, dose_rate_scale, spot_irradiation_s and scanning_s columns)",
@@ -184,7 +207,7 @@ pub(super) struct Header {
 
 impl Header {
     /// Finds the columns by name; every name must be a column of the table, once, and the names
-    /// must be those of [`CSV_HEADER`], [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`]
+    /// must be those of [`CSV_HEADER`], [`CSV_HEADER_V4`], [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`]
     /// (in any order).
     pub(super) fn parse(names: &StringRecord) -> Result<Header, String> {
         const EXPECTED: &str = "expected the arcsim sweep CSV header";

@@ -27,9 +27,12 @@ fn the_headers_are_the_column_list() {
     assert_eq!(CSV_HEADER_V2, v2.join(","));
     let v3: Vec<&str> = Layout::V3.columns().map(|c| c.name).collect();
     assert_eq!(CSV_HEADER_V3, v3.join(","));
-    assert_eq!(v3.len(), COLUMNS.len() - 1);
-    assert_eq!(v2.len(), COLUMNS.len() - 3);
-    assert_eq!(old.len(), COLUMNS.len() - 7);
+    let v4: Vec<&str> = Layout::V4.columns().map(|c| c.name).collect();
+    assert_eq!(CSV_HEADER_V4, v4.join(","));
+    assert_eq!(v4.len(), COLUMNS.len() - 1);
+    assert_eq!(v3.len(), COLUMNS.len() - 2);
+    assert_eq!(v2.len(), COLUMNS.len() - 4);
+    assert_eq!(old.len(), COLUMNS.len() - 8);
     // One limit column per axis, named as the axis.
     let limits: Vec<Axis> = COLUMNS
         .iter()
@@ -76,7 +79,7 @@ fn merge_sorts_and_checks() {
     let v3 = |rows: &[usize]| {
         let mut s = format!("{CSV_HEADER_V3}\n");
         for r in rows {
-            s.push_str(&format!("{r},p,scan{}\n", ",".repeat(COLUMNS.len() - 4)));
+            s.push_str(&format!("{r},p,scan{}\n", ",".repeat(COLUMNS.len() - 5)));
         }
         s
     };

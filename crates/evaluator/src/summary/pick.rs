@@ -177,6 +177,7 @@ mod tie_tests {
                 window_deg: None,
                 scan_speed_mm_per_s: None,
                 dose_rate_scale: None,
+                burst_switching_time_s: None,
             },
             total_s,
             speedup: None,

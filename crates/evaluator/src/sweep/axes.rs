@@ -80,6 +80,13 @@ pub(super) fn expand_runs(
                 if let Some(why) = elst_not_sweepable(axis, machine) {
                     return Err(EvalError::sweep(file, field, why));
                 }
+                if axis == Axis::BurstSwitching && matches!(machine.beam, BeamModel::PerMu(_)) {
+                    return Err(EvalError::sweep(
+                        file,
+                        field,
+                        format!("machine \"{}\": its beam model has no bursts (kind per_mu); expected a beam model of kind scanning to sweep the burst switching time", machine.name),
+                    ));
+                }
                 if axis == Axis::ScanSpeed && matches!(machine.beam, BeamModel::PerMu(_)) {
                     return Err(EvalError::sweep(
                         file,
@@ -87,7 +94,7 @@ pub(super) fn expand_runs(
                         format!("machine \"{}\": its beam model has no scanning speed (kind per_mu); expected a beam model of kind scanning to sweep the scanning speed", machine.name),
                     ));
                 }
-                let zero_ok = matches!(axis, Axis::ElstUp | Axis::ElstDown);
+                let zero_ok = matches!(axis, Axis::ElstUp | Axis::ElstDown | Axis::BurstSwitching);
                 check_axis(a, &field, file, zero_ok)?;
                 if axis == Axis::DoseRateScale {
                     check_dose_rate_scales(a, &field, file)?;
@@ -106,6 +113,7 @@ pub(super) fn expand_runs(
             let window = checked(|a| &a.window_deg, Axis::Window)?;
             let scan_speed = checked(|a| &a.scan_speed_mm_per_s, Axis::ScanSpeed)?;
             let dose_rate_scale = checked(|a| &a.dose_rate_scale, Axis::DoseRateScale)?;
+            let burst_switching = checked(|a| &a.burst_switching_time_s, Axis::BurstSwitching)?;
             let limit = |a: Option<AxisSpec>, base: f64| a.unwrap_or(AxisSpec::Values(vec![base]));
             let grid = Grid {
                 jerk: limit(jerk, g.max_jerk_deg_per_s3),
@@ -116,6 +124,7 @@ pub(super) fn expand_runs(
                 window,
                 scan_speed,
                 dose_rate_scale,
+                burst_switching,
             };
             Ok(ScheduleGrid {
                 schedule: RunMode {
@@ -349,6 +358,12 @@ pub(super) fn check_machine_values(
                 }
             }
             Axis::DoseRateScale => m.beam = m.beam.with_dose_rate_scale(x),
+            Axis::BurstSwitching => {
+                // A `per_mu` model is refused before (it has no bursts).
+                if let Some(b) = m.beam.with_burst_switching_time(x) {
+                    m.beam = b;
+                }
+            }
         }
         if let Some(issue) = arcsim_plan::validate_machine(&m, &machine.name).first() {
             return Err(EvalError::sweep(

@@ -4,7 +4,7 @@ use super::*;
 
 impl Axis {
     /// Every axis, in column order.
-    pub const ALL: [Axis; 8] = [
+    pub const ALL: [Axis; 9] = [
         Axis::Jerk,
         Axis::Accel,
         Axis::Speed,
@@ -13,6 +13,7 @@ impl Axis {
         Axis::Window,
         Axis::ScanSpeed,
         Axis::DoseRateScale,
+        Axis::BurstSwitching,
     ];
 
     /// The gantry's own limits (J, A, V): raising one admits every timeline the lower value
@@ -32,6 +33,7 @@ impl Axis {
             Axis::Window => "window_deg",
             Axis::ScanSpeed => "scan_speed_mm_per_s",
             Axis::DoseRateScale => "dose_rate_scale",
+            Axis::BurstSwitching => "burst_switching_time_s",
         }
     }
 
@@ -42,7 +44,7 @@ impl Axis {
             Axis::Jerk => "°/s³",
             Axis::Accel => "°/s²",
             Axis::Speed => "°/s",
-            Axis::ElstUp | Axis::ElstDown => "s",
+            Axis::ElstUp | Axis::ElstDown | Axis::BurstSwitching => "s",
             Axis::Window => "°",
             Axis::ScanSpeed => "mm/s",
             Axis::DoseRateScale => "×",
@@ -60,6 +62,7 @@ impl Axis {
             Axis::Window => ("window", "deg"),
             Axis::ScanSpeed => ("scan speed", "mm/s"),
             Axis::DoseRateScale => ("dose rate", "×"),
+            Axis::BurstSwitching => ("burst switching", "s"),
         }
     }
 }
@@ -76,6 +79,7 @@ impl Setting {
             Axis::Window => self.window_deg,
             Axis::ScanSpeed => self.scan_speed_mm_per_s,
             Axis::DoseRateScale => self.dose_rate_scale,
+            Axis::BurstSwitching => self.burst_switching_time_s,
         }
     }
 
@@ -88,6 +92,7 @@ impl Setting {
             Axis::Window => Some(defaults.window_deg),
             Axis::ScanSpeed => defaults.scan_speed_mm_per_s,
             Axis::DoseRateScale => Some(defaults.dose_rate_scale),
+            Axis::BurstSwitching => defaults.burst_switching_time_s,
             Axis::Jerk | Axis::Accel | Axis::Speed => None,
         })
     }
@@ -103,6 +108,7 @@ impl Setting {
             Axis::Window => self.window_deg = Some(value),
             Axis::ScanSpeed => self.scan_speed_mm_per_s = Some(value),
             Axis::DoseRateScale => self.dose_rate_scale = Some(value),
+            Axis::BurstSwitching => self.burst_switching_time_s = Some(value),
         }
         self
     }

@@ -14,6 +14,7 @@ impl Grid {
             Axis::Window => self.window.as_ref(),
             Axis::ScanSpeed => self.scan_speed.as_ref(),
             Axis::DoseRateScale => self.dose_rate_scale.as_ref(),
+            Axis::BurstSwitching => self.burst_switching.as_ref(),
         }
     }
 
@@ -51,7 +52,7 @@ impl Grid {
         self.len() == 0
     }
 
-    /// The setting at grid index `i` (< [`Grid::len`]; jerk fastest, dose-rate scale slowest): `i`
+    /// The setting at grid index `i` (< [`Grid::len`]; jerk fastest, burst switching slowest): `i`
     /// read as a mixed-radix number whose digits index the axes, each value computed on demand.
     pub fn setting(&self, i: usize) -> Setting {
         let mut rest = i;
@@ -62,7 +63,7 @@ impl Grid {
             d
         };
         // The digits from the fastest: J, A, V, ELST down, ELST up, window, scanning speed,
-        // dose-rate scale.
+        // dose-rate scale, burst switching.
         let j = digit(Axis::Jerk);
         let a = digit(Axis::Accel);
         let v = digit(Axis::Speed);
@@ -71,6 +72,7 @@ impl Grid {
         let w = digit(Axis::Window);
         let sc = digit(Axis::ScanSpeed);
         let r = digit(Axis::DoseRateScale);
+        let b = digit(Axis::BurstSwitching);
         assert!(rest == 0, "grid index {i} of {}", self.len());
         Setting {
             jerk_deg_per_s3: self.jerk.value(j),
@@ -81,6 +83,7 @@ impl Grid {
             window_deg: self.value(Axis::Window, w),
             scan_speed_mm_per_s: self.value(Axis::ScanSpeed, sc),
             dose_rate_scale: self.value(Axis::DoseRateScale, r),
+            burst_switching_time_s: self.value(Axis::BurstSwitching, b),
         }
     }
 

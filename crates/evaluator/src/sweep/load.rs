@@ -75,6 +75,7 @@ impl Sweep {
             window_deg: None,
             scan_speed_mm_per_s: None,
             dose_rate_scale: None,
+            burst_switching_time_s: None,
         }
     }
 
@@ -95,6 +96,7 @@ impl Sweep {
             Axis::Window => Some(self.machine.default_window_deg),
             Axis::ScanSpeed => single_scan_speed(&self.machine.beam),
             Axis::DoseRateScale => Some(1.0),
+            Axis::BurstSwitching => self.machine.beam.burst_switching_time_s(),
             other => self.base_setting().get(other),
         }
     }
@@ -107,6 +109,7 @@ impl Sweep {
             window_deg: self.machine.default_window_deg,
             scan_speed_mm_per_s: single_scan_speed(&self.machine.beam),
             dose_rate_scale: 1.0,
+            burst_switching_time_s: self.machine.beam.burst_switching_time_s(),
         }
     }
 

@@ -51,6 +51,8 @@ pub struct Setting {
     pub scan_speed_mm_per_s: Option<f64>,
     /// Dose-rate scale: every time per MU of the beam model divided by it (2: twice the dose rate).
     pub dose_rate_scale: Option<f64>,
+    /// Pause between two bursts of a layer, of a `scanning` beam model (s).
+    pub burst_switching_time_s: Option<f64>,
 }
 
 /// The base machine's values of the limits a [`Setting`] may leave unset (`None`): what a
@@ -70,6 +72,9 @@ pub struct Defaults {
     pub scan_speed_mm_per_s: Option<f64>,
     /// The dose-rate scale of the base machine: 1.
     pub dose_rate_scale: f64,
+    /// The burst switching time (s) of a `scanning` beam model (0 without bursts); `None` for a
+    /// `per_mu` model.
+    pub burst_switching_time_s: Option<f64>,
 }
 
 /// The values of every axis for one schedule entry, kept as written: a range is computed value
@@ -92,6 +97,8 @@ pub struct Grid {
     pub scan_speed: Option<AxisSpec>,
     /// Dose-rate scale; `None`: the base machine's beam model (one grid point).
     pub dose_rate_scale: Option<AxisSpec>,
+    /// Burst switching time; `None`: the base machine's beam model (one grid point).
+    pub burst_switching: Option<AxisSpec>,
 }
 
 /// One schedule entry of a sweep: how it moves (schedule, motion, arc ends) and the grid of
@@ -150,6 +157,8 @@ pub enum Axis {
     ScanSpeed,
     /// Dose-rate scale of the beam model (dimensionless; 2: twice the dose rate).
     DoseRateScale,
+    /// Pause between two bursts of a layer, of a `scanning` beam model (s).
+    BurstSwitching,
 }
 
 mod axes;

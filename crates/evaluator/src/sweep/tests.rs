@@ -56,7 +56,8 @@ fn lazy_axis_values_are_bit_identical_to_the_eager_ones() {
     }
 }
 
-/// Grid points decode by mixed radix in the eager nesting: dose-rate scale slowest, then
+/// Grid points decode by mixed radix in the eager nesting: burst switching slowest, then dose-rate
+/// scale,
 /// scanning speed, window, ELST up, ELST down, V, A, and J fastest.
 #[test]
 fn grid_settings_decode_like_the_nested_expansion() {
@@ -69,25 +70,29 @@ fn grid_settings_decode_like_the_nested_expansion() {
         window: Some(AxisSpec::Values(vec![1.0, 0.5])),
         scan_speed: None,
         dose_rate_scale: Some(AxisSpec::Values(vec![1.0, 2.0])),
+        burst_switching: Some(AxisSpec::Values(vec![0.15, 0.0])),
     };
     let mut nested = Vec::new();
     // No ELST up or scanning speed axis: one point, `None`.
-    for &r in &eager(grid.dose_rate_scale.as_ref().expect("dose rate")) {
-        for &w in &eager(grid.window.as_ref().expect("window")) {
-            for &d in &eager(grid.elst_down.as_ref().expect("down")) {
-                for &v in &eager(&grid.speed) {
-                    for &a in &eager(&grid.accel) {
-                        for &j in &eager(&grid.jerk) {
-                            nested.push(Setting {
-                                jerk_deg_per_s3: j,
-                                accel_deg_per_s2: a,
-                                speed_deg_per_s: v,
-                                elst_up_s: None,
-                                elst_down_s: Some(d),
-                                window_deg: Some(w),
-                                scan_speed_mm_per_s: None,
-                                dose_rate_scale: Some(r),
-                            });
+    for &b in &eager(grid.burst_switching.as_ref().expect("bursts")) {
+        for &r in &eager(grid.dose_rate_scale.as_ref().expect("dose rate")) {
+            for &w in &eager(grid.window.as_ref().expect("window")) {
+                for &d in &eager(grid.elst_down.as_ref().expect("down")) {
+                    for &v in &eager(&grid.speed) {
+                        for &a in &eager(&grid.accel) {
+                            for &j in &eager(&grid.jerk) {
+                                nested.push(Setting {
+                                    jerk_deg_per_s3: j,
+                                    accel_deg_per_s2: a,
+                                    speed_deg_per_s: v,
+                                    elst_up_s: None,
+                                    elst_down_s: Some(d),
+                                    window_deg: Some(w),
+                                    scan_speed_mm_per_s: None,
+                                    dose_rate_scale: Some(r),
+                                    burst_switching_time_s: Some(b),
+                                });
+                            }
                         }
                     }
                 }
@@ -95,13 +100,14 @@ fn grid_settings_decode_like_the_nested_expansion() {
         }
     }
     assert_eq!(grid.len(), nested.len());
-    assert_eq!(grid.checked_len(), Some(240));
+    assert_eq!(grid.checked_len(), Some(480));
     for (i, s) in nested.iter().enumerate() {
         assert_eq!(grid.setting(i), *s, "grid point {i}");
     }
     assert_eq!(grid.values(Axis::ElstUp), vec![None]);
     assert_eq!(grid.values(Axis::ScanSpeed), vec![None]);
     assert_eq!(grid.value(Axis::DoseRateScale, 1), Some(2.0));
+    assert_eq!(grid.value(Axis::BurstSwitching, 1), Some(0.0));
     assert_eq!(grid.axis_len(Axis::Jerk), 5);
     assert_eq!(grid.value(Axis::Speed, 2), Some(3.0));
 }
@@ -118,6 +124,7 @@ fn grid_sizes_overflow_into_a_refusal_not_a_wrap() {
         window: None,
         scan_speed: None,
         dose_rate_scale: None,
+        burst_switching: None,
     };
     assert_eq!(grid.checked_len(), None);
     assert_eq!(grid.len(), usize::MAX);
@@ -137,6 +144,7 @@ fn grid_sizes_overflow_into_a_refusal_not_a_wrap() {
         window: None,
         scan_speed: None,
         dose_rate_scale: None,
+        burst_switching: None,
     };
     assert!(check_combinations("s.json", Some(1), [&small]).is_ok());
     let e = check_combinations("s.json", Some(2), [&small])
