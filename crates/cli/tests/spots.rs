@@ -73,13 +73,19 @@ impl Opentps {
 }
 
 fn simulate(plan: &Path, dir: &Path, extra: &[&str]) -> (Value, Vec<Vec<f64>>) {
+    simulate_on(MACHINE, plan, dir, extra)
+}
+
+/// `simulate --spots` of `plan` on `machine`: the JSON result and the spot rows (the header
+/// checked).
+fn simulate_on(machine: &str, plan: &Path, dir: &Path, extra: &[&str]) -> (Value, Vec<Vec<f64>>) {
     let json = dir.join("result.json");
     let csv = dir.join("spots.csv");
     let mut args = vec![
         "simulate",
         path_str(plan),
         "--machine",
-        MACHINE,
+        machine,
         "--json",
         path_str(&json),
         "--spots",
@@ -380,20 +386,8 @@ fn scanning_machine_without_positions_names_the_layer() {
 fn bursts_are_passes_apart_by_the_burst_switching_time() {
     let dir = temp_dir().join("spots-bursts");
     std::fs::create_dir_all(&dir).expect("dir");
-    let (json, csv) = (dir.join("r.json"), dir.join("spots.csv"));
     let machine = "scenarios/machine-proteusone-like.json";
-    let out = arcsim(&[
-        "simulate",
-        "plans/lung.json",
-        "--machine",
-        machine,
-        "--json",
-        path_str(&json),
-        "--spots",
-        path_str(&csv),
-    ]);
-    let (so, se) = text(&out);
-    assert!(out.status.success(), "{so}\n{se}");
+    let (_, rows) = simulate_on(machine, &repo().join("plans/lung.json"), &dir, &[]);
     let m: Value = serde_json::from_str(&std::fs::read_to_string(repo().join(machine)).expect("m"))
         .expect("machine json");
     let burst = f(&m["beam"]["burst_switching_time_s"]);
@@ -409,12 +403,6 @@ fn bursts_are_passes_apart_by_the_burst_switching_time() {
         .iter()
         .flat_map(|a| a["control_points"].as_array().expect("cps"))
         .flat_map(|cp| cp["layers"].as_array().expect("layers"))
-        .collect();
-    let table = std::fs::read_to_string(&csv).expect("csv");
-    let rows: Vec<Vec<f64>> = table
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|c| c.parse().expect("number")).collect())
         .collect();
     let mut bursts_seen = 0;
     for (i, layer) in layers.iter().enumerate() {

@@ -46,10 +46,14 @@ pub enum EvalError {
 /// rows whose message is this error's text, so one bad variant does not stop the sweep.
 #[derive(Debug, Error)]
 pub(crate) enum VariantError {
-    /// A scanning-speed setting on a machine whose beam model has none (a loaded sweep refuses
-    /// that axis on such a machine, so this is a guard).
-    #[error("machine \"{machine}\": its beam model has no scanning speed (kind {kind})")]
-    NoScanSpeed { machine: String, kind: &'static str },
+    /// A scanning speed or burst switching setting on a machine whose beam model has none (a
+    /// loaded sweep refuses those axes on such a machine, so this is a guard).
+    #[error("machine \"{machine}\": its beam model has no {lacks} (kind {kind})")]
+    NotScanning {
+        machine: String,
+        kind: &'static str,
+        lacks: &'static str,
+    },
     /// The plan does not resolve on the varied machine (e.g. a window wider than the spacing).
     #[error(transparent)]
     Plan(#[from] arcsim_plan::PlanError),

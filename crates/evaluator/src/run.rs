@@ -21,7 +21,7 @@ use serde::Serialize;
 
 use crate::error::VariantError;
 use crate::shard::IndexList;
-use crate::sweep::{check_combinations, Defaults, Setting, Sweep};
+use crate::sweep::{check_combinations, Axis, Defaults, Setting, Sweep};
 use crate::{EvalError, RunMode};
 
 /// What became of one combination.
@@ -151,28 +151,30 @@ fn key(plan: usize, s: &Setting) -> VariantKey {
     )
 }
 
-/// The plan and machine of one (window, ELST, beam) variant, resolved: the scanning speed and
-/// dose-rate scale applied to a copy of the machine's beam model.
+/// The plan and machine of one (window, ELST, beam) variant, resolved: the scanning speed,
+/// dose-rate scale and burst switching applied to a copy of the machine's beam model.
 fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
     let mut m = machine.clone();
+    // A sweep refuses these axes on a `per_mu` machine when it is loaded.
+    let not_scanning = |axis: Axis| VariantError::NotScanning {
+        machine: machine.name.clone(),
+        kind: machine.beam.kind(),
+        lacks: axis.scanning_only().map_or("", |(lacks, _)| lacks),
+    };
     if let Some(v) = s.scan_speed_mm_per_s {
-        // A sweep refuses a scanning-speed axis on a `per_mu` machine when it is loaded.
         m.beam = m
             .beam
             .with_scan_speed(v)
-            .ok_or_else(|| VariantError::NoScanSpeed {
-                machine: machine.name.clone(),
-                kind: machine.beam.kind(),
-            })?;
+            .ok_or_else(|| not_scanning(Axis::ScanSpeed))?;
     }
     if let Some(k) = s.dose_rate_scale {
         m.beam = m.beam.with_dose_rate_scale(k);
     }
     if let Some(b) = s.burst_switching_time_s {
-        // A sweep refuses a burst axis on a `per_mu` machine when it is loaded.
-        if let Some(beam) = m.beam.with_burst_switching_time(b) {
-            m.beam = beam;
-        }
+        m.beam = m
+            .beam
+            .with_burst_switching_time(b)
+            .ok_or_else(|| not_scanning(Axis::BurstSwitching))?;
     }
     match &mut m.elst {
         ElstModel::Constant { up_s, down_s, .. } => {

@@ -80,18 +80,11 @@ pub(super) fn expand_runs(
                 if let Some(why) = elst_not_sweepable(axis, machine) {
                     return Err(EvalError::sweep(file, field, why));
                 }
-                if axis == Axis::BurstSwitching && matches!(machine.beam, BeamModel::PerMu(_)) {
+                if let (Some((lacks, sweeps)), BeamModel::PerMu(_)) = (axis.scanning_only(), &machine.beam) {
                     return Err(EvalError::sweep(
                         file,
                         field,
-                        format!("machine \"{}\": its beam model has no bursts (kind per_mu); expected a beam model of kind scanning to sweep the burst switching time", machine.name),
-                    ));
-                }
-                if axis == Axis::ScanSpeed && matches!(machine.beam, BeamModel::PerMu(_)) {
-                    return Err(EvalError::sweep(
-                        file,
-                        field,
-                        format!("machine \"{}\": its beam model has no scanning speed (kind per_mu); expected a beam model of kind scanning to sweep the scanning speed", machine.name),
+                        format!("machine \"{}\": its beam model has no {lacks} (kind per_mu); expected a beam model of kind scanning to sweep {sweeps}", machine.name),
                     ));
                 }
                 let zero_ok = matches!(axis, Axis::ElstUp | Axis::ElstDown | Axis::BurstSwitching);

@@ -22,6 +22,16 @@ impl Axis {
         matches!(self, Axis::Jerk | Axis::Accel | Axis::Speed)
     }
 
+    /// For an axis only a `scanning` beam model has: what a `per_mu` model lacks, and what the
+    /// axis sweeps (for the refusal's message).
+    pub(crate) fn scanning_only(self) -> Option<(&'static str, &'static str)> {
+        match self {
+            Axis::ScanSpeed => Some(("scanning speed", "the scanning speed")),
+            Axis::BurstSwitching => Some(("bursts", "the burst switching time")),
+            _ => None,
+        }
+    }
+
     /// The field name in sweep files and output columns.
     pub fn field(self) -> &'static str {
         match self {
