@@ -88,13 +88,26 @@ def test_spots_equal_the_cli_on_a_scanning_machine(tmp_path):
     s = d.spots
     want = expected["spots"]
     assert len(s["mu"]) == len(want) > 100
-    for key in ("layer_index", "spot", "painting", "x_mm", "mu", "t_start_s", "angle_end_deg"):
-        assert s[key].tolist() == [w[key] for w in want], key
+    for key in ("layer_index", "spot", "painting", "x_mm", "mu", "t_start_s", "angle_end_deg",
+                "burst", "spill"):
+        assert list(s[key]) == [w[key] for w in want], key
     lines = spots_csv.read_text().splitlines()
     assert len(lines) == len(want) + 1
     b = d.breakdown
     assert b["spot_irradiation_s"] + b["scanning_s"] == pytest.approx(b["beam_on_s"], rel=1e-12)
+    assert b["burst_switching_s"] == b["spill_waiting_s"] == 0.0
     assert d.to_pandas("spots").shape[0] == len(want)
+
+
+def test_spills_equal_the_cli_on_a_synchrotron(tmp_path):
+    machine = "scenarios/machine-probeat-v5-like-mee.json"
+    expected = cli_json(tmp_path, "simulate", "plans/lung.json", "--machine", machine,
+                        "--motion", "constant", "--spots", str(tmp_path / "spots.csv"))
+    d = arcsim.simulate(arcsim.load_plan("plans/lung.json"), arcsim.load_machine(machine),
+                        motion="constant")
+    assert list(d.spots["spill"]) == [w["spill"] for w in expected["spots"]]
+    assert d.breakdown == expected["breakdown"]
+    assert d.breakdown["spill_waiting_s"] > 0.0
 
 
 def test_machine_file_period_and_limits_equal_the_cli(tmp_path):

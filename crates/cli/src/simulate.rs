@@ -204,7 +204,7 @@ fn time_breakdown(s: &mut String, d: &Delivery) {
         fixed(b.beam_on_s, 2, 9),
         fixed(pct(b.beam_on_s), 1, 5)
     );
-    if b.scanning_s > 0.0 {
+    if b.scanning_s + b.burst_switching_s + b.spill_waiting_s > 0.0 {
         let _ = writeln!(
             s,
             "    spot irradiation {} s  {} %",
@@ -216,6 +216,22 @@ fn time_breakdown(s: &mut String, d: &Delivery) {
             "    between spots    {} s  {} %  (scanning, settling, layer overhead)",
             fixed(b.scanning_s, 2, 9),
             fixed(pct(b.scanning_s), 1, 5)
+        );
+    }
+    if b.burst_switching_s > 0.0 {
+        let _ = writeln!(
+            s,
+            "    burst switching  {} s  {} %  (pauses between a layer's bursts)",
+            fixed(b.burst_switching_s, 2, 9),
+            fixed(pct(b.burst_switching_s), 1, 5)
+        );
+    }
+    if b.spill_waiting_s > 0.0 {
+        let _ = writeln!(
+            s,
+            "    spill waiting    {} s  {} %  (beam off, waiting for the next spill)",
+            fixed(b.spill_waiting_s, 2, 9),
+            fixed(pct(b.spill_waiting_s), 1, 5)
         );
     }
     let _ = writeln!(
@@ -406,8 +422,9 @@ fn where_lost(s: &mut String, d: &Delivery) {
     }
 }
 
-/// The spot table: one row per spot delivery, columns named with their units.
-const SPOT_COLUMNS: [Column<SpotRow>; 13] = [
+/// The spot table: one row per spot delivery, columns named with their units (the burst and
+/// spill indices last, so tables of machines without them keep their column positions).
+const SPOT_COLUMNS: [Column<SpotRow>; 15] = [
     Column {
         name: "layer_index",
         get: |r| r.layer_index.to_string(),
@@ -459,6 +476,14 @@ const SPOT_COLUMNS: [Column<SpotRow>; 13] = [
     Column {
         name: "angle_end_deg",
         get: |r| r.angle_end_deg.to_string(),
+    },
+    Column {
+        name: "burst",
+        get: |r| r.burst.map(|b| b.to_string()).unwrap_or_default(),
+    },
+    Column {
+        name: "spill",
+        get: |r| r.spill.map(|b| b.to_string()).unwrap_or_default(),
     },
 ];
 

@@ -170,7 +170,7 @@ fn simulate_tables_read_back_by_column_name() {
     let rows = records(&table);
     assert_eq!(
         rows[0].join(","),
-        "layer_index,arc,control_point,layer,spot,painting,x_mm,y_mm,mu,t_start_s,t_end_s,angle_start_deg,angle_end_deg"
+        "layer_index,arc,control_point,layer,spot,painting,x_mm,y_mm,mu,t_start_s,t_end_s,angle_start_deg,angle_end_deg,burst,spill"
     );
     assert_eq!(rows.len() - 1, expected.len());
     assert!(!expected.is_empty());

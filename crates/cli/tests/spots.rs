@@ -101,12 +101,18 @@ fn simulate_on(machine: &str, plan: &Path, dir: &Path, extra: &[&str]) -> (Value
     let mut lines = table.lines();
     assert_eq!(
         lines.next(),
-        Some("layer_index,arc,control_point,layer,spot,painting,x_mm,y_mm,mu,t_start_s,t_end_s,angle_start_deg,angle_end_deg")
+        Some("layer_index,arc,control_point,layer,spot,painting,x_mm,y_mm,mu,t_start_s,t_end_s,angle_start_deg,angle_end_deg,burst,spill")
     );
     let rows = lines
         .map(|l| {
             l.split(',')
-                .map(|c| c.parse::<f64>().expect("a number in every column"))
+                .map(|c| match c {
+                    // No burst or spill index on machines without them.
+                    "" => f64::NAN,
+                    c => c
+                        .parse::<f64>()
+                        .expect("a number or nothing in every column"),
+                })
                 .collect()
         })
         .collect();
@@ -393,31 +399,13 @@ fn bursts_are_passes_apart_by_the_burst_switching_time() {
     let burst = f(&m["beam"]["burst_switching_time_s"]);
     let max_mu = f(&m["beam"]["max_mu_per_spot"]);
     assert!(burst > 0.0 && max_mu > 0.0);
-    let plan: Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("plans/lung.json")).expect("plan"),
-    )
-    .expect("plan json");
-    let layers: Vec<&Value> = plan["arcs"]
-        .as_array()
-        .expect("arcs")
-        .iter()
-        .flat_map(|a| a["control_points"].as_array().expect("cps"))
-        .flat_map(|cp| cp["layers"].as_array().expect("layers"))
-        .collect();
     let mut bursts_seen = 0;
-    for (i, layer) in layers.iter().enumerate() {
+    for (i, mu) in spot_mu(&repo().join("plans/lung.json")).iter().enumerate() {
         let mine: Vec<&Vec<f64>> = rows.iter().filter(|r| r[0] as usize == i).collect();
-        // A list of spot MU, or a total shared equally.
-        let s = &layer["spots"];
-        let mu: Vec<f64> = match s["mu"].as_array() {
-            Some(list) => list.iter().map(f).collect(),
-            None => {
-                let n = s["count"].as_u64().expect("count") as usize;
-                vec![f(&s["total_mu"]) / n as f64; n]
-            }
-        };
         let heaviest = mu.iter().copied().fold(0.0, f64::max);
         let passes = (heaviest / max_mu).ceil().max(1.0);
+        // The burst column is the pass; no spills on this machine.
+        assert!(mine.iter().all(|r| r[13] == r[5] && r[14].is_nan()));
         let last_pass = mine.iter().map(|r| r[5]).fold(0.0, f64::max);
         assert_eq!(last_pass + 1.0, passes, "layer {i}");
         let delivered: f64 = mine.iter().map(|r| r[8]).sum();
@@ -437,4 +425,94 @@ fn bursts_are_passes_apart_by_the_burst_switching_time() {
         }
     }
     assert!(bursts_seen > 10, "only {bursts_seen} burst switches");
+}
+
+/// Spills end to end (`scenarios/machine-probeat-v5-like-mee.json`): in `--spots`, spill indices
+/// never go back, no spill gives more than its charge, a layer's spots change spill only after at
+/// least the refill time, every layer delivers its plan's MU; a layer that starts in the previous
+/// layer's spill is switched into in the in-spill time, every other in an ELST (≥ 1.9 s).
+#[test]
+fn spills_carry_from_layer_to_layer() {
+    let dir = temp_dir().join("spots-spills");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let machine = "scenarios/machine-probeat-v5-like-mee.json";
+    let (result, rows) = simulate_on(machine, &repo().join("plans/lung.json"), &dir, &[]);
+    let m: Value = serde_json::from_str(&std::fs::read_to_string(repo().join(machine)).expect("m"))
+        .expect("machine json");
+    let spill = &m["beam"]["spill"];
+    let (charge, refill, in_spill) = (
+        f(&spill["charge_mu"]),
+        f(&spill["refill_time_s"]),
+        f(&spill["in_spill_switching_time_s"]),
+    );
+    let (mu, t0, t1, spill_of) = (8, 9, 10, 14);
+    let mut per_spill = std::collections::BTreeMap::<u64, f64>::new();
+    for r in &rows {
+        *per_spill.entry(r[spill_of] as u64).or_default() += r[mu];
+        assert!(r[13].is_nan(), "no bursts on this machine");
+    }
+    assert!(per_spill.values().all(|q| *q <= charge * (1.0 + 1e-9)));
+    let mut waits = 0.0;
+    for w in rows.windows(2) {
+        assert!(w[1][spill_of] >= w[0][spill_of]);
+        if w[1][0] == w[0][0] && w[1][spill_of] > w[0][spill_of] {
+            assert!(w[1][t0] - w[0][t1] >= refill - 1e-9);
+            waits += 1.0;
+        }
+    }
+    assert!(waits > 0.0, "no layer waited for a spill");
+    for (i, spots) in spot_mu(&repo().join("plans/lung.json")).iter().enumerate() {
+        let planned: f64 = spots.iter().sum();
+        let delivered: f64 = rows
+            .iter()
+            .filter(|r| r[0] as usize == i)
+            .map(|r| r[mu])
+            .sum();
+        assert!((delivered - planned).abs() <= 1e-9 * planned, "layer {i}");
+    }
+    let transitions = result["transitions"].as_array().expect("transitions");
+    let mut continued = 0;
+    for (k, tr) in transitions.iter().enumerate() {
+        let last = rows.iter().rfind(|r| r[0] as usize == k).expect("rows");
+        let first = rows.iter().find(|r| r[0] as usize == k + 1).expect("rows");
+        let elst = f(&tr["elst_s"]);
+        if first[spill_of] == last[spill_of] {
+            assert!((elst - in_spill).abs() < 1e-12, "transition {k}: {elst}");
+            continued += 1;
+        } else {
+            assert!(elst >= 1.9 - 1e-12, "transition {k}: {elst}");
+        }
+    }
+    assert!(continued > 0, "no layer continued a spill");
+    let b = &result["breakdown"];
+    assert!(f(&b["spill_waiting_s"]) > 0.0);
+    let parts = f(&b["spot_irradiation_s"])
+        + f(&b["scanning_s"])
+        + f(&b["burst_switching_s"])
+        + f(&b["spill_waiting_s"]);
+    assert!((parts - f(&b["beam_on_s"])).abs() <= 1e-9 * parts);
+}
+
+/// The spot MU of every layer of a JSON plan, in delivery order: its list, or its total shared
+/// equally.
+fn spot_mu(plan: &Path) -> Vec<Vec<f64>> {
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(plan).expect("plan")).expect("plan json");
+    plan["arcs"]
+        .as_array()
+        .expect("arcs")
+        .iter()
+        .flat_map(|a| a["control_points"].as_array().expect("cps"))
+        .flat_map(|cp| cp["layers"].as_array().expect("layers"))
+        .map(|layer| {
+            let s = &layer["spots"];
+            match s["mu"].as_array() {
+                Some(list) => list.iter().map(f).collect(),
+                None => {
+                    let n = s["count"].as_u64().expect("count") as usize;
+                    vec![f(&s["total_mu"]) / n as f64; n]
+                }
+            }
+        })
+        .collect()
 }

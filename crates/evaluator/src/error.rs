@@ -54,6 +54,10 @@ pub(crate) enum VariantError {
         kind: &'static str,
         lacks: &'static str,
     },
+    /// A spill setting on a machine without spills (a loaded sweep refuses those axes on such a
+    /// machine, so this is a guard).
+    #[error("machine \"{machine}\": its beam model has no spills")]
+    NoSpills { machine: String },
     /// The plan does not resolve on the varied machine (e.g. a window wider than the spacing).
     #[error(transparent)]
     Plan(#[from] arcsim_plan::PlanError),

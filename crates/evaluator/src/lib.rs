@@ -29,7 +29,7 @@ pub mod sweep_file;
 
 pub use csv::{
     merge_csv, write_csv_header, write_csv_row, CsvLineNumbers, CSV_HEADER, CSV_HEADER_V1,
-    CSV_HEADER_V2, CSV_HEADER_V3, CSV_HEADER_V4,
+    CSV_HEADER_V2, CSV_HEADER_V3, CSV_HEADER_V4, CSV_HEADER_V5,
 };
 pub use error::EvalError;
 pub use mode::RunMode;

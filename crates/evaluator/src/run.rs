@@ -112,16 +112,9 @@ struct Block {
 
 /// A variant's resolved arcs, or why it does not resolve (its rows are then `invalid`).
 type Resolved = Result<Vec<ResolvedArc>, VariantError>;
-/// Plan, then the bits of the window, ELST up, ELST down, scanning speed and dose-rate scale.
-type VariantKey = (
-    usize,
-    Option<u64>,
-    Option<u64>,
-    Option<u64>,
-    Option<u64>,
-    Option<u64>,
-    Option<u64>,
-);
+/// The plan and the bits of every setting that changes the resolved layers (window, ELST up and
+/// down, scanning speed, dose-rate scale, burst switching, spill charge, refill and layers).
+type VariantKey = (usize, [Option<u64>; 9]);
 type Variants = HashMap<VariantKey, Arc<Resolved>>;
 
 /// Most resolved variants kept between chunks and calls (a chunk resolves whatever it needs on
@@ -140,15 +133,18 @@ pub struct Evaluator {
 }
 
 fn key(plan: usize, s: &Setting) -> VariantKey {
-    (
-        plan,
-        s.window_deg.map(f64::to_bits),
-        s.elst_up_s.map(f64::to_bits),
-        s.elst_down_s.map(f64::to_bits),
-        s.scan_speed_mm_per_s.map(f64::to_bits),
-        s.dose_rate_scale.map(f64::to_bits),
-        s.burst_switching_time_s.map(f64::to_bits),
-    )
+    let values = [
+        s.window_deg,
+        s.elst_up_s,
+        s.elst_down_s,
+        s.scan_speed_mm_per_s,
+        s.dose_rate_scale,
+        s.burst_switching_time_s,
+        s.spill_charge_mu,
+        s.spill_refill_time_s,
+        s.spill_max_layers,
+    ];
+    (plan, values.map(|v| v.map(f64::to_bits)))
 }
 
 /// The plan and machine of one (window, ELST, beam) variant, resolved: the scanning speed,
@@ -175,6 +171,22 @@ fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
             .beam
             .with_burst_switching_time(b)
             .ok_or_else(|| not_scanning(Axis::BurstSwitching))?;
+    }
+    let no_spills = || VariantError::NoSpills {
+        machine: machine.name.clone(),
+    };
+    if let Some(q) = s.spill_charge_mu {
+        m.beam = m.beam.with_spill_charge(q).ok_or_else(no_spills)?;
+    }
+    if let Some(r) = s.spill_refill_time_s {
+        m.beam = m.beam.with_spill_refill_time(r).ok_or_else(no_spills)?;
+    }
+    if let Some(n) = s.spill_max_layers {
+        // Whole numbers from 1, checked when the sweep is loaded.
+        m.beam = m
+            .beam
+            .with_spill_max_layers(n as u32)
+            .ok_or_else(no_spills)?;
     }
     match &mut m.elst {
         ElstModel::Constant { up_s, down_s, .. } => {

@@ -101,6 +101,16 @@ pub struct Axes {
     /// Pause between two bursts of a layer (s, ≥ 0); needs a `scanning` beam model.
     #[serde(default)]
     pub burst_switching_time_s: Option<AxisSpec>,
+    /// Charge of one spill (MU, > 0); needs a beam model with spills.
+    #[serde(default)]
+    pub spill_charge_mu: Option<AxisSpec>,
+    /// Time to the next spill (s, ≥ 0); needs a beam model with spills.
+    #[serde(default)]
+    pub spill_refill_time_s: Option<AxisSpec>,
+    /// Most layers one spill serves (whole numbers ≥ 1; 1: no multi-energy extraction); needs a
+    /// beam model with multi-energy extraction.
+    #[serde(default)]
+    pub spill_max_layers: Option<AxisSpec>,
 }
 
 /// How a range's values are spaced.

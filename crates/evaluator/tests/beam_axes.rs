@@ -77,11 +77,16 @@ fn drop_columns(table: &str, names: &[&str]) -> String {
 
 /// The columns a V1 table does not have: the beam axes, the split of the beam-on time and
 /// (newer still) the certificate.
-const NEW_COLUMNS: [&str; 8] = [
+const NEW_COLUMNS: [&str; 13] = [
     "combinations",
     "scan_speed_mm_per_s",
     "dose_rate_scale",
     "burst_switching_time_s",
+    "spill_charge_mu",
+    "spill_refill_time_s",
+    "spill_max_layers",
+    "burst_switching_s",
+    "spill_waiting_s",
     "spot_irradiation_s",
     "scanning_s",
     "lower_bound_s",
@@ -254,6 +259,7 @@ fn scanning_setup(dir: &Path, axes: &str) -> String {
         max_mu_per_spot: None,
         layer_overhead_s: 0.0,
         burst_switching_time_s: 0.0,
+        spill: None,
     });
     std::fs::write(
         dir.join("machine-scanning.json"),
@@ -393,7 +399,7 @@ fn scan_speed_and_dose_rate_on_a_scanning_machine() {
         .collect();
     assert_eq!(merge_csv(&shards, Some(4)).expect("merge"), single);
     // A table whose scanning speed is another: located.
-    let other = single.replacen(",20000,1,0,ok,", ",30000,1,0,ok,", 1);
+    let other = single.replacen(",20000,1,0,,,,ok,", ",30000,1,0,,,,ok,", 1);
     assert_ne!(other, single);
     let err = ev
         .rows_from_csv("other.csv", &other)
@@ -520,8 +526,8 @@ fn older_tables_without_the_beam_columns_still_merge_and_read_back() {
     assert!(err.contains("old.csv: line 2: row 0"), "{err}");
 }
 
-/// The burst switching axis on `scenarios/machine-proteusone-like.json`: only the time between
-/// spots changes, linearly in the pause (each layer pauses once per burst after its first); the
+/// The burst switching axis on `scenarios/machine-proteusone-like.json`: only the burst switching
+/// term of the beam-on time changes, linearly in the pause (each layer pauses once per burst after its first); the
 /// column holds the swept value, or the machine's 0.15 s when not swept; the table reads back;
 /// a `per_mu` machine refuses the axis, naming the field and the model.
 #[test]
@@ -545,9 +551,13 @@ fn burst_switching_time_is_swept_on_a_scanning_machine() {
         assert_eq!(x.energy_switching_s, b[0].energy_switching_s);
     }
     let (d1, d2) = (
-        b[1].scanning_s - b[0].scanning_s,
-        b[2].scanning_s - b[0].scanning_s,
+        b[1].burst_switching_s - b[0].burst_switching_s,
+        b[2].burst_switching_s - b[0].burst_switching_s,
     );
+    assert_eq!(b[0].burst_switching_s, 0.0);
+    assert!(b
+        .iter()
+        .all(|x| x.scanning_s == b[0].scanning_s && x.spill_waiting_s == 0.0));
     assert!(d1 > 1.0, "bursts add {d1} s");
     assert!(close(d2, 2.0 * d1, 1e-9), "{d1} {d2}");
     // A whole number of pauses of 0.15 s.
@@ -580,4 +590,115 @@ fn burst_switching_time_is_swept_on_a_scanning_machine() {
     // The bundled sweep of the README's question: 3 plans × (2·2·2·3 scan + 2·2·3 free) rows.
     let sweep = arcsim_evaluator::Sweep::load(&dir.join("sweep-proteusone.json")).expect("loads");
     assert_eq!(Evaluator::new(sweep).expect("prepare").len(), 108);
+}
+
+/// The spill axes on `scenarios/machine-probeat-v5-like-mee.json`: charge and refill time change
+/// only the spill waiting and the energy switching (which layers continue a spill); a charge no
+/// layer run exhausts never waits, whatever the refill; a shorter refill waits less; a swept row
+/// is the row of a machine file with that value; one layer per spill is the machine without
+/// multi-energy extraction; machines without spills refuse the axes.
+#[test]
+fn spill_charge_and_refill_are_swept_on_a_synchrotron() {
+    let dir = scenarios();
+    let text = |machine: &str, axes: &str| {
+        format!(
+            r#"{{"format": "arcsim-sweep/1", "name": "spills", "plans": ["{}"],
+                "machine": "{machine}", "axes": {axes}, "schedules": ["scan"]}}"#,
+            dir.join("../plans/lung.json").display()
+        )
+    };
+    let mee = "machine-probeat-v5-like-mee.json";
+    let axes = r#"{"spill_charge_mu": [20, 40, 1000], "spill_refill_time_s": [1.91, 0.5]}"#;
+    let ev = Evaluator::new(from_text_in(&text(mee, axes), &dir).expect("sweep")).expect("prepare");
+    let rows = all_rows(&ev);
+    let b: Vec<_> = rows.iter().map(ok).map(|o| o.breakdown).collect();
+    assert_eq!(b.len(), 6);
+    for x in &b {
+        assert!(close(x.spot_irradiation_s, b[0].spot_irradiation_s, 1e-12));
+        assert_eq!(x.scanning_s, b[0].scanning_s);
+        let parts = x.spot_irradiation_s + x.scanning_s + x.burst_switching_s + x.spill_waiting_s;
+        assert!(close(parts, x.beam_on_s, 1e-12), "{x:?}");
+    }
+    // Charge fastest: rows 0-2 at refill 1.91 s, rows 3-5 at 0.5 s.
+    assert_eq!(b[2].spill_waiting_s, 0.0);
+    assert_eq!(b[5].spill_waiting_s, 0.0);
+    assert_eq!(ok(&rows[2]).total_s, ok(&rows[5]).total_s);
+    for k in 0..2 {
+        assert!(b[k].spill_waiting_s > b[k + 3].spill_waiting_s, "{b:?}");
+        assert!(b[k + 3].spill_waiting_s > 0.0);
+    }
+    let table = csv(&rows);
+    assert_eq!(
+        column(&table, "spill_charge_mu"),
+        ["20", "40", "1000", "20", "40", "1000"]
+    );
+    assert_eq!(column(&table, "spill_refill_time_s")[3], "0.5");
+    let back = ev.rows_from_csv("s.csv", &table).expect("read back");
+    assert_eq!(csv(&back), table);
+    // The swept 20 MU row is the row of a machine file that holds 20 MU.
+    let tmp = temp_dir().join("spill-axes");
+    std::fs::create_dir_all(&tmp).expect("dir");
+    let mut machine: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join(mee)).expect("machine"))
+            .expect("json");
+    machine["beam"]["spill"]["charge_mu"] = serde_json::json!(20);
+    std::fs::write(tmp.join("m20.json"), machine.to_string()).expect("write");
+    let own = Evaluator::new(
+        from_text_in(&text(&path_of(&tmp.join("m20.json")), "{}"), &dir).expect("sweep"),
+    )
+    .expect("prepare");
+    assert_eq!(ok(&all_rows(&own)[0]).total_s, ok(&rows[0]).total_s);
+    // Machines without spills refuse the axes; the values are checked.
+    for (machine, kind) in [
+        ("machine-atom.json", "per_mu"),
+        ("machine-proteusone-like.json", "scanning"),
+    ] {
+        let e = error_of(&text(machine, r#"{"spill_charge_mu": [20]}"#), &dir);
+        assert!(
+            e.contains("axes.spill_charge_mu") && e.contains("no spills") && e.contains(kind),
+            "{e}"
+        );
+    }
+    // One layer per spill is the machine without multi-energy extraction.
+    let layers = r#"{"spill_max_layers": [1, 5]}"#;
+    let ev =
+        Evaluator::new(from_text_in(&text(mee, layers), &dir).expect("sweep")).expect("prepare");
+    let per = all_rows(&ev);
+    let plain = text("machine-probeat-v5-like.json", "{}");
+    let plain = Evaluator::new(from_text_in(&plain, &dir).expect("sweep")).expect("prepare");
+    assert_eq!(ok(&per[0]).total_s, ok(&all_rows(&plain)[0]).total_s);
+    assert!(ok(&per[0]).breakdown.energy_switching_s > ok(&per[1]).breakdown.energy_switching_s);
+    assert_eq!(column(&csv(&per), "spill_max_layers"), ["1", "5"]);
+    for (machine, axes, want) in [
+        (
+            "machine-probeat-v5-like.json",
+            r#"{"spill_max_layers": [2]}"#,
+            "multi-energy extraction",
+        ),
+        (
+            mee,
+            r#"{"spill_max_layers": [0, 2]}"#,
+            "spill_max_layers[0]",
+        ),
+        (mee, r#"{"spill_max_layers": [2.5]}"#, "whole number"),
+        (
+            mee,
+            r#"{"spill_max_layers": {"from": 1, "to": 5, "steps": 5}}"#,
+            "not a range",
+        ),
+    ] {
+        let e = error_of(&text(machine, axes), &dir);
+        assert!(e.contains("spill_max_layers") && e.contains(want), "{e}");
+    }
+    let e = error_of(&text(mee, r#"{"spill_charge_mu": [0]}"#), &dir);
+    assert!(e.contains("spill_charge_mu"), "{e}");
+    let e = error_of(&text(mee, r#"{"spill_refill_time_s": [-1]}"#), &dir);
+    assert!(e.contains("spill_refill_time_s"), "{e}");
+    // The bundled sweep of the README's question: 3 plans × 2 schedules × 2 × 4 settings.
+    let sweep = arcsim_evaluator::Sweep::load(&dir.join("sweep-probeat.json")).expect("loads");
+    assert_eq!(Evaluator::new(sweep).expect("prepare").len(), 48);
+}
+
+fn path_of(p: &Path) -> String {
+    p.to_str().expect("utf-8 path").to_string()
 }

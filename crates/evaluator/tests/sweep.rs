@@ -942,7 +942,7 @@ fn csv_writes_the_limit_used_in_every_column() {
         ev.summarize(&rows).to_table()
     );
     // A table with those columns empty is another combination, and the error says so.
-    let old = single.replace(",5,0.5,1,,1,,ok,", ",,0.5,,,1,,ok,");
+    let old = single.replace(",5,0.5,1,,1,,,,,ok,", ",,0.5,,,1,,,,,ok,");
     assert_ne!(old, single);
     let err = ev
         .rows_from_csv("old.csv", &old)
@@ -961,7 +961,7 @@ fn csv_writes_the_limit_used_in_every_column() {
     let table = csv(&rows);
     let line = table.lines().nth(1).expect("row 0");
     assert!(
-        line.starts_with("0,2,../plans/prostate.json,scan,0.5,1.5,6,,0.3,1,,1,,ok,"),
+        line.starts_with("0,2,../plans/prostate.json,scan,0.5,1.5,6,,0.3,1,,1,,,,,ok,"),
         "{line}"
     );
     let back = ev.rows_from_csv("fast.csv", &table).expect("read back");

@@ -9,7 +9,8 @@
 //!   axis sets the time, or the straight-line distance at one speed), each move may add a
 //!   settling time, a spot above `max_mu_per_spot` is split over extra
 //!   paintings, a layer may carry a fixed overhead before its first spot, and a synchrocyclotron
-//!   pauses between its bursts (`burst_switching_time_s`: each pass over the spots is a burst).
+//!   pauses between its bursts (`burst_switching_time_s`: each pass over the spots is a burst),
+//!   and a synchrotron extracts its beam in spills of limited charge (`spill`, see [`crate::spill`]).
 //!
 //! Both kinds lay a layer's spots out as [`SpotEvent`]s (start and end relative to the layer's
 //! beam-on); the layer's beam-on time is where the last one ends. A plan's `paintings` repeat the
@@ -19,6 +20,7 @@ use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::model::{interpolate_clamped, EnergyLayer, Spots};
+use crate::spill::{Spill, SpillModel};
 
 /// How long a layer's spots take to deliver.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -80,6 +82,10 @@ pub struct ScanningBeam {
     /// `max_mu_per_spot`) is one burst, and the beam waits this long before the next pass.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub burst_switching_time_s: f64,
+    /// A synchrotron's spills: the charge one spill holds, the wait for the next, multi-energy
+    /// extraction. Absent for a continuous beam.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spill: Option<SpillModel>,
 }
 
 /// Whether an optional time is absent (0): such fields are left out of written machine models, so
@@ -151,6 +157,40 @@ impl BeamModel {
                 burst_switching_time_s: s,
                 ..b.clone()
             })),
+        }
+    }
+
+    /// The model with every spill holding `mu`; `None` without spills.
+    pub fn with_spill_charge(&self, mu: f64) -> Option<BeamModel> {
+        self.with_spill(|s| s.charge_mu = mu)
+    }
+
+    /// The model with `s` seconds to the next spill; `None` without spills.
+    pub fn with_spill_refill_time(&self, s: f64) -> Option<BeamModel> {
+        self.with_spill(|m| m.refill_time_s = s)
+    }
+
+    /// The model with at most `n` layers per spill (1: every layer a new spill, as without
+    /// multi-energy extraction); `None` without spills.
+    pub fn with_spill_max_layers(&self, n: u32) -> Option<BeamModel> {
+        self.with_spill(|m| m.max_layers_per_spill = Some(n))
+    }
+
+    /// A copy with the spill model changed by `f`; `None` without spills.
+    fn with_spill(&self, f: impl FnOnce(&mut SpillModel)) -> Option<BeamModel> {
+        let mut m = self.clone();
+        match &mut m {
+            BeamModel::Scanning(ScanningBeam { spill: Some(s), .. }) => f(s),
+            _ => return None,
+        }
+        Some(m)
+    }
+
+    /// The spill model, if the beam comes in spills.
+    pub fn spill(&self) -> Option<&SpillModel> {
+        match self {
+            BeamModel::Scanning(b) => b.spill.as_ref(),
+            BeamModel::PerMu(_) => None,
         }
     }
 
@@ -234,6 +274,9 @@ pub struct SpotEvent {
     pub position_mm: Option<[f64; 2]>,
     /// MU delivered by this event.
     pub mu: f64,
+    /// The spill it is extracted from (index since the plan's first spill), when the beam model
+    /// has spills.
+    pub spill: Option<usize>,
     /// Irradiation start and end after the layer's beam-on, s.
     pub start_s: f64,
     /// Irradiation end after the layer's beam-on, s.
@@ -245,15 +288,18 @@ pub struct SpotEvent {
 pub struct LayerBeamTime {
     /// Time the spots are irradiated.
     pub spot_irradiation_s: f64,
-    /// Time between spots (scanning or spot switching, settling, burst switching) and the layer
-    /// overhead.
+    /// Time between spots (scanning or spot switching, settling) and the layer overhead.
     pub scanning_s: f64,
+    /// Pauses between the layer's bursts (a synchrocyclotron's burst switching).
+    pub burst_switching_s: f64,
+    /// Waiting for the next spill beyond the scanning move made meanwhile (a synchrotron).
+    pub spill_waiting_s: f64,
 }
 
 impl LayerBeamTime {
     /// The whole beam-on time of the layer.
     pub fn total_s(self) -> f64 {
-        self.spot_irradiation_s + self.scanning_s
+        self.spot_irradiation_s + self.scanning_s + self.burst_switching_s + self.spill_waiting_s
     }
 }
 
@@ -282,104 +328,81 @@ fn spot_mu(spots: &Spots) -> impl Iterator<Item = f64> + '_ {
     })
 }
 
+/// The MU of all of a layer's spots.
+pub(crate) fn layer_mu(spots: &Spots) -> f64 {
+    spot_mu(spots).sum()
+}
+
 /// Calls `visit` for every delivery of a spot of `spots` (energy `energy_mev`) under `beam`, in
-/// delivery order, and returns the layer's beam-on time split into its parts.
+/// delivery order, and returns the layer's beam-on time split into its parts. A beam model with
+/// spills starts the layer in a full spill (use [`crate::BeamSequence`] to carry spills from layer
+/// to layer).
 pub fn time_spots(
     spots: &Spots,
     energy_mev: f64,
     beam: &BeamModel,
     mut visit: impl FnMut(&SpotEvent),
 ) -> Result<LayerBeamTime, SpotTimingError> {
-    let paintings = spots.paintings.unwrap_or(1).max(1) as usize;
-    let scale = 1.0 / paintings as f64;
-    let position = |i: usize| spots.positions_mm.as_ref().and_then(|p| p.get(i).copied());
-    let mut time = LayerBeamTime::default();
-    let mut t = 0.0;
-    let mut first = true;
+    let mut spill = match beam {
+        BeamModel::Scanning(ScanningBeam { spill: Some(m), .. }) => Some(m.fresh(None)),
+        _ => None,
+    };
+    time_spots_in(spots, energy_mev, beam, spill.as_mut(), &mut visit)
+}
+
+/// [`time_spots`] starting in `spill` (when the beam model has spills), which is left as the
+/// layer leaves it.
+pub(crate) fn time_spots_in(
+    spots: &Spots,
+    energy_mev: f64,
+    beam: &BeamModel,
+    spill: Option<&mut Spill>,
+    visit: &mut dyn FnMut(&SpotEvent),
+) -> Result<LayerBeamTime, SpotTimingError> {
     match beam {
-        BeamModel::PerMu(b) => {
-            let mut gaps = 0u64;
-            for painting in 0..paintings {
-                for (spot, mu) in spot_mu(spots).enumerate() {
-                    if !first {
-                        t += b.spot_switch_time_s;
-                        gaps += 1;
-                    }
-                    first = false;
-                    let mu = mu * scale;
-                    let d = (mu * b.s_per_mu).max(b.min_spot_time_s);
-                    visit(&SpotEvent {
-                        spot,
-                        painting,
-                        position_mm: position(spot),
-                        mu,
-                        start_s: t,
-                        end_s: t + d,
-                    });
-                    t += d;
-                    time.spot_irradiation_s += d;
-                }
-            }
-            time.scanning_s = gaps as f64 * b.spot_switch_time_s;
-        }
+        BeamModel::PerMu(b) => Ok(per_mu_layer(b, spots, visit)),
         BeamModel::Scanning(b) => {
             let positions = spots
                 .positions_mm
                 .as_ref()
                 .ok_or(SpotTimingError::NoPositions)?;
-            let rate = b.s_per_mu_at(energy_mev);
-            let parts = |mu: f64| match b.max_mu_per_spot {
-                Some(max) if mu > max => (mu / max).ceil() as usize,
-                _ => 1,
-            };
-            let passes = spot_mu(spots).map(|m| parts(m * scale)).max().unwrap_or(1);
-            let count = paintings.saturating_mul(
-                spot_mu(spots).fold(0usize, |n, m| n.saturating_add(parts(m * scale))),
-            );
-            if count > MAX_SPOT_DELIVERIES {
-                return Err(SpotTimingError::TooManyDeliveries { count });
-            }
-            t = b.layer_overhead_s;
-            time.scanning_s = b.layer_overhead_s;
-            let mut at: Option<[f64; 2]> = None;
-            for plan_painting in 0..paintings {
-                for pass in 0..passes {
-                    // Every pass after the first is a new burst.
-                    if at.is_some() {
-                        t += b.burst_switching_time_s;
-                        time.scanning_s += b.burst_switching_time_s;
-                    }
-                    for (spot, mu) in spot_mu(spots).enumerate() {
-                        let mu = mu * scale;
-                        let k = parts(mu);
-                        if pass >= k {
-                            continue;
-                        }
-                        let p = positions.get(spot).copied().unwrap_or([0.0, 0.0]);
-                        if let Some(from) = at {
-                            let m = b.move_time_s(from, p);
-                            t += m;
-                            time.scanning_s += m;
-                        }
-                        at = Some(p);
-                        let mu = mu / k as f64;
-                        let d = (mu * rate).max(b.min_spot_time_s);
-                        visit(&SpotEvent {
-                            spot,
-                            painting: plan_painting * passes + pass,
-                            position_mm: Some(p),
-                            mu,
-                            start_s: t,
-                            end_s: t + d,
-                        });
-                        t += d;
-                        time.spot_irradiation_s += d;
-                    }
-                }
-            }
+            let spill = b.spill.as_ref().zip(spill);
+            scan_layer(b, spots, energy_mev, positions, spill, visit)
         }
     }
-    Ok(time)
+}
+
+/// The `per_mu` model's layer: every painting over the spots, a fixed switch between spots.
+fn per_mu_layer(b: &PerMuBeam, spots: &Spots, visit: &mut dyn FnMut(&SpotEvent)) -> LayerBeamTime {
+    let paintings = spots.paintings.unwrap_or(1).max(1) as usize;
+    let scale = 1.0 / paintings as f64;
+    let position = |i: usize| spots.positions_mm.as_ref().and_then(|p| p.get(i).copied());
+    let mut time = LayerBeamTime::default();
+    let mut t = 0.0;
+    let mut gaps = 0u64;
+    for painting in 0..paintings {
+        for (spot, mu) in spot_mu(spots).enumerate() {
+            if painting > 0 || spot > 0 {
+                t += b.spot_switch_time_s;
+                gaps += 1;
+            }
+            let mu = mu * scale;
+            let d = (mu * b.s_per_mu).max(b.min_spot_time_s);
+            visit(&SpotEvent {
+                spot,
+                painting,
+                position_mm: position(spot),
+                mu,
+                spill: None,
+                start_s: t,
+                end_s: t + d,
+            });
+            t += d;
+            time.spot_irradiation_s += d;
+        }
+    }
+    time.scanning_s = gaps as f64 * b.spot_switch_time_s;
+    time
 }
 
 /// A layer's beam-on time under `beam`: the explicit `irradiation_time_s` (all of it counted as
@@ -391,7 +414,7 @@ pub fn layer_beam_time(
     match (layer.irradiation_time_s, &layer.spots) {
         (Some(t), _) => Ok(LayerBeamTime {
             spot_irradiation_s: t,
-            scanning_s: 0.0,
+            ..LayerBeamTime::default()
         }),
         (None, Some(spots)) => layer_spots_time(spots, layer.energy_mev, beam),
         (None, None) => Ok(LayerBeamTime::default()),
@@ -410,8 +433,133 @@ fn layer_spots_time(
             return Ok(LayerBeamTime {
                 spot_irradiation_s: n * (total / n * b.s_per_mu).max(b.min_spot_time_s),
                 scanning_s: (n - 1.0) * b.spot_switch_time_s,
+                ..LayerBeamTime::default()
             });
         }
     }
     time_spots(spots, energy_mev, beam, |_| {})
+}
+
+/// The `scanning` model's layer: every plan painting and extra pass (a burst) over the spots in
+/// the plan's order, with the spill (if any) refilled where a spot needs more than it has left.
+fn scan_layer(
+    b: &ScanningBeam,
+    spots: &Spots,
+    energy_mev: f64,
+    positions: &[[f64; 2]],
+    mut spill: Option<(&SpillModel, &mut Spill)>,
+    visit: &mut dyn FnMut(&SpotEvent),
+) -> Result<LayerBeamTime, SpotTimingError> {
+    let paintings = spots.paintings.unwrap_or(1).max(1) as usize;
+    let scale = 1.0 / paintings as f64;
+    let rate = b.s_per_mu_at(energy_mev);
+    let parts = |mu: f64| match b.max_mu_per_spot {
+        Some(max) if mu > max => (mu / max).ceil() as usize,
+        _ => 1,
+    };
+    let passes = spot_mu(spots).map(|m| parts(m * scale)).max().unwrap_or(1);
+    check_deliveries(spots, paintings, &parts, spill.as_ref().map(|s| s.0))?;
+    let mut time = LayerBeamTime {
+        scanning_s: b.layer_overhead_s,
+        ..LayerBeamTime::default()
+    };
+    let mut t = b.layer_overhead_s;
+    let mut at: Option<[f64; 2]> = None;
+    for plan_painting in 0..paintings {
+        for pass in 0..passes {
+            // Every pass after the first is a new burst.
+            if at.is_some() {
+                t += b.burst_switching_time_s;
+                time.burst_switching_s += b.burst_switching_time_s;
+            }
+            for (spot, mu) in spot_mu(spots).enumerate() {
+                let mu = mu * scale;
+                let k = parts(mu);
+                if pass >= k {
+                    continue;
+                }
+                let p = positions.get(spot).copied().unwrap_or([0.0, 0.0]);
+                let mu = mu / k as f64;
+                let m = at.map_or(0.0, |from| b.move_time_s(from, p));
+                // The magnets move while the next spill comes.
+                let wait = match spill.as_mut() {
+                    Some((model, s)) if model.refill_before(s, mu) => {
+                        **s = model.fresh(Some(s));
+                        model.refill_time_s
+                    }
+                    _ => 0.0,
+                };
+                t += m.max(wait);
+                time.scanning_s += m;
+                time.spill_waiting_s += (wait - m).max(0.0);
+                at = Some(p);
+                let mut event = SpotEvent {
+                    spot,
+                    painting: plan_painting * passes + pass,
+                    position_mm: Some(p),
+                    mu,
+                    spill: None,
+                    start_s: t,
+                    end_s: t,
+                };
+                let mut left = mu;
+                loop {
+                    let part = match spill.as_mut() {
+                        Some((model, s)) => {
+                            let part = if model.negligible(left - s.remaining_mu) {
+                                left
+                            } else {
+                                left.min(s.remaining_mu)
+                            };
+                            s.remaining_mu = (s.remaining_mu - part).max(0.0);
+                            event.spill = Some(s.index);
+                            part
+                        }
+                        None => left,
+                    };
+                    let d = (part * rate).max(b.min_spot_time_s);
+                    event.mu = part;
+                    event.start_s = t;
+                    event.end_s = t + d;
+                    visit(&event);
+                    t += d;
+                    time.spot_irradiation_s += d;
+                    left -= part;
+                    match spill.as_mut() {
+                        Some((model, s)) if !model.negligible(left) => {
+                            **s = model.fresh(Some(s));
+                            t += model.refill_time_s;
+                            time.spill_waiting_s += model.refill_time_s;
+                        }
+                        _ => break,
+                    }
+                }
+            }
+        }
+    }
+    Ok(time)
+}
+
+/// Refuses a layer whose spot deliveries (paintings, splits above `max_mu_per_spot`, parts of
+/// spots across spills) would exceed [`MAX_SPOT_DELIVERIES`].
+fn check_deliveries(
+    spots: &Spots,
+    paintings: usize,
+    parts: &dyn Fn(f64) -> usize,
+    spill: Option<&SpillModel>,
+) -> Result<(), SpotTimingError> {
+    let scale = 1.0 / paintings as f64;
+    let per_painting = spot_mu(spots).fold(0usize, |n, m| n.saturating_add(parts(m * scale)));
+    // A spot is split across spills only where a spill runs out: at most once per spill.
+    let spill_ends = spill.map_or(0.0, |s| {
+        let total: f64 = spot_mu(spots).sum();
+        (total / s.charge_mu).ceil() + 1.0
+    });
+    let count = paintings
+        .saturating_mul(per_painting)
+        .saturating_add(spill_ends.min(MAX_SPOT_DELIVERIES as f64) as usize);
+    if count > MAX_SPOT_DELIVERIES {
+        return Err(SpotTimingError::TooManyDeliveries { count });
+    }
+    Ok(())
 }

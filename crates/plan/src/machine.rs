@@ -330,7 +330,45 @@ fn beam(m: &mut Checker, beam: &BeamModel) {
                 m.check("beam.max_mu_per_spot", max, true, "MU");
                 m.at_least("beam.max_mu_per_spot", max, MIN_MAX_MU_PER_SPOT, "MU");
             }
+            if let Some(spill) = &b.spill {
+                validate_spill(m, spill);
+            }
         }
+    }
+}
+
+/// Checks a spill model's numbers.
+fn validate_spill(m: &mut Checker<'_>, spill: &crate::spill::SpillModel) {
+    m.check("beam.spill.charge_mu", spill.charge_mu, true, "MU");
+    m.at_least(
+        "beam.spill.charge_mu",
+        spill.charge_mu,
+        MIN_MAX_MU_PER_SPOT,
+        "MU",
+    );
+    for (field, x) in [
+        ("beam.spill.refill_time_s", spill.refill_time_s),
+        (
+            "beam.spill.in_spill_switching_time_s",
+            spill.in_spill_switching_time_s,
+        ),
+    ] {
+        m.check(field, x, false, "s");
+        m.at_most(field, x, MAX_SWITCH_TIME_S, "s");
+    }
+    if spill.max_layers_per_spill == Some(0) {
+        m.push(
+            "beam.spill.max_layers_per_spill",
+            "0 layers per spill; expected at least 1".into(),
+        );
+    }
+    if !spill.multi_energy_extraction
+        && (spill.in_spill_switching_time_s != 0.0 || spill.max_layers_per_spill.is_some())
+    {
+        m.push(
+            "beam.spill",
+            "`in_spill_switching_time_s` and `max_layers_per_spill` apply only to multi-energy extraction; expected `multi_energy_extraction: true`, or neither field".into(),
+        );
     }
 }
 

@@ -345,13 +345,19 @@ pub struct ResolvedLayer {
     pub window_deg: f64,
     /// Nominal beam energy, MeV.
     pub energy_mev: f64,
-    /// Beam-on time, seconds: `spot_irradiation_s + scanning_s`.
+    /// Beam-on time, seconds: `spot_irradiation_s + scanning_s + burst_switching_s +
+    /// spill_waiting_s`.
     pub irradiation_s: f64,
     /// Of the beam-on time, the time the spots are irradiated (dose delivered), seconds.
     pub spot_irradiation_s: f64,
-    /// Of the beam-on time, the time between spots (scanning, settling, burst switching, layer
-    /// overhead), seconds.
+    /// Of the beam-on time, the time between spots (scanning, settling, layer overhead), seconds.
     pub scanning_s: f64,
+    /// Of the beam-on time, the pauses between bursts (a synchrocyclotron), seconds.
+    #[serde(default)]
+    pub burst_switching_s: f64,
+    /// Of the beam-on time, the waits for a new spill (a synchrotron), seconds.
+    #[serde(default)]
+    pub spill_waiting_s: f64,
     /// The gantry speed the plan prescribes through this layer, degrees per second, if any.
     pub required_speed_deg_per_s: Option<f64>,
     /// Switching time from the previous layer of the plan, seconds (0 for the very first).

@@ -1,11 +1,12 @@
 //! Resolution: a plan plus a machine becomes the flat per-arc list of layers the sequencer consumes,
 //! with every default filled in (window, ELST, irradiation time) and every number finite.
 
-use crate::beam::{layer_beam_time, SpotTimingError};
+use crate::beam::SpotTimingError;
 use crate::error::{At, PlanError, PlanIssue};
 use crate::load::invalid_if_any;
 use crate::machine::validate_machine;
 use crate::model::{ArcPlan, Machine, ResolvedArc, ResolvedLayer};
+use crate::spill::BeamSequence;
 use crate::validate::validate_plan;
 
 /// Validates plan and machine, then lists each arc's layers in delivery order with their window
@@ -13,7 +14,9 @@ use crate::validate::validate_plan;
 ///
 /// Several layers at one control point split its window into equal sub-windows, in delivery order
 /// along the rotation direction, each layer centred in its own. The switch into the first layer of
-/// an arc after the first comes from the last layer of the previous arc.
+/// an arc after the first comes from the last layer of the previous arc; a layer that continues
+/// the previous layer's spill (a synchrotron's multi-energy extraction) switches in the spill
+/// model's `in_spill_switching_time_s` instead of the ELST.
 pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, PlanError> {
     let plan_source = format!("plan \"{}\"", plan.name);
     let mut issues = validate_plan(plan, &plan_source);
@@ -26,6 +29,7 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
     let mut issues = Vec::new();
     let mut arcs = Vec::with_capacity(plan.arcs.len());
     let mut previous_energy: Option<f64> = None;
+    let mut sequence = BeamSequence::new(&machine.beam);
     for (a, arc) in plan.arcs.iter().enumerate() {
         let sign = arc.direction.sign();
         let mut layers = Vec::new();
@@ -38,7 +42,7 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
             for (l, layer) in cp.layers.iter().enumerate() {
                 let at = At::layer(a, c, l);
                 let offset = -window / 2.0 + sub_window * (l as f64 + 0.5);
-                let beam = match layer_beam_time(layer, &machine.beam) {
+                let beam = match sequence.next_layer_time(a, layer) {
                     Ok(beam) => beam,
                     Err(SpotTimingError::NoPositions) => {
                         issues.push(PlanIssue::new(
@@ -59,6 +63,7 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
                         continue;
                     }
                 };
+                let (same_spill, beam) = (beam.same_spill, beam.time);
                 let irradiation_s = beam.total_s();
                 if !irradiation_s.is_finite() || irradiation_s <= 0.0 {
                     issues.push(PlanIssue::new(
@@ -71,6 +76,7 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
                 let switch_in_s = match (previous_energy, layer.switching_time_s) {
                     (None, _) => 0.0,
                     (Some(_), Some(t)) => t,
+                    (Some(_), None) if same_spill => in_spill_switching_time_s(machine),
                     (Some(e), None) => machine.elst.switch_time_s(e, layer.energy_mev),
                 };
                 previous_energy = Some(layer.energy_mev);
@@ -83,6 +89,8 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
                     irradiation_s,
                     spot_irradiation_s: beam.spot_irradiation_s,
                     scanning_s: beam.scanning_s,
+                    burst_switching_s: beam.burst_switching_s,
+                    spill_waiting_s: beam.spill_waiting_s,
                     required_speed_deg_per_s: cp.required_speed_deg_per_s,
                     switch_in_s,
                 });
@@ -96,6 +104,18 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
     }
     invalid_if_any(&plan_source, issues)?;
     Ok(arcs)
+}
+
+/// The switch between two layers of one spill (0 without a spill model, which never continues
+/// a spill).
+fn in_spill_switching_time_s(machine: &Machine) -> f64 {
+    match &machine.beam {
+        crate::BeamModel::Scanning(b) => b
+            .spill
+            .as_ref()
+            .map_or(0.0, |s| s.in_spill_switching_time_s),
+        crate::BeamModel::PerMu(_) => 0.0,
+    }
 }
 
 /// The machine's default window, like an explicit one, may not be wider than the spacing.

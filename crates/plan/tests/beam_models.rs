@@ -20,6 +20,7 @@ fn scanning(speed: Option<f64>, xy: Option<(f64, f64)>) -> ScanningBeam {
         max_mu_per_spot: None,
         layer_overhead_s: 0.5,
         burst_switching_time_s: 0.0,
+        spill: None,
     }
 }
 
@@ -36,7 +37,8 @@ fn spots(mu: &[f64], positions: &[[f64; 2]]) -> Spots {
 fn events(s: &Spots, energy: f64, beam: &BeamModel) -> (Vec<SpotEvent>, f64, f64) {
     let mut ev = Vec::new();
     let t = time_spots(s, energy, beam, |e| ev.push(*e)).expect("timed");
-    (ev, t.spot_irradiation_s, t.scanning_s)
+    // Everything between spots: moves, settling, overhead, bursts, spill waits.
+    (ev, t.spot_irradiation_s, t.total_s() - t.spot_irradiation_s)
 }
 
 fn close(a: f64, b: f64) -> bool {
@@ -158,6 +160,9 @@ fn bursts_by_hand() {
     assert!(close(irr, 8.0 * rate));
     assert!(close(scan, 8.0 * mm + 2.0 * burst), "{scan}");
     assert!(close(irr + scan, t));
+    let parts = time_spots(&s, 100.0, &beam, |_| {}).expect("timed");
+    assert!(close(parts.burst_switching_s, 2.0 * burst), "{parts:?}");
+    assert!(close(parts.scanning_s, 8.0 * mm) && parts.spill_waiting_s == 0.0);
     // One pass: no burst switching at all.
     let light = spots(&[1.0, 0.0], &[[0.0, 0.0], [1.0, 0.0]]);
     let (ev, irr, scan) = events(&light, 100.0, &beam);

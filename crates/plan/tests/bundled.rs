@@ -83,7 +83,15 @@ fn every_bundled_plan_resolves_on_every_bundled_machine() {
     assert_eq!(plans.len(), 4, "{plans:?}");
     assert_eq!(
         machines.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(),
-        vec!["atom", "fast", "opentps-pbs", "opentps", "proteusone-like"]
+        vec![
+            "atom",
+            "fast",
+            "opentps-pbs",
+            "opentps",
+            "probeat-v5-like-mee",
+            "probeat-v5-like",
+            "proteusone-like"
+        ]
     );
     for p in &plans {
         let plan = load_plan(p).unwrap_or_else(|e| panic!("{e}"));
@@ -93,7 +101,8 @@ fn every_bundled_plan_resolves_on_every_bundled_machine() {
             for l in arcs.iter().flat_map(|a| &a.layers) {
                 assert!(l.irradiation_s.is_finite() && l.irradiation_s > 0.0);
                 assert!(l.spot_irradiation_s > 0.0 && l.scanning_s > 0.0);
-                let parts = l.spot_irradiation_s + l.scanning_s;
+                let parts =
+                    l.spot_irradiation_s + l.scanning_s + l.burst_switching_s + l.spill_waiting_s;
                 assert!((parts - l.irradiation_s).abs() <= 1e-12 * l.irradiation_s);
                 assert!(l.switch_in_s.is_finite() && l.switch_in_s >= 0.0);
                 assert!(l.window_deg > 0.0 && l.angle_deg.is_finite());

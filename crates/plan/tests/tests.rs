@@ -6,4 +6,5 @@ mod bundled;
 mod elst_tables;
 mod machine_resolve;
 mod opentps;
+mod spills;
 mod validation;

@@ -81,9 +81,10 @@ impl Delivery {
     }
 
     /// Where the time goes: {"beam_on_s", "spot_irradiation_s", "scanning_s",
-    /// "energy_switching_s", "lost_s"} (s). Beam-on is spot irradiation plus the time between
-    /// spots (scanning, settling, layer overhead); lost_s is what the gantry adds beyond beam-on
-    /// and energy switching.
+    /// "burst_switching_s", "spill_waiting_s", "energy_switching_s", "lost_s"} (s). Beam-on is
+    /// spot irradiation plus the time between spots (scanning, settling, layer overhead), burst
+    /// switching and waits for a spill; lost_s is what the gantry adds beyond beam-on and energy
+    /// switching.
     #[getter]
     fn breakdown<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         serde_to_py(py, &self.delivery.breakdown)
@@ -159,8 +160,9 @@ impl Delivery {
         records(py, &self.delivery.transitions)
     }
 
-    /// One entry per spot delivery (one painting of one spot) in delivery order, as columns:
-    /// `layer_index`, `arc`, `control_point`, `layer`, `spot`, `painting`, `x_mm`, `y_mm` (NaN
+    /// One entry per spot delivery (one painting of one spot, or its part in one spill) in
+    /// delivery order, as columns: `layer_index`, `arc`, `control_point`, `layer`, `spot`,
+    /// `painting`, `burst`, `spill` (None without bursts / spills), `x_mm`, `y_mm` (NaN
     /// without positions), `mu`, `t_start_s`, `t_end_s`, `angle_start_deg`, `angle_end_deg`
     /// (the gantry angle at the spot's start and end); as `simulate --spots` writes them.
     #[getter]

@@ -141,13 +141,16 @@ fn distinct(mut v: Vec<f64>, max: usize) -> Vec<f64> {
 
 /// The axes other than J, A, V (each value of them gets heatmaps of its own), and the key of a
 /// setting's values on them.
-const OTHER_AXES: [Axis; 6] = [
+const OTHER_AXES: [Axis; 9] = [
     Axis::ElstUp,
     Axis::ElstDown,
     Axis::Window,
     Axis::ScanSpeed,
     Axis::DoseRateScale,
     Axis::BurstSwitching,
+    Axis::SpillCharge,
+    Axis::SpillRefill,
+    Axis::SpillMaxLayers,
 ];
 
 type OthersKey = [Option<f64>; OTHER_AXES.len()];

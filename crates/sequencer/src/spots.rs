@@ -1,9 +1,10 @@
 //! The per-spot timeline: when every spot of every layer is delivered and at which gantry angle.
 //!
-//! The beam model lays each layer's spots out after the layer's beam-on ([`arcsim_plan::time_spots`]);
-//! the delivery says when each layer's beam-on starts, and its timeline where the gantry is then.
+//! The beam model lays each layer's spots out after the layer's beam-on, carrying a synchrotron's
+//! spill from layer to layer as resolution does ([`arcsim_plan::BeamSequence`]); the delivery says
+//! when each layer's beam-on starts, and its timeline where the gantry is then.
 
-use arcsim_plan::{time_spots, ArcPlan, Machine};
+use arcsim_plan::{ArcPlan, BeamModel, BeamSequence, Machine};
 use serde::{Deserialize, Serialize};
 
 use crate::{Delivery, InputError, SequenceError};
@@ -23,6 +24,12 @@ pub struct SpotRow {
     pub spot: usize,
     /// Painting (pass over the layer's spots) that delivers it, from 0.
     pub painting: usize,
+    /// The burst that delivers it (the painting), on a machine with burst switching.
+    #[serde(default)]
+    pub burst: Option<usize>,
+    /// The spill it is extracted from (from 0 over the whole plan), on a machine with spills.
+    #[serde(default)]
+    pub spill: Option<usize>,
     /// Spot position in the isocentre plane, mm (absent when the plan gives no positions).
     pub x_mm: Option<f64>,
     /// Spot position, mm (y).
@@ -52,6 +59,8 @@ pub fn spot_timeline(
         .as_ref()
         .ok_or_else(|| SequenceError::from(InputError::NoTimeline))?;
     let mut rows = Vec::new();
+    let bursts = matches!(&machine.beam, BeamModel::Scanning(b) if b.burst_switching_time_s > 0.0);
+    let mut sequence = BeamSequence::new(&machine.beam);
     for row in &delivery.layers {
         let layer = plan
             .arcs
@@ -67,15 +76,12 @@ pub fn spot_timeline(
                     plan: plan.name.clone(),
                 })
             })?;
-        let Some(spots) = &layer.spots else {
-            continue;
-        };
         let angle = |t: f64| {
             timeline
                 .state_at(t.clamp(row.t_start_s, row.t_end_s))
                 .angle_deg
         };
-        time_spots(spots, layer.energy_mev, &machine.beam, |e| {
+        let mut visit = |e: &arcsim_plan::SpotEvent| {
             let (t0, t1) = (row.t_start_s + e.start_s, row.t_start_s + e.end_s);
             rows.push(SpotRow {
                 layer_index: row.index,
@@ -84,6 +90,8 @@ pub fn spot_timeline(
                 layer: row.layer,
                 spot: e.spot,
                 painting: e.painting,
+                burst: bursts.then_some(e.painting),
+                spill: e.spill,
                 x_mm: e.position_mm.map(|p| p[0]),
                 y_mm: e.position_mm.map(|p| p[1]),
                 mu: e.mu,
@@ -92,15 +100,17 @@ pub fn spot_timeline(
                 angle_start_deg: angle(t0),
                 angle_end_deg: angle(t1),
             });
-        })
-        .map_err(|reason| InputError::SpotsUntimed {
-            index: row.index,
-            arc: row.arc,
-            control_point: row.control_point,
-            layer: row.layer,
-            machine: machine.name.clone(),
-            reason,
-        })?;
+        };
+        sequence
+            .next_layer(row.arc, layer, &mut visit)
+            .map_err(|reason| InputError::SpotsUntimed {
+                index: row.index,
+                arc: row.arc,
+                control_point: row.control_point,
+                layer: row.layer,
+                machine: machine.name.clone(),
+                reason,
+            })?;
     }
     Ok(rows)
 }

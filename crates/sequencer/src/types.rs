@@ -315,7 +315,8 @@ pub struct TransitionRow {
 /// Where the total time goes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Breakdown {
-    /// Σ irradiation times: `spot_irradiation_s + scanning_s`.
+    /// Σ irradiation times: `spot_irradiation_s + scanning_s + burst_switching_s +
+    /// spill_waiting_s`.
     pub beam_on_s: f64,
     /// Of the beam-on time, the spots' irradiation (dose delivered).
     #[serde(default)]
@@ -324,6 +325,12 @@ pub struct Breakdown {
     /// layer overhead.
     #[serde(default)]
     pub scanning_s: f64,
+    /// Of the beam-on time, the pauses between a layer's bursts (a synchrocyclotron).
+    #[serde(default)]
+    pub burst_switching_s: f64,
+    /// Of the beam-on time, the waits for the next spill (a synchrotron).
+    #[serde(default)]
+    pub spill_waiting_s: f64,
     /// Σ energy-layer switching times.
     pub energy_switching_s: f64,
     /// What the gantry adds beyond the two: Σ max(0, transition − ELST).
@@ -341,6 +348,8 @@ impl Breakdown {
             beam_on_s: sum(layers().map(|l| l.irradiation_s).sum()),
             spot_irradiation_s: sum(layers().map(|l| l.spot_irradiation_s).sum()),
             scanning_s: sum(layers().map(|l| l.scanning_s).sum()),
+            burst_switching_s: sum(layers().map(|l| l.burst_switching_s).sum()),
+            spill_waiting_s: sum(layers().map(|l| l.spill_waiting_s).sum()),
             energy_switching_s: sum(energy_switching_s),
             lost_s: sum(lost_s),
         }

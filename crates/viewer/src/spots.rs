@@ -135,6 +135,17 @@ fn painting_text(first: usize, last: usize, paintings: usize) -> String {
     }
 }
 
+/// The bursts (counted from 1, like paintings) and spills (indexed as in `--spots`) a batch of
+/// rows spans, for the layer's label; empty on a machine without them.
+fn structure_text(first: &SpotRow, last: &SpotRow) -> String {
+    let span = |name: &str, a: Option<usize>, b: Option<usize>, base: usize| match (a, b) {
+        (Some(a), Some(b)) if a == b => format!(", {name} {}", a + base),
+        (Some(a), Some(b)) => format!(", {name}s {}–{}", a + base, b + base),
+        _ => String::new(),
+    };
+    span("burst", first.burst, last.burst, 1) + &span("spill", first.spill, last.spill, 0)
+}
+
 impl Columns {
     fn add_layer(&mut self, layer: &Layer, energy_mev: Option<f64>, margin: f32) {
         let n = layer.spots.len();
@@ -206,11 +217,9 @@ impl Columns {
             }
             self.cur_lengths.push(self.cur_positions.len() - before);
 
-            let paintings = painting_text(
-                batch[0].0.painting,
-                batch[batch.len() - 1].0.painting,
-                layer.paintings,
-            );
+            let (first, last) = (batch[0].0, batch[batch.len() - 1].0);
+            let paintings = painting_text(first.painting, last.painting, layer.paintings)
+                + &structure_text(first, last);
             self.box_lengths.push(1);
             self.box_centers.push(center);
             self.box_half_sizes.push(half);
@@ -244,7 +253,8 @@ impl Columns {
 ///   painting. At the end of the layer the view clears.
 /// - [`paths::BEV_CURRENT`]: the spots being irradiated, drawn larger on top.
 /// - [`paths::BEV_LAYER`]: the layer's outline, labelled with its index (and energy), the
-///   painting, the spots delivered so far and the largest spot MU.
+///   painting (and the burst and spill, on a machine with them), the spots delivered so far and
+///   the largest spot MU.
 /// - [`paths::BEV_AXES`] (static): lines through the isocentre across all layers' spots.
 ///
 /// Rows without a position are skipped, and so is a layer without any.

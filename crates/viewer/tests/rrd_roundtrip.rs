@@ -358,6 +358,8 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
             beam_on_s: 30.0,
             spot_irradiation_s: 30.0,
             scanning_s: 0.0,
+            burst_switching_s: 0.0,
+            spill_waiting_s: 0.0,
             energy_switching_s: 130.0,
             lost_s: total_s - 160.0,
         },
@@ -383,6 +385,9 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
             scan_speed_mm_per_s: None,
             dose_rate_scale: None,
             burst_switching_time_s: None,
+            spill_charge_mu: None,
+            spill_refill_time_s: None,
+            spill_max_layers: None,
         },
         status: if total.is_some() {
             Status::Ok
@@ -402,6 +407,9 @@ fn sweep_row(index: usize, j: f64, a: f64, total: Option<f64>) -> arcsim_evaluat
             scan_speed_mm_per_s: None,
             dose_rate_scale: 1.0,
             burst_switching_time_s: None,
+            spill_charge_mu: None,
+            spill_refill_time_s: None,
+            spill_max_layers: None,
         },
     }
 }

@@ -92,6 +92,8 @@ fn row(
         layer: 0,
         spot,
         painting,
+        burst: None,
+        spill: None,
         x_mm: pos.map(|p| p[0]),
         y_mm: pos.map(|p| p[1]),
         mu,
@@ -103,7 +105,7 @@ fn row(
 }
 
 /// Layer 0: four spots (1.0–1.4 s); layer 1: no positions (skipped); layer 2: three spots
-/// painted twice (3.0–3.6 s).
+/// painted twice (3.0–3.6 s), each painting a burst and a spill.
 fn synthetic() -> Vec<SpotRow> {
     let mut rows = vec![];
     let layer0 = [[-10.0, -5.0], [0.0, -5.0], [10.0, -5.0], [0.0, 5.0]];
@@ -126,7 +128,11 @@ fn synthetic() -> Vec<SpotRow> {
             .into_iter()
             .enumerate()
         {
-            rows.push(row(2, k, painting, Some(p), 0.05, t));
+            let mut r = row(2, k, painting, Some(p), 0.05, t);
+            // Each painting a burst, delivered from spills 7 and 8.
+            r.burst = Some(painting);
+            r.spill = Some(7 + painting);
+            rows.push(r);
             t += 0.1;
         }
     }
@@ -216,8 +222,19 @@ fn spots_are_lit_as_delivered() {
     assert!(
         label[0].starts_with("layer 2 ")
             && label[0].contains("130.5 MeV")
-            && label[0].contains("painting 2 of 2"),
+            && label[0].contains("painting 2 of 2, burst 2, spill 8:"),
         "{label:?}"
+    );
+    let first = latest_at(&labels, 3.05);
+    assert!(
+        first[0].contains("painting 1 of 2, burst 1, spill 7:"),
+        "{first:?}"
+    );
+    // No bursts or spills: the label does not mention them.
+    let plain = latest_at(&labels, 1.05);
+    assert!(
+        !plain[0].contains("burst") && !plain[0].contains("spill"),
+        "{plain:?}"
     );
     assert!(latest_at(&labels, 3.7).is_empty());
 

@@ -7,7 +7,7 @@ use crate::EvalError;
 
 /// Joins shard outputs (`(name, text)` pairs, in any order) into the table a single run writes.
 /// Every input must have the sweep header, all the same one ([`CSV_HEADER`], or all one earlier
-/// header, [`CSV_HEADER_V4`], [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`], which the merged table then
+/// header, [`CSV_HEADER_V5`], [`CSV_HEADER_V4`], [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`], which the merged table then
 /// keeps; the columns of an input may be in any order, the merged table has them in the
 /// header's); indices must not repeat and must be exactly `0..n`, where `n` is the sweep's
 /// combination count: `expected` when given (from the sweep file), and the `combinations`

@@ -14,7 +14,8 @@
 //! beam model (no scanning speed) or a `scanning` one with separate x and y speeds,
 //! `burst_switching_time_s` for a `per_mu` beam model (no bursts).
 //!
-//! Tables with an earlier header ([`CSV_HEADER_V4`]: without `burst_switching_time_s`;
+//! Tables with an earlier header ([`CSV_HEADER_V5`]: without the beam-on terms
+//! `burst_switching_s` and `spill_waiting_s`; [`CSV_HEADER_V4`]: also without `burst_switching_time_s`;
 //! [`CSV_HEADER_V3`]: also without `combinations`; [`CSV_HEADER_V2`]: also without the
 //! certificate's `lower_bound_s` and `gap_s`; [`CSV_HEADER_V1`]: also without the two beam axes and
 //! the split of the beam-on time) still merge (with tables of the same header) and read back.
@@ -35,7 +36,9 @@ mod write;
 
 pub use lines::CsvLineNumbers;
 pub use merge::merge_csv;
-pub use schema::{CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2, CSV_HEADER_V3, CSV_HEADER_V4};
+pub use schema::{
+    CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2, CSV_HEADER_V3, CSV_HEADER_V4, CSV_HEADER_V5,
+};
 pub use write::{write_csv_header, write_csv_row};
 
 #[cfg(test)]

@@ -47,6 +47,8 @@ fn unknown_outcome() -> Outcome {
             beam_on_s: f64::NAN,
             spot_irradiation_s: f64::NAN,
             scanning_s: f64::NAN,
+            burst_switching_s: f64::NAN,
+            spill_waiting_s: f64::NAN,
             energy_switching_s: f64::NAN,
             lost_s: f64::NAN,
         },

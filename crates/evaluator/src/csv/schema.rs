@@ -80,11 +80,16 @@ sweep_columns! {
     "scan_speed_mm_per_s" => Field::Limit(Axis::ScanSpeed),
     "dose_rate_scale" => Field::Limit(Axis::DoseRateScale),
     "burst_switching_time_s" => Field::Limit(Axis::BurstSwitching),
+    "spill_charge_mu" => Field::Limit(Axis::SpillCharge),
+    "spill_refill_time_s" => Field::Limit(Axis::SpillRefill),
+    "spill_max_layers" => Field::Limit(Axis::SpillMaxLayers),
     "status" => Field::Status,
     "total_s" => outcome!(Number, total_s),
     "beam_on_s" => outcome!(Number, breakdown.beam_on_s),
     "spot_irradiation_s" => outcome!(Number, breakdown.spot_irradiation_s),
     "scanning_s" => outcome!(Number, breakdown.scanning_s),
+    "burst_switching_s" => outcome!(Number, breakdown.burst_switching_s),
+    "spill_waiting_s" => outcome!(Number, breakdown.spill_waiting_s),
     "energy_switching_s" => outcome!(Number, breakdown.energy_switching_s),
     "lost_s" => outcome!(Number, breakdown.lost_s),
     "speedup" => outcome!(Optional, speedup),
@@ -104,7 +109,17 @@ sweep_columns! {
     "message" => Field::Message,
 }
 
-/// A header without the `burst_switching_time_s` column: [`CSV_HEADER`] without it. Such tables
+/// A header without the spill axes' columns (`spill_charge_mu`, `spill_refill_time_s`,
+/// `spill_max_layers`) and the
+/// beam-on terms `burst_switching_s` and `spill_waiting_s` (its `scanning_s` includes the burst
+/// switching): [`CSV_HEADER`] without them. Such tables merge and read back
+/// (the two read as unknown).
+pub const CSV_HEADER_V5: &str = "index,combinations,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
+scan_speed_mm_per_s,dose_rate_scale,burst_switching_time_s,status,total_s,beam_on_s,spot_irradiation_s,scanning_s,energy_switching_s,lost_s,speedup,\
+lower_bound_s,gap_s,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,violations,speed_use,accel_use,jerk_use,\
+window_slack_deg,elst_slack_s,message";
+
+/// A header without the `burst_switching_time_s` column: [`CSV_HEADER_V5`] without it. Such tables
 /// merge and read back (the base machine's burst switching).
 pub const CSV_HEADER_V4: &str = "index,combinations,plan,schedule,jerk_deg_per_s3,accel_deg_per_s2,speed_deg_per_s,elst_up_s,elst_down_s,window_deg,\
 scan_speed_mm_per_s,dose_rate_scale,status,total_s,beam_on_s,spot_irradiation_s,scanning_s,energy_switching_s,lost_s,speedup,\
@@ -134,8 +149,17 @@ pub const CSV_HEADER_V1: &str = "index,plan,schedule,jerk_deg_per_s3,accel_deg_p
 status,total_s,beam_on_s,energy_switching_s,lost_s,speedup,limited_elst,limited_speed,limited_accel,limited_jerk,limited_none,\
 violations,speed_use,accel_use,jerk_use,window_slack_deg,elst_slack_s,message";
 
-/// The burst axis's column, which the tables before [`CSV_HEADER`] do not have.
+/// The burst axis's column, which the tables before [`CSV_HEADER_V5`] do not have.
 const BURST_COLUMN: &str = "burst_switching_time_s";
+
+/// The beam-on terms of bursts and spills, which the tables before [`CSV_HEADER`] do not have.
+const BEAM_STRUCTURE_COLUMNS: [&str; 5] = [
+    "spill_charge_mu",
+    "spill_refill_time_s",
+    "spill_max_layers",
+    "burst_switching_s",
+    "spill_waiting_s",
+];
 
 /// The certificate's columns, which [`CSV_HEADER_V2`]'s tables do not have.
 const CERTIFICATE_COLUMNS: [&str; 2] = ["lower_bound_s", "gap_s"];
@@ -145,6 +169,8 @@ const CERTIFICATE_COLUMNS: [&str; 2] = ["lower_bound_s", "gap_s"];
 pub(super) enum Layout {
     /// [`CSV_HEADER`]'s columns.
     Current,
+    /// [`CSV_HEADER_V5`]'s columns.
+    V5,
     /// [`CSV_HEADER_V4`]'s columns.
     V4,
     /// [`CSV_HEADER_V3`]'s columns.
@@ -157,8 +183,9 @@ pub(super) enum Layout {
 
 impl Layout {
     /// Newest first: a header is read as the first layout that has all of its columns.
-    const ALL: [Layout; 5] = [
+    const ALL: [Layout; 6] = [
         Layout::Current,
+        Layout::V5,
         Layout::V4,
         Layout::V3,
         Layout::V2,
@@ -169,13 +196,10 @@ impl Layout {
     fn has(self, column: &Column) -> bool {
         match self {
             Layout::Current => true,
-            Layout::V4 => column.name != BURST_COLUMN,
-            Layout::V3 => column.name != BURST_COLUMN && column.name != "combinations",
-            Layout::V2 => {
-                column.name != BURST_COLUMN
-                    && column.name != "combinations"
-                    && !CERTIFICATE_COLUMNS.contains(&column.name)
-            }
+            Layout::V5 => !BEAM_STRUCTURE_COLUMNS.contains(&column.name),
+            Layout::V4 => Layout::V5.has(column) && column.name != BURST_COLUMN,
+            Layout::V3 => Layout::V4.has(column) && column.name != "combinations",
+            Layout::V2 => Layout::V3.has(column) && !CERTIFICATE_COLUMNS.contains(&column.name),
             Layout::V1 => CSV_HEADER_V1.split(',').any(|n| n == column.name),
         }
     }
@@ -188,6 +212,7 @@ impl Layout {
     pub(super) fn describe(self) -> &'static str {
         match self {
             Layout::Current => "the current arcsim sweep CSV header",
+            Layout::V5 => "an older arcsim's header (without the spill_charge_mu, spill_refill_time_s, spill_max_layers, burst_switching_s and spill_waiting_s columns)",
             Layout::V4 => "an older arcsim's header (without the burst_switching_time_s column)",
             Layout::V3 => "an older arcsim's header (without the combinations column)",
             Layout::V2 => "an older arcsim's header (without the lower_bound_s and gap_s columns)",
@@ -207,7 +232,7 @@ pub(super) struct Header {
 
 impl Header {
     /// Finds the columns by name; every name must be a column of the table, once, and the names
-    /// must be those of [`CSV_HEADER`], [`CSV_HEADER_V4`], [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`]
+    /// must be those of [`CSV_HEADER`], [`CSV_HEADER_V5`], [`CSV_HEADER_V4`], [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`]
     /// (in any order).
     pub(super) fn parse(names: &StringRecord) -> Result<Header, String> {
         const EXPECTED: &str = "expected the arcsim sweep CSV header";

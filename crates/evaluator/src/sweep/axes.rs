@@ -73,26 +73,16 @@ pub(super) fn expand_runs(
                     None => (f(&spec.axes).as_ref(), "axes".to_string()),
                 }
             };
-            let mut checked = |f: fn(&Axes) -> &Option<AxisSpec>, axis: Axis| -> Result<Option<AxisSpec>, EvalError> {
+            let mut checked = |f: fn(&Axes) -> &Option<AxisSpec>,
+                               axis: Axis|
+             -> Result<Option<AxisSpec>, EvalError> {
                 let (a, at) = pick(f);
                 let field = format!("{at}.{}", axis.field());
                 let Some(a) = a else { return Ok(None) };
-                if let Some(why) = elst_not_sweepable(axis, machine) {
+                if let Some(why) = refusal(axis, machine) {
                     return Err(EvalError::sweep(file, field, why));
                 }
-                if let (Some((lacks, sweeps)), BeamModel::PerMu(_)) = (axis.scanning_only(), &machine.beam) {
-                    return Err(EvalError::sweep(
-                        file,
-                        field,
-                        format!("machine \"{}\": its beam model has no {lacks} (kind per_mu); expected a beam model of kind scanning to sweep {sweeps}", machine.name),
-                    ));
-                }
-                let zero_ok = matches!(axis, Axis::ElstUp | Axis::ElstDown | Axis::BurstSwitching);
-                check_axis(a, &field, file, zero_ok)?;
-                if axis == Axis::DoseRateScale {
-                    check_dose_rate_scales(a, &field, file)?;
-                }
-                check_machine_values(a, axis, &field, file, machine)?;
+                check_values(a, axis, &field, file, machine)?;
                 if matches!(a, AxisSpec::Range { .. }) && !ranges.iter().any(|(f, _)| *f == field) {
                     ranges.push((field, a.clone()));
                 }
@@ -107,6 +97,9 @@ pub(super) fn expand_runs(
             let scan_speed = checked(|a| &a.scan_speed_mm_per_s, Axis::ScanSpeed)?;
             let dose_rate_scale = checked(|a| &a.dose_rate_scale, Axis::DoseRateScale)?;
             let burst_switching = checked(|a| &a.burst_switching_time_s, Axis::BurstSwitching)?;
+            let spill_charge = checked(|a| &a.spill_charge_mu, Axis::SpillCharge)?;
+            let spill_refill = checked(|a| &a.spill_refill_time_s, Axis::SpillRefill)?;
+            let spill_max_layers = checked(|a| &a.spill_max_layers, Axis::SpillMaxLayers)?;
             let limit = |a: Option<AxisSpec>, base: f64| a.unwrap_or(AxisSpec::Values(vec![base]));
             let grid = Grid {
                 jerk: limit(jerk, g.max_jerk_deg_per_s3),
@@ -118,6 +111,9 @@ pub(super) fn expand_runs(
                 scan_speed,
                 dose_rate_scale,
                 burst_switching,
+                spill_charge,
+                spill_refill,
+                spill_max_layers,
             };
             Ok(ScheduleGrid {
                 schedule: RunMode {
@@ -135,6 +131,44 @@ pub(super) fn expand_runs(
         check_range_distinct(range, field, file)?;
     }
     Ok(runs)
+}
+
+/// Why `machine` cannot have `axis` swept: an ELST model without the single value, or a beam
+/// model without the scanning speed, bursts or spills the axis sets.
+fn refusal(axis: Axis, machine: &Machine) -> Option<String> {
+    if let Some(why) = elst_not_sweepable(axis, machine) {
+        return Some(why);
+    }
+    if let (Some((lacks, sweeps)), BeamModel::PerMu(_)) = (axis.scanning_only(), &machine.beam) {
+        return Some(format!("machine \"{}\": its beam model has no {lacks} (kind per_mu); expected a beam model of kind scanning to sweep {sweeps}", machine.name));
+    }
+    if let (Some(sweeps), None) = (axis.spill_only(), machine.beam.spill()) {
+        return Some(format!("machine \"{}\": its beam model has no spills (kind {}, no `spill`); expected a `scanning` beam model with a `spill` to sweep {sweeps}", machine.name, machine.beam.kind()));
+    }
+    None
+}
+
+/// Checks an axis' values: the rules of every axis, those of its own quantity, and that the
+/// machine accepts its extremes.
+fn check_values(
+    a: &AxisSpec,
+    axis: Axis,
+    field: &str,
+    file: &str,
+    machine: &Machine,
+) -> Result<(), EvalError> {
+    let zero_ok = matches!(
+        axis,
+        Axis::ElstUp | Axis::ElstDown | Axis::BurstSwitching | Axis::SpillRefill
+    );
+    check_axis(a, field, file, zero_ok)?;
+    if axis == Axis::DoseRateScale {
+        check_dose_rate_scales(a, field, file)?;
+    }
+    if axis == Axis::SpillMaxLayers {
+        check_layer_counts(a, field, file, machine)?;
+    }
+    check_machine_values(a, axis, field, file, machine)
 }
 
 /// Checks one axis without walking a range: at least one value and at most
@@ -225,13 +259,9 @@ pub const DOSE_RATE_SCALE_RANGE: (f64, f64) = (1e-3, 1e3);
 /// Checks a dose-rate scale axis's values (a list's each, a range's ends) against
 /// [`DOSE_RATE_SCALE_RANGE`]; the scaled beam model is then checked as a machine's
 /// ([`check_machine_values`]).
-pub(super) fn check_dose_rate_scales(
-    spec: &AxisSpec,
-    field: &str,
-    file: &str,
-) -> Result<(), EvalError> {
-    let (lo, hi) = DOSE_RATE_SCALE_RANGE;
-    let values: Vec<(String, f64)> = match spec {
+/// An axis' values as written, located: each value of a list, or a range's ends.
+fn listed(spec: &AxisSpec, field: &str) -> Vec<(String, f64)> {
+    match spec {
         AxisSpec::Values(v) => v
             .iter()
             .enumerate()
@@ -241,8 +271,58 @@ pub(super) fn check_dose_rate_scales(
             (format!("{field}.from"), *from),
             (format!("{field}.to"), *to),
         ],
-    };
-    match values.into_iter().find(|(_, x)| !(lo..=hi).contains(x)) {
+    }
+}
+
+/// Layers per spill: a list of whole numbers from 1 (a range would give fractions), on a machine
+/// with multi-energy extraction (without it every layer has its own spill already).
+fn check_layer_counts(
+    spec: &AxisSpec,
+    field: &str,
+    file: &str,
+    machine: &Machine,
+) -> Result<(), EvalError> {
+    if !machine
+        .beam
+        .spill()
+        .is_some_and(|s| s.multi_energy_extraction)
+    {
+        return Err(EvalError::sweep(
+            file,
+            field,
+            format!("machine \"{}\": its spills serve one layer each (no `multi_energy_extraction`); expected a machine with multi-energy extraction to sweep the layers per spill", machine.name),
+        ));
+    }
+    if matches!(spec, AxisSpec::Range { .. }) {
+        return Err(EvalError::sweep(
+            file,
+            field,
+            "expected a list of whole numbers of layers (e.g. [1, 2, 5]), not a range",
+        ));
+    }
+    match listed(spec, field)
+        .into_iter()
+        .find(|(_, x)| !(x.fract() == 0.0 && (1.0..=1e6).contains(x)))
+    {
+        Some((at, x)) => Err(EvalError::sweep(
+            file,
+            at,
+            format!("expected a whole number of layers from 1 to 1000000 (1: every layer its own spill), got {x}"),
+        )),
+        None => Ok(()),
+    }
+}
+
+pub(super) fn check_dose_rate_scales(
+    spec: &AxisSpec,
+    field: &str,
+    file: &str,
+) -> Result<(), EvalError> {
+    let (lo, hi) = DOSE_RATE_SCALE_RANGE;
+    match listed(spec, field)
+        .into_iter()
+        .find(|(_, x)| !(lo..=hi).contains(x))
+    {
         Some((at, x)) => Err(EvalError::sweep(
             file,
             at,
@@ -354,6 +434,23 @@ pub(super) fn check_machine_values(
             Axis::BurstSwitching => {
                 // A `per_mu` model is refused before (it has no bursts).
                 if let Some(b) = m.beam.with_burst_switching_time(x) {
+                    m.beam = b;
+                }
+            }
+            // A model without spills is refused before.
+            Axis::SpillCharge => {
+                if let Some(b) = m.beam.with_spill_charge(x) {
+                    m.beam = b;
+                }
+            }
+            Axis::SpillRefill => {
+                if let Some(b) = m.beam.with_spill_refill_time(x) {
+                    m.beam = b;
+                }
+            }
+            // Whole numbers, checked before.
+            Axis::SpillMaxLayers => {
+                if let Some(b) = m.beam.with_spill_max_layers(x as u32) {
                     m.beam = b;
                 }
             }

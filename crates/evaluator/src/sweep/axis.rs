@@ -4,7 +4,7 @@ use super::*;
 
 impl Axis {
     /// Every axis, in column order.
-    pub const ALL: [Axis; 9] = [
+    pub const ALL: [Axis; 12] = [
         Axis::Jerk,
         Axis::Accel,
         Axis::Speed,
@@ -14,6 +14,9 @@ impl Axis {
         Axis::ScanSpeed,
         Axis::DoseRateScale,
         Axis::BurstSwitching,
+        Axis::SpillCharge,
+        Axis::SpillRefill,
+        Axis::SpillMaxLayers,
     ];
 
     /// The gantry's own limits (J, A, V): raising one admits every timeline the lower value
@@ -32,6 +35,16 @@ impl Axis {
         }
     }
 
+    /// For an axis only a beam model with spills has: what it sweeps (for the refusal's message).
+    pub(crate) fn spill_only(self) -> Option<&'static str> {
+        match self {
+            Axis::SpillCharge => Some("the spill charge"),
+            Axis::SpillRefill => Some("the spill refill time"),
+            Axis::SpillMaxLayers => Some("the layers per spill"),
+            _ => None,
+        }
+    }
+
     /// The field name in sweep files and output columns.
     pub fn field(self) -> &'static str {
         match self {
@@ -44,6 +57,9 @@ impl Axis {
             Axis::ScanSpeed => "scan_speed_mm_per_s",
             Axis::DoseRateScale => "dose_rate_scale",
             Axis::BurstSwitching => "burst_switching_time_s",
+            Axis::SpillCharge => "spill_charge_mu",
+            Axis::SpillRefill => "spill_refill_time_s",
+            Axis::SpillMaxLayers => "spill_max_layers",
         }
     }
 
@@ -54,7 +70,9 @@ impl Axis {
             Axis::Jerk => "°/s³",
             Axis::Accel => "°/s²",
             Axis::Speed => "°/s",
-            Axis::ElstUp | Axis::ElstDown | Axis::BurstSwitching => "s",
+            Axis::ElstUp | Axis::ElstDown | Axis::BurstSwitching | Axis::SpillRefill => "s",
+            Axis::SpillCharge => "MU",
+            Axis::SpillMaxLayers => "layers",
             Axis::Window => "°",
             Axis::ScanSpeed => "mm/s",
             Axis::DoseRateScale => "×",
@@ -73,6 +91,9 @@ impl Axis {
             Axis::ScanSpeed => ("scan speed", "mm/s"),
             Axis::DoseRateScale => ("dose rate", "×"),
             Axis::BurstSwitching => ("burst switching", "s"),
+            Axis::SpillCharge => ("spill charge", "MU"),
+            Axis::SpillRefill => ("spill refill", "s"),
+            Axis::SpillMaxLayers => ("layers per spill", "layers"),
         }
     }
 }
@@ -90,6 +111,9 @@ impl Setting {
             Axis::ScanSpeed => self.scan_speed_mm_per_s,
             Axis::DoseRateScale => self.dose_rate_scale,
             Axis::BurstSwitching => self.burst_switching_time_s,
+            Axis::SpillCharge => self.spill_charge_mu,
+            Axis::SpillRefill => self.spill_refill_time_s,
+            Axis::SpillMaxLayers => self.spill_max_layers,
         }
     }
 
@@ -103,6 +127,9 @@ impl Setting {
             Axis::ScanSpeed => defaults.scan_speed_mm_per_s,
             Axis::DoseRateScale => Some(defaults.dose_rate_scale),
             Axis::BurstSwitching => defaults.burst_switching_time_s,
+            Axis::SpillCharge => defaults.spill_charge_mu,
+            Axis::SpillRefill => defaults.spill_refill_time_s,
+            Axis::SpillMaxLayers => defaults.spill_max_layers,
             Axis::Jerk | Axis::Accel | Axis::Speed => None,
         })
     }
@@ -119,6 +146,9 @@ impl Setting {
             Axis::ScanSpeed => self.scan_speed_mm_per_s = Some(value),
             Axis::DoseRateScale => self.dose_rate_scale = Some(value),
             Axis::BurstSwitching => self.burst_switching_time_s = Some(value),
+            Axis::SpillCharge => self.spill_charge_mu = Some(value),
+            Axis::SpillRefill => self.spill_refill_time_s = Some(value),
+            Axis::SpillMaxLayers => self.spill_max_layers = Some(value),
         }
         self
     }

@@ -15,6 +15,9 @@ impl Grid {
             Axis::ScanSpeed => self.scan_speed.as_ref(),
             Axis::DoseRateScale => self.dose_rate_scale.as_ref(),
             Axis::BurstSwitching => self.burst_switching.as_ref(),
+            Axis::SpillCharge => self.spill_charge.as_ref(),
+            Axis::SpillRefill => self.spill_refill.as_ref(),
+            Axis::SpillMaxLayers => self.spill_max_layers.as_ref(),
         }
     }
 
@@ -52,7 +55,7 @@ impl Grid {
         self.len() == 0
     }
 
-    /// The setting at grid index `i` (< [`Grid::len`]; jerk fastest, burst switching slowest): `i`
+    /// The setting at grid index `i` (< [`Grid::len`]; jerk fastest, layers per spill slowest): `i`
     /// read as a mixed-radix number whose digits index the axes, each value computed on demand.
     pub fn setting(&self, i: usize) -> Setting {
         let mut rest = i;
@@ -63,7 +66,7 @@ impl Grid {
             d
         };
         // The digits from the fastest: J, A, V, ELST down, ELST up, window, scanning speed,
-        // dose-rate scale, burst switching.
+        // dose-rate scale, burst switching, spill charge, spill refill, layers per spill.
         let j = digit(Axis::Jerk);
         let a = digit(Axis::Accel);
         let v = digit(Axis::Speed);
@@ -73,6 +76,9 @@ impl Grid {
         let sc = digit(Axis::ScanSpeed);
         let r = digit(Axis::DoseRateScale);
         let b = digit(Axis::BurstSwitching);
+        let q = digit(Axis::SpillCharge);
+        let f = digit(Axis::SpillRefill);
+        let n = digit(Axis::SpillMaxLayers);
         assert!(rest == 0, "grid index {i} of {}", self.len());
         Setting {
             jerk_deg_per_s3: self.jerk.value(j),
@@ -84,6 +90,9 @@ impl Grid {
             scan_speed_mm_per_s: self.value(Axis::ScanSpeed, sc),
             dose_rate_scale: self.value(Axis::DoseRateScale, r),
             burst_switching_time_s: self.value(Axis::BurstSwitching, b),
+            spill_charge_mu: self.value(Axis::SpillCharge, q),
+            spill_refill_time_s: self.value(Axis::SpillRefill, f),
+            spill_max_layers: self.value(Axis::SpillMaxLayers, n),
         }
     }
 

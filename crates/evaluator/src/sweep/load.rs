@@ -76,6 +76,9 @@ impl Sweep {
             scan_speed_mm_per_s: None,
             dose_rate_scale: None,
             burst_switching_time_s: None,
+            spill_charge_mu: None,
+            spill_refill_time_s: None,
+            spill_max_layers: None,
         }
     }
 
@@ -97,6 +100,14 @@ impl Sweep {
             Axis::ScanSpeed => single_scan_speed(&self.machine.beam),
             Axis::DoseRateScale => Some(1.0),
             Axis::BurstSwitching => self.machine.beam.burst_switching_time_s(),
+            Axis::SpillCharge => self.machine.beam.spill().map(|s| s.charge_mu),
+            Axis::SpillRefill => self.machine.beam.spill().map(|s| s.refill_time_s),
+            Axis::SpillMaxLayers => self
+                .machine
+                .beam
+                .spill()
+                .and_then(|s| s.max_layers_per_spill)
+                .map(f64::from),
             other => self.base_setting().get(other),
         }
     }
@@ -110,6 +121,9 @@ impl Sweep {
             scan_speed_mm_per_s: single_scan_speed(&self.machine.beam),
             dose_rate_scale: 1.0,
             burst_switching_time_s: self.machine.beam.burst_switching_time_s(),
+            spill_charge_mu: self.base_value(Axis::SpillCharge),
+            spill_refill_time_s: self.base_value(Axis::SpillRefill),
+            spill_max_layers: self.base_value(Axis::SpillMaxLayers),
         }
     }
 

@@ -53,6 +53,15 @@ pub struct Setting {
     pub dose_rate_scale: Option<f64>,
     /// Pause between two bursts of a layer, of a `scanning` beam model (s).
     pub burst_switching_time_s: Option<f64>,
+    /// Charge of one spill, of a beam model with spills (MU).
+    #[serde(default)]
+    pub spill_charge_mu: Option<f64>,
+    /// Time to the next spill, of a beam model with spills (s).
+    #[serde(default)]
+    pub spill_refill_time_s: Option<f64>,
+    /// Most layers one spill serves, of a beam model with multi-energy extraction (1: none).
+    #[serde(default)]
+    pub spill_max_layers: Option<f64>,
 }
 
 /// The base machine's values of the limits a [`Setting`] may leave unset (`None`): what a
@@ -75,6 +84,13 @@ pub struct Defaults {
     /// The burst switching time (s) of a `scanning` beam model (0 without bursts); `None` for a
     /// `per_mu` model.
     pub burst_switching_time_s: Option<f64>,
+    /// The spill charge (MU) of a beam model with spills; `None` without spills.
+    pub spill_charge_mu: Option<f64>,
+    /// The time to the next spill (s) of a beam model with spills; `None` without spills.
+    pub spill_refill_time_s: Option<f64>,
+    /// The most layers per spill of a beam model with multi-energy extraction (`None` without
+    /// spills, or unlimited).
+    pub spill_max_layers: Option<f64>,
 }
 
 /// The values of every axis for one schedule entry, kept as written: a range is computed value
@@ -99,6 +115,12 @@ pub struct Grid {
     pub dose_rate_scale: Option<AxisSpec>,
     /// Burst switching time; `None`: the base machine's beam model (one grid point).
     pub burst_switching: Option<AxisSpec>,
+    /// Spill charge; `None`: the base machine's beam model (one grid point).
+    pub spill_charge: Option<AxisSpec>,
+    /// Spill refill time; `None`: the base machine's beam model (one grid point).
+    pub spill_refill: Option<AxisSpec>,
+    /// Most layers per spill; `None`: the base machine's beam model (one grid point).
+    pub spill_max_layers: Option<AxisSpec>,
 }
 
 /// One schedule entry of a sweep: how it moves (schedule, motion, arc ends) and the grid of
@@ -159,6 +181,12 @@ pub enum Axis {
     DoseRateScale,
     /// Pause between two bursts of a layer, of a `scanning` beam model (s).
     BurstSwitching,
+    /// Charge of one spill, of a beam model with spills (MU).
+    SpillCharge,
+    /// Time to the next spill, of a beam model with spills (s).
+    SpillRefill,
+    /// Most layers one spill serves, of a beam model with multi-energy extraction (1: none).
+    SpillMaxLayers,
 }
 
 mod axes;

@@ -56,9 +56,9 @@ fn lazy_axis_values_are_bit_identical_to_the_eager_ones() {
     }
 }
 
-/// Grid points decode by mixed radix in the eager nesting: burst switching slowest, then dose-rate
-/// scale,
-/// scanning speed, window, ELST up, ELST down, V, A, and J fastest.
+/// Grid points decode by mixed radix in the eager nesting: spill refill slowest, then spill
+/// charge, burst switching, dose-rate scale, scanning speed, window, ELST up, ELST down, V, A, and
+/// J fastest.
 #[test]
 fn grid_settings_decode_like_the_nested_expansion() {
     let grid = Grid {
@@ -71,27 +71,35 @@ fn grid_settings_decode_like_the_nested_expansion() {
         scan_speed: None,
         dose_rate_scale: Some(AxisSpec::Values(vec![1.0, 2.0])),
         burst_switching: Some(AxisSpec::Values(vec![0.15, 0.0])),
+        spill_charge: Some(AxisSpec::Values(vec![40.0, 20.0])),
+        spill_refill: None,
+        spill_max_layers: None,
     };
     let mut nested = Vec::new();
-    // No ELST up or scanning speed axis: one point, `None`.
-    for &b in &eager(grid.burst_switching.as_ref().expect("bursts")) {
-        for &r in &eager(grid.dose_rate_scale.as_ref().expect("dose rate")) {
-            for &w in &eager(grid.window.as_ref().expect("window")) {
-                for &d in &eager(grid.elst_down.as_ref().expect("down")) {
-                    for &v in &eager(&grid.speed) {
-                        for &a in &eager(&grid.accel) {
-                            for &j in &eager(&grid.jerk) {
-                                nested.push(Setting {
-                                    jerk_deg_per_s3: j,
-                                    accel_deg_per_s2: a,
-                                    speed_deg_per_s: v,
-                                    elst_up_s: None,
-                                    elst_down_s: Some(d),
-                                    window_deg: Some(w),
-                                    scan_speed_mm_per_s: None,
-                                    dose_rate_scale: Some(r),
-                                    burst_switching_time_s: Some(b),
-                                });
+    // No ELST up, scanning speed or spill refill axis: one point, `None`.
+    for &q in &eager(grid.spill_charge.as_ref().expect("spill charge")) {
+        for &b in &eager(grid.burst_switching.as_ref().expect("bursts")) {
+            for &r in &eager(grid.dose_rate_scale.as_ref().expect("dose rate")) {
+                for &w in &eager(grid.window.as_ref().expect("window")) {
+                    for &d in &eager(grid.elst_down.as_ref().expect("down")) {
+                        for &v in &eager(&grid.speed) {
+                            for &a in &eager(&grid.accel) {
+                                for &j in &eager(&grid.jerk) {
+                                    nested.push(Setting {
+                                        jerk_deg_per_s3: j,
+                                        accel_deg_per_s2: a,
+                                        speed_deg_per_s: v,
+                                        elst_up_s: None,
+                                        elst_down_s: Some(d),
+                                        window_deg: Some(w),
+                                        scan_speed_mm_per_s: None,
+                                        dose_rate_scale: Some(r),
+                                        burst_switching_time_s: Some(b),
+                                        spill_charge_mu: Some(q),
+                                        spill_refill_time_s: None,
+                                        spill_max_layers: None,
+                                    });
+                                }
                             }
                         }
                     }
@@ -100,7 +108,7 @@ fn grid_settings_decode_like_the_nested_expansion() {
         }
     }
     assert_eq!(grid.len(), nested.len());
-    assert_eq!(grid.checked_len(), Some(480));
+    assert_eq!(grid.checked_len(), Some(960));
     for (i, s) in nested.iter().enumerate() {
         assert_eq!(grid.setting(i), *s, "grid point {i}");
     }
@@ -108,6 +116,8 @@ fn grid_settings_decode_like_the_nested_expansion() {
     assert_eq!(grid.values(Axis::ScanSpeed), vec![None]);
     assert_eq!(grid.value(Axis::DoseRateScale, 1), Some(2.0));
     assert_eq!(grid.value(Axis::BurstSwitching, 1), Some(0.0));
+    assert_eq!(grid.value(Axis::SpillCharge, 1), Some(20.0));
+    assert_eq!(grid.values(Axis::SpillRefill), vec![None]);
     assert_eq!(grid.axis_len(Axis::Jerk), 5);
     assert_eq!(grid.value(Axis::Speed, 2), Some(3.0));
 }
@@ -125,6 +135,9 @@ fn grid_sizes_overflow_into_a_refusal_not_a_wrap() {
         scan_speed: None,
         dose_rate_scale: None,
         burst_switching: None,
+        spill_charge: None,
+        spill_refill: None,
+        spill_max_layers: None,
     };
     assert_eq!(grid.checked_len(), None);
     assert_eq!(grid.len(), usize::MAX);
@@ -145,6 +158,9 @@ fn grid_sizes_overflow_into_a_refusal_not_a_wrap() {
         scan_speed: None,
         dose_rate_scale: None,
         burst_switching: None,
+        spill_charge: None,
+        spill_refill: None,
+        spill_max_layers: None,
     };
     assert!(check_combinations("s.json", Some(1), [&small]).is_ok());
     let e = check_combinations("s.json", Some(2), [&small])

@@ -97,6 +97,8 @@ pub fn random_arc(rng: &mut Rng, n: usize, r: &ArcRanges) -> ResolvedArc {
                 irradiation_s: t,
                 spot_irradiation_s: t,
                 scanning_s: 0.0,
+                burst_switching_s: 0.0,
+                spill_waiting_s: 0.0,
                 required_speed_deg_per_s: None,
                 switch_in_s: if k == 0 {
                     0.0
