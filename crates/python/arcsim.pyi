@@ -22,6 +22,9 @@ class PlanError(ValueError):
 class SweepError(ValueError):
     """A sweep file (or dict) that cannot be read or is invalid."""
 
+class LogError(ValueError):
+    """A delivery log that cannot be read (the message gives file, line and column)."""
+
 class ProfileError(ValueError):
     """A move with invalid input or no feasible profile."""
 
@@ -107,6 +110,11 @@ class Machine:
 def load_machine(path: _Path) -> Machine:
     """An arcsim-machine/1 JSON file. Raises PlanError."""
 
+def load_log(path: _Path, columns: Optional[str] = None) -> Dict[str, npt.NDArray[Any]]:
+    """A delivery log (arcsim-log/1) as columns t_s, gantry_angle_deg, beam_on, energy_mev,
+    spot, mu (NaN where empty); `columns` maps another CSV's names
+    ("t_s=TIME,gantry_angle_deg=GantryAngle,beam_on=Beam"). Raises LogError."""
+
 class Delivery:
     """A simulated delivery: what `arcsim simulate` computes."""
 
@@ -114,8 +122,8 @@ class Delivery:
     def total_s(self) -> float: ...
     @property
     def breakdown(self) -> Dict[str, float]:
-        """beam_on_s (= spot_irradiation_s + scanning_s), energy_switching_s, lost_s (what the
-        gantry adds beyond beam-on and energy switching)."""
+        """beam_on_s (= spot_irradiation_s + scanning_s + burst_switching_s + spill_waiting_s),
+        energy_switching_s, lost_s (what the gantry adds beyond beam-on and energy switching)."""
     @property
     def limiter_counts(self) -> Dict[str, int]: ...
     @property
@@ -141,9 +149,10 @@ class Delivery:
         """One entry per transition, as columns."""
     @property
     def spots(self) -> Dict[str, Any]:
-        """One entry per spot delivery (one painting of a spot), as columns: layer_index, arc,
-        control_point, layer, spot, painting, x_mm, y_mm (NaN without positions), mu,
-        t_start_s, t_end_s, angle_start_deg, angle_end_deg; as `simulate --spots` writes them."""
+        """One entry per spot delivery (one painting of a spot, or its part in one spill), as
+        columns: layer_index, arc, control_point, layer, spot, painting, burst, spill (None
+        without bursts / spills), x_mm, y_mm (NaN without positions), mu, t_start_s, t_end_s,
+        angle_start_deg, angle_end_deg; as `simulate --spots` writes them."""
     def to_pandas(self, table: str = "layers") -> Any:
         """`layers`, `transitions` or `spots` as a pandas DataFrame (needs pandas)."""
     def timeline(self, dt: Optional[float] = None) -> Dict[str, npt.NDArray[Any]]:
@@ -153,6 +162,17 @@ class Delivery:
     def save_rrd(self, path: _Path, dt: Optional[float] = None) -> None:
         """The delivery for the Rerun viewer, as `simulate --rrd` writes it, sampled every dt s
         (None: 0.02 s)."""
+    def to_log(
+        self,
+        path: Optional[_Path] = None,
+        period: float = 0.01,
+        angle_noise_deg: float = 0.0,
+        seed: int = 0,
+    ) -> Dict[str, npt.NDArray[Any]]:
+        """The delivery as a machine would log it (`simulate --log`): columns t_s,
+        gantry_angle_deg, beam_on, energy_mev, spot, mu (NaN where empty), a sample every
+        `period` s; seeded Gaussian noise of `angle_noise_deg` on the angles. With `path`, also
+        writes the arcsim-log/1 CSV. Raises ValueError for a bad period or noise."""
     def to_json(self) -> str:
         """The result document, equal to `arcsim simulate --json` for the same inputs."""
 
@@ -239,10 +259,11 @@ class SweepResult:
     @property
     def rows(self) -> Dict[str, Any]:
         """The rows as columns: index, plan, schedule, status, the limits (jerk_deg_per_s3 to
-        window_deg, scan_speed_mm_per_s, dose_rate_scale; NaN where the base machine's),
+        window_deg, scan_speed_mm_per_s, dose_rate_scale, burst_switching_time_s, spill_charge_mu,
+        spill_refill_time_s, spill_max_layers; NaN where the base machine's),
         total_s, speedup, lower_bound_s and gap_s (the certificate, with "certify": true;
-        None or NaN otherwise), breakdown.* (beam_on_s = spot_irradiation_s + scanning_s,
-        energy_switching_s, lost_s), limiter_counts.*, message."""
+        None or NaN otherwise), breakdown.* (beam_on_s = spot_irradiation_s + scanning_s +
+        burst_switching_s + spill_waiting_s, energy_switching_s, lost_s), limiter_counts.*, message."""
     def to_pandas(self) -> Any: ...
     @property
     def summary(self) -> Optional[Dict[str, Any]]: ...

@@ -229,6 +229,37 @@ def test_columns_and_timeline_are_numpy():
     assert len(d.to_pandas("transitions")) == n - 1
 
 
+def test_to_log_equals_the_cli(tmp_path):
+    machine = "scenarios/machine-opentps-pbs.json"
+    cli_log = tmp_path / "cli.csv"
+    code, _, err = cli("simulate", "plans/lung.json", "--machine", machine, "--motion", "constant",
+                       "--log", str(cli_log), "--log-period", "0.05", "--angle-noise-deg", "0.02",
+                       "--seed", "4")
+    assert code == 0, err
+    d = arcsim.simulate(arcsim.load_plan("plans/lung.json"), arcsim.load_machine(machine),
+                        motion="constant")
+    py_log = tmp_path / "py.csv"
+    cols = d.to_log(py_log, period=0.05, angle_noise_deg=0.02, seed=4)
+    assert py_log.read_bytes() == cli_log.read_bytes()
+    lines = cli_log.read_text().splitlines()
+    assert lines[0] == "t_s,gantry_angle_deg,beam_on,energy_mev,spot,mu"
+    assert len(cols["t_s"]) == len(lines) - 1
+    assert cols["beam_on"].dtype == bool and cols["beam_on"].any()
+    assert cols["t_s"][-1] == pytest.approx(d.total_s, rel=0, abs=1e-12)
+    with pytest.raises(ValueError, match="log period"):
+        d.to_log(period=0.0)
+    back = arcsim.load_log(str(cli_log))
+    for key in ("t_s", "gantry_angle_deg", "beam_on"):
+        assert list(back[key]) == list(cols[key]), key
+    assert list(np.isnan(back["energy_mev"])) == list(np.isnan(cols["energy_mev"]))
+    bad = tmp_path / "bad.csv"
+    bad.write_text("TIME,angle,on\n0,1,0\n0,2,1\n")
+    with pytest.raises(arcsim.LogError, match=r"bad.csv: line 3: column TIME: time 0 s repeats"):
+        arcsim.load_log(bad, columns="t_s=TIME,gantry_angle_deg=angle,beam_on=on")
+    with pytest.raises(arcsim.LogError, match="no column t_s"):
+        arcsim.load_log(bad)
+
+
 def test_save_rrd(tmp_path):
     d = arcsim.simulate(arcsim.load_plan("plans/lung.json"), schedule="scan", motion="constant")
     path = tmp_path / "lung.rrd"

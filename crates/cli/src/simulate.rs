@@ -105,6 +105,30 @@ pub struct Args {
     /// result also lists them (`spots`).
     #[arg(long, value_name = "SPOTS.csv")]
     spots: Option<PathBuf>,
+    /// Write the delivery as a machine would log it (`arcsim-log/1` CSV: time, gantry angle,
+    /// beam on, energy, spot, MU since the previous row), a virtual log.
+    #[arg(long, value_name = "LOG.csv")]
+    log: Option<PathBuf>,
+    /// Time between the virtual log's samples (s).
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 0.01,
+        allow_hyphen_values = true
+    )]
+    log_period: f64,
+    /// Standard deviation of Gaussian noise added to the virtual log's angles (deg): encoder
+    /// noise, or gantry errors for dose-reconstruction studies.
+    #[arg(
+        long,
+        value_name = "SD",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    angle_noise_deg: f64,
+    /// Seed of the virtual log's angle noise.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    seed: u64,
     /// Write the sampled timeline as CSV.
     #[arg(long, value_name = "TIMELINE")]
     csv: Option<PathBuf>,
@@ -492,6 +516,23 @@ fn optional(x: Option<f64>) -> String {
     x.map(|v| v.to_string()).unwrap_or_default()
 }
 
+/// The virtual log of `--log`.
+fn write_log(
+    path: &Path,
+    delivery: &Delivery,
+    spots: &[SpotRow],
+    args: &Args,
+) -> Result<(), CliError> {
+    let opts = arcsim_log::VirtualLogOptions {
+        period_s: args.log_period,
+        angle_noise_deg: args.angle_noise_deg,
+        seed: args.seed,
+    };
+    let samples = arcsim_log::virtual_log(delivery, spots, &opts)
+        .map_err(|e| CliError::usage(format!("--log: {e}")))?;
+    crate::output::write_file(path, arcsim_log::to_csv(&samples).as_bytes())
+}
+
 fn write_spots_csv(path: &Path, spots: &[SpotRow]) -> Result<(), CliError> {
     crate::output::write_file(path, &csv_table(&SPOT_COLUMNS, spots))
 }
@@ -590,6 +631,18 @@ fn check_args(args: &Args) -> Result<(), CliError> {
             args.dt
         )));
     }
+    if !(args.log_period.is_finite() && args.log_period > 0.0) {
+        return Err(CliError::usage(format!(
+            "--log-period {}: expected a finite number of seconds > 0",
+            args.log_period
+        )));
+    }
+    if !(args.angle_noise_deg.is_finite() && args.angle_noise_deg >= 0.0) {
+        return Err(CliError::usage(format!(
+            "--angle-noise-deg {}: expected a finite number of degrees ≥ 0",
+            args.angle_noise_deg
+        )));
+    }
     let inputs: Vec<&Path> = std::iter::once(args.plan.as_path())
         .chain(args.machine.as_deref())
         .collect();
@@ -600,11 +653,13 @@ fn check_args(args: &Args) -> Result<(), CliError> {
             ("--csv", args.csv.as_deref()),
             ("--rrd", args.rrd.as_deref()),
             ("--spots", args.spots.as_deref()),
+            ("--log", args.log.as_deref()),
         ],
     )
 }
 
-/// Refuses a `--dt` that would sample the timeline more than 5e7 times, when an output samples it.
+/// Refuses a `--dt` (or `--log-period`) that would sample the timeline more than 5e7 times, when
+/// an output samples it.
 fn check_sample_count(args: &Args, delivery: &Delivery) -> Result<(), CliError> {
     let sampled = args.csv.is_some() || args.rrd.is_some() || args.spawn || args.connect.is_some();
     if let Some(tl) = delivery.timeline.as_ref().filter(|_| sampled) {
@@ -612,6 +667,14 @@ fn check_sample_count(args: &Args, delivery: &Delivery) -> Result<(), CliError> 
             return Err(CliError::usage(format!(
                 "--dt {} would write more than 5e7 samples",
                 args.dt
+            )));
+        }
+    }
+    if let Some(tl) = delivery.timeline.as_ref().filter(|_| args.log.is_some()) {
+        if tl.duration_s() / args.log_period > arcsim_log::MAX_LOG_SAMPLES {
+            return Err(CliError::usage(format!(
+                "--log-period {} would write more than 5e7 samples",
+                args.log_period
             )));
         }
     }
@@ -652,9 +715,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         text.push_str(&certificate_lines(c, delivery.total_s, delivery.motion));
     }
     crate::output::print(&text);
-    // The spot timeline for --spots, and for the beam's-eye view of the Rerun outputs.
+    // The spot timeline for --spots and --log, and for the beam's-eye view of the Rerun outputs.
     let viewer = args.rrd.is_some() || args.spawn || args.connect.is_some();
-    let spots = match args.spots.is_some() || viewer {
+    let spots = match args.spots.is_some() || args.log.is_some() || viewer {
         true => Some(spot_timeline(&plan, &machine, &delivery).map_err(|e| {
             CliError::failed(format!(
                 "spot timeline: {}: {e}",
@@ -694,6 +757,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     if let (Some(path), Some(spots)) = (&args.spots, &spots) {
         write_spots_csv(path, spots)?;
+    }
+    if let (Some(path), Some(spots)) = (&args.log, &spots) {
+        write_log(path, &delivery, spots, &args)?;
     }
     crate::viewer::output(
         &delivery,

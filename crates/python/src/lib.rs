@@ -14,6 +14,7 @@ use pyo3::prelude::*;
 
 mod convert;
 mod inputs;
+mod log;
 mod profile;
 mod simulate;
 mod sweep;
@@ -23,6 +24,12 @@ create_exception!(
     PlanError,
     PyValueError,
     "A plan or machine that cannot be read or is invalid (the message says where)."
+);
+create_exception!(
+    arcsim,
+    LogError,
+    PyValueError,
+    "A delivery log that cannot be read (the message gives file, line and column)."
 );
 create_exception!(
     arcsim,
@@ -59,6 +66,7 @@ fn arcsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("PlanError", py.get_type::<PlanError>())?;
     m.add("SweepError", py.get_type::<SweepError>())?;
+    m.add("LogError", py.get_type::<LogError>())?;
     m.add("ProfileError", py.get_type::<ProfileError>())?;
     m.add("SimulationError", py.get_type::<SimulationError>())?;
     m.add("SweepInterrupted", py.get_type::<SweepInterrupted>())?;
@@ -66,6 +74,7 @@ fn arcsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<inputs::Machine>()?;
     m.add_function(wrap_pyfunction!(inputs::load_plan, m)?)?;
     m.add_function(wrap_pyfunction!(inputs::load_machine, m)?)?;
+    m.add_function(wrap_pyfunction!(log::load_log, m)?)?;
     m.add_class::<simulate::Delivery>()?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::schedule_arrays, m)?)?;

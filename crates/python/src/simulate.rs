@@ -245,6 +245,37 @@ impl Delivery {
         Ok(d)
     }
 
+    /// The delivery as a machine would log it, a virtual log (as `simulate --log`): columns
+    /// `t_s`, `gantry_angle_deg`, `beam_on`, `energy_mev`, `spot`, `mu` (NaN where the log has
+    /// nothing), a sample every `period` s from 0 and at the end; `angle_noise_deg` adds
+    /// Gaussian noise seeded by `seed` to the angles. With `path`, also writes the
+    /// `arcsim-log/1` CSV there.
+    #[pyo3(signature = (path=None, period=0.01, angle_noise_deg=0.0, seed=0))]
+    fn to_log<'py>(
+        &self,
+        py: Python<'py>,
+        path: Option<PathBuf>,
+        period: f64,
+        angle_noise_deg: f64,
+        seed: u64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let spots = self.spot_rows(py)?;
+        let opts = arcsim_log::VirtualLogOptions {
+            period_s: period,
+            angle_noise_deg,
+            seed,
+        };
+        let samples = py
+            .detach(|| arcsim_log::virtual_log(&self.delivery, &spots, &opts))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        if let Some(p) = path {
+            std::fs::write(&p, arcsim_log::to_csv(&samples)).map_err(|e| {
+                pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", p.display()))
+            })?;
+        }
+        records(py, &samples)
+    }
+
     /// Writes the delivery for the Rerun viewer (.rrd), sampled every `dt` s (default 0.02 s),
     /// as `simulate --rrd` does.
     #[pyo3(signature = (path, dt=None))]
@@ -289,7 +320,10 @@ impl Delivery {
     }
 }
 
-fn records<'py>(py: Python<'py>, rows: &[impl serde::Serialize]) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn records<'py>(
+    py: Python<'py>,
+    rows: &[impl serde::Serialize],
+) -> PyResult<Bound<'py, PyDict>> {
     let values: Vec<serde_json::Value> = rows
         .iter()
         .map(serde_json::to_value)

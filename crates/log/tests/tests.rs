@@ -1,0 +1,4 @@
+//! The integration tests of `arcsim-log`, one module per file, linked into one test binary.
+
+mod read_errors;
+mod virtual_logs;
