@@ -516,6 +516,15 @@ fn optional(x: Option<f64>) -> String {
     x.map(|v| v.to_string()).unwrap_or_default()
 }
 
+/// What `--log-period`, `--angle-noise-deg` and `--seed` ask of the virtual log.
+fn log_options(args: &Args) -> arcsim_log::VirtualLogOptions {
+    arcsim_log::VirtualLogOptions {
+        period_s: args.log_period,
+        angle_noise_deg: args.angle_noise_deg,
+        seed: args.seed,
+    }
+}
+
 /// The virtual log of `--log`.
 fn write_log(
     path: &Path,
@@ -523,12 +532,7 @@ fn write_log(
     spots: &[SpotRow],
     args: &Args,
 ) -> Result<(), CliError> {
-    let opts = arcsim_log::VirtualLogOptions {
-        period_s: args.log_period,
-        angle_noise_deg: args.angle_noise_deg,
-        seed: args.seed,
-    };
-    let samples = arcsim_log::virtual_log(delivery, spots, &opts)
+    let samples = arcsim_log::virtual_log(delivery, spots, &log_options(args))
         .map_err(|e| CliError::usage(format!("--log: {e}")))?;
     crate::output::write_file(path, arcsim_log::to_csv(&samples).as_bytes())
 }
@@ -671,11 +675,16 @@ fn check_sample_count(args: &Args, delivery: &Delivery) -> Result<(), CliError> 
         }
     }
     if let Some(tl) = delivery.timeline.as_ref().filter(|_| args.log.is_some()) {
-        if tl.duration_s() / args.log_period > arcsim_log::MAX_LOG_SAMPLES {
-            return Err(CliError::usage(format!(
-                "--log-period {} would write more than 5e7 samples",
-                args.log_period
-            )));
+        // The virtual log's own check, before any output is written.
+        match arcsim_log::check_options(tl.duration_s(), &log_options(args)) {
+            Ok(_) => {}
+            Err(arcsim_log::VirtualLogError::TooManySamples { .. }) => {
+                return Err(CliError::usage(format!(
+                    "--log-period {} would write more than 5e7 samples",
+                    args.log_period
+                )))
+            }
+            Err(e) => return Err(CliError::usage(format!("--log: {e}"))),
         }
     }
     Ok(())

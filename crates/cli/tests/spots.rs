@@ -23,10 +23,7 @@ struct Opentps {
 
 impl Opentps {
     fn read() -> Opentps {
-        let m: Value = serde_json::from_str(
-            &std::fs::read_to_string(repo().join(MACHINE)).expect("machine file"),
-        )
-        .expect("machine json");
+        let m = read_json(&repo().join(MACHINE));
         let b = &m["beam"];
         let f = |v: &Value| v.as_f64().expect("number");
         Opentps {
@@ -95,8 +92,7 @@ fn simulate_on(machine: &str, plan: &Path, dir: &Path, extra: &[&str]) -> (Value
     let out = arcsim(&args);
     let (so, se) = text(&out);
     assert!(out.status.success(), "{so}\n{se}");
-    let result: Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("result");
+    let result = read_json(&json);
     let table = std::fs::read_to_string(&csv).expect("spots csv");
     let mut lines = table.lines();
     assert_eq!(
@@ -394,8 +390,7 @@ fn bursts_are_passes_apart_by_the_burst_switching_time() {
     std::fs::create_dir_all(&dir).expect("dir");
     let machine = "scenarios/machine-proteusone-like.json";
     let (_, rows) = simulate_on(machine, &repo().join("plans/lung.json"), &dir, &[]);
-    let m: Value = serde_json::from_str(&std::fs::read_to_string(repo().join(machine)).expect("m"))
-        .expect("machine json");
+    let m = read_json(&repo().join(machine));
     let burst = f(&m["beam"]["burst_switching_time_s"]);
     let max_mu = f(&m["beam"]["max_mu_per_spot"]);
     assert!(burst > 0.0 && max_mu > 0.0);
@@ -437,8 +432,7 @@ fn spills_carry_from_layer_to_layer() {
     std::fs::create_dir_all(&dir).expect("dir");
     let machine = "scenarios/machine-probeat-v5-like-mee.json";
     let (result, rows) = simulate_on(machine, &repo().join("plans/lung.json"), &dir, &[]);
-    let m: Value = serde_json::from_str(&std::fs::read_to_string(repo().join(machine)).expect("m"))
-        .expect("machine json");
+    let m = read_json(&repo().join(machine));
     let spill = &m["beam"]["spill"];
     let (charge, refill, in_spill) = (
         f(&spill["charge_mu"]),
@@ -496,8 +490,7 @@ fn spills_carry_from_layer_to_layer() {
 /// The spot MU of every layer of a JSON plan, in delivery order: its list, or its total shared
 /// equally.
 fn spot_mu(plan: &Path) -> Vec<Vec<f64>> {
-    let plan: Value =
-        serde_json::from_str(&std::fs::read_to_string(plan).expect("plan")).expect("plan json");
+    let plan = read_json(plan);
     plan["arcs"]
         .as_array()
         .expect("arcs")
@@ -515,4 +508,10 @@ fn spot_mu(plan: &Path) -> Vec<Vec<f64>> {
             }
         })
         .collect()
+}
+
+/// A JSON file (a machine, a plan, a result) as a value.
+fn read_json(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }

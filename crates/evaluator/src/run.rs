@@ -147,46 +147,25 @@ fn key(plan: usize, s: &Setting) -> VariantKey {
     (plan, values.map(|v| v.map(f64::to_bits)))
 }
 
-/// The plan and machine of one (window, ELST, beam) variant, resolved: the scanning speed,
-/// dose-rate scale and burst switching applied to a copy of the machine's beam model.
+/// The plan and machine of one (window, ELST, beam) variant, resolved: the beam axes
+/// ([`Axis::BEAM`]) applied to a copy of the machine's beam model.
 fn resolve_variant(plan: &ArcPlan, machine: &Machine, s: &Setting) -> Resolved {
     let mut m = machine.clone();
-    // A sweep refuses these axes on a `per_mu` machine when it is loaded.
-    let not_scanning = |axis: Axis| VariantError::NotScanning {
-        machine: machine.name.clone(),
-        kind: machine.beam.kind(),
-        lacks: axis.scanning_only().map_or("", |(lacks, _)| lacks),
+    // A sweep refuses a beam axis on a machine that lacks what it sets when it is loaded.
+    let lacks = |axis: Axis| match axis.spill_only() {
+        Some(_) => VariantError::NoSpills {
+            machine: machine.name.clone(),
+        },
+        None => VariantError::NotScanning {
+            machine: machine.name.clone(),
+            kind: machine.beam.kind(),
+            lacks: axis.scanning_only().map_or("", |(lacks, _)| lacks),
+        },
     };
-    if let Some(v) = s.scan_speed_mm_per_s {
-        m.beam = m
-            .beam
-            .with_scan_speed(v)
-            .ok_or_else(|| not_scanning(Axis::ScanSpeed))?;
-    }
-    if let Some(k) = s.dose_rate_scale {
-        m.beam = m.beam.with_dose_rate_scale(k);
-    }
-    if let Some(b) = s.burst_switching_time_s {
-        m.beam = m
-            .beam
-            .with_burst_switching_time(b)
-            .ok_or_else(|| not_scanning(Axis::BurstSwitching))?;
-    }
-    let no_spills = || VariantError::NoSpills {
-        machine: machine.name.clone(),
-    };
-    if let Some(q) = s.spill_charge_mu {
-        m.beam = m.beam.with_spill_charge(q).ok_or_else(no_spills)?;
-    }
-    if let Some(r) = s.spill_refill_time_s {
-        m.beam = m.beam.with_spill_refill_time(r).ok_or_else(no_spills)?;
-    }
-    if let Some(n) = s.spill_max_layers {
-        // Whole numbers from 1, checked when the sweep is loaded.
-        m.beam = m
-            .beam
-            .with_spill_max_layers(n as u32)
-            .ok_or_else(no_spills)?;
+    for axis in Axis::BEAM {
+        if let Some(x) = s.get(axis) {
+            m.beam = axis.set_beam(&m.beam, x).ok_or_else(|| lacks(axis))?;
+        }
     }
     match &mut m.elst {
         ElstModel::Constant { up_s, down_s, .. } => {

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use crate::util::{csv, from_text_in, scenarios};
+use crate::util::{csv, from_text_in, scenarios, NEW_COLUMNS};
 use arcsim_evaluator::{
     merge_csv, Axis, Evaluator, Outcome, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1,
 };
@@ -74,24 +74,6 @@ fn drop_columns(table: &str, names: &[&str]) -> String {
     }
     out
 }
-
-/// The columns a V1 table does not have: the beam axes, the split of the beam-on time and
-/// (newer still) the certificate.
-const NEW_COLUMNS: [&str; 13] = [
-    "combinations",
-    "scan_speed_mm_per_s",
-    "dose_rate_scale",
-    "burst_switching_time_s",
-    "spill_charge_mu",
-    "spill_refill_time_s",
-    "spill_max_layers",
-    "burst_switching_s",
-    "spill_waiting_s",
-    "spot_irradiation_s",
-    "scanning_s",
-    "lower_bound_s",
-    "gap_s",
-];
 
 /// Twice the dose rate halves the spots' irradiation and leaves the spot switching (and the
 /// energy switching) alone: beam-on 2 = beam-on 1 − spot irradiation 1 / 2. Rows and the summary

@@ -3,7 +3,7 @@
 //! CRLF line ends, columns in another order), an older arcsim's table still reads, and bad input
 //! is an error that names the file, the line and the column.
 
-use crate::util::{csv, from_text};
+use crate::util::{csv, from_text, NEW_COLUMNS};
 use arcsim_evaluator::{
     merge_csv, Evaluator, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2,
 };
@@ -283,22 +283,7 @@ fn a_table_without_the_certificate_reads_back() {
 fn an_older_table_reads_back() {
     let ev = evaluator();
     let rows = rows(&ev);
-    let new = [
-        "combinations",
-        "scan_speed_mm_per_s",
-        "dose_rate_scale",
-        "burst_switching_time_s",
-        "spill_charge_mu",
-        "spill_refill_time_s",
-        "spill_max_layers",
-        "burst_switching_s",
-        "spill_waiting_s",
-        "spot_irradiation_s",
-        "scanning_s",
-        "lower_bound_s",
-        "gap_s",
-    ];
-    let old = without(&csv(&rows), &new);
+    let old = without(&csv(&rows), &NEW_COLUMNS);
     assert!(old.starts_with(&format!("{CSV_HEADER_V1}\n")), "{old}");
     for (name, table) in [
         ("old.csv", old.clone()),

@@ -18,7 +18,9 @@ pub use columns::{ColumnMap, Field};
 pub use error::LogError;
 pub use read::{parse_log, read_log, MAX_LOG_BYTES};
 pub use sample::{DeliveryLog, LogSample};
-pub use virtual_log::{virtual_log, VirtualLogOptions, MAX_LOG_SAMPLES};
+pub use virtual_log::{
+    check_options, virtual_log, VirtualLogError, VirtualLogOptions, MAX_LOG_SAMPLES,
+};
 pub use write::to_csv;
 
 /// The format tag of a delivery log, as `docs/results.md` names it.

@@ -81,29 +81,16 @@ pub fn virtual_log(
         .timeline
         .as_ref()
         .ok_or(VirtualLogError::NoTimeline)?;
-    let period = opts.period_s;
-    if !(period.is_finite() && period > 0.0) {
-        return Err(VirtualLogError::Period(period));
-    }
-    if !(opts.angle_noise_deg.is_finite() && opts.angle_noise_deg >= 0.0) {
-        return Err(VirtualLogError::Noise(opts.angle_noise_deg));
-    }
     let duration = timeline.duration_s();
-    let count = (duration / period).floor() + 2.0;
-    if count > MAX_LOG_SAMPLES {
-        return Err(VirtualLogError::TooManySamples {
-            period_s: period,
-            duration_s: duration,
-            count,
-        });
-    }
+    let count = check_options(duration, opts)?;
+    let period = opts.period_s;
     let segments = segments(delivery, spots, period);
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let mut noise = || match opts.angle_noise_deg {
         0.0 => 0.0,
         sd => sd * gaussian(&mut rng),
     };
-    let mut out = Vec::with_capacity(count as usize);
+    let mut out = Vec::with_capacity(count);
     let (mut seg, mut spot, mut mu_from) = (0, 0, 0);
     let mut prev_t = 0.0;
     for t in times(duration, period) {
@@ -130,6 +117,27 @@ pub fn virtual_log(
         prev_t = t;
     }
     Ok(out)
+}
+
+/// Checks `opts` for a delivery of `duration_s` and returns at most how many samples its log has
+/// (every period from 0, and the end).
+pub fn check_options(duration_s: f64, opts: &VirtualLogOptions) -> Result<usize, VirtualLogError> {
+    let period = opts.period_s;
+    if !(period.is_finite() && period > 0.0) {
+        return Err(VirtualLogError::Period(period));
+    }
+    if !(opts.angle_noise_deg.is_finite() && opts.angle_noise_deg >= 0.0) {
+        return Err(VirtualLogError::Noise(opts.angle_noise_deg));
+    }
+    let count = (duration_s / period).floor() + 2.0;
+    if count > MAX_LOG_SAMPLES {
+        return Err(VirtualLogError::TooManySamples {
+            period_s: period,
+            duration_s,
+            count,
+        });
+    }
+    Ok(count as usize)
 }
 
 /// 0, `period`, 2·`period`, … up to `duration`, and `duration` itself.

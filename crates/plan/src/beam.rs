@@ -343,10 +343,7 @@ pub fn time_spots(
     beam: &BeamModel,
     mut visit: impl FnMut(&SpotEvent),
 ) -> Result<LayerBeamTime, SpotTimingError> {
-    let mut spill = match beam {
-        BeamModel::Scanning(ScanningBeam { spill: Some(m), .. }) => Some(m.fresh(None)),
-        _ => None,
-    };
+    let mut spill = beam.spill().map(|m| m.fresh(None));
     time_spots_in(spots, energy_mev, beam, spill.as_mut(), &mut visit)
 }
 
@@ -551,10 +548,7 @@ fn check_deliveries(
     let scale = 1.0 / paintings as f64;
     let per_painting = spot_mu(spots).fold(0usize, |n, m| n.saturating_add(parts(m * scale)));
     // A spot is split across spills only where a spill runs out: at most once per spill.
-    let spill_ends = spill.map_or(0.0, |s| {
-        let total: f64 = spot_mu(spots).sum();
-        (total / s.charge_mu).ceil() + 1.0
-    });
+    let spill_ends = spill.map_or(0.0, |s| (layer_mu(spots) / s.charge_mu).ceil() + 1.0);
     let count = paintings
         .saturating_mul(per_painting)
         .saturating_add(spill_ends.min(MAX_SPOT_DELIVERIES as f64) as usize);

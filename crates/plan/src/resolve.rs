@@ -76,7 +76,10 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
                 let switch_in_s = match (previous_energy, layer.switching_time_s) {
                     (None, _) => 0.0,
                     (Some(_), Some(t)) => t,
-                    (Some(_), None) if same_spill => in_spill_switching_time_s(machine),
+                    (Some(_), None) if same_spill => machine
+                        .beam
+                        .spill()
+                        .map_or(0.0, |s| s.in_spill_switching_time_s),
                     (Some(e), None) => machine.elst.switch_time_s(e, layer.energy_mev),
                 };
                 previous_energy = Some(layer.energy_mev);
@@ -104,18 +107,6 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
     }
     invalid_if_any(&plan_source, issues)?;
     Ok(arcs)
-}
-
-/// The switch between two layers of one spill (0 without a spill model, which never continues
-/// a spill).
-fn in_spill_switching_time_s(machine: &Machine) -> f64 {
-    match &machine.beam {
-        crate::BeamModel::Scanning(b) => b
-            .spill
-            .as_ref()
-            .map_or(0.0, |s| s.in_spill_switching_time_s),
-        crate::BeamModel::PerMu(_) => 0.0,
-    }
 }
 
 /// The machine's default window, like an explicit one, may not be wider than the spacing.

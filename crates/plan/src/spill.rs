@@ -213,10 +213,7 @@ impl<'a> BeamSequence<'a> {
         layer: &EnergyLayer,
         visit: &mut dyn FnMut(&SpotEvent),
     ) -> Result<LayerBeam, SpotTimingError> {
-        let model = match self.beam {
-            BeamModel::Scanning(b) => b.spill.as_ref(),
-            BeamModel::PerMu(_) => None,
-        };
+        let model = self.beam.spill();
         let (mut spill, same_spill) = match model {
             Some(m) if layer.irradiation_time_s.is_some() => (
                 Some(m.fresh(self.previous.and_then(|p| p.spill).as_ref())),

@@ -4,7 +4,7 @@
 //! spill from layer to layer as resolution does ([`arcsim_plan::BeamSequence`]); the delivery says
 //! when each layer's beam-on starts, and its timeline where the gantry is then.
 
-use arcsim_plan::{ArcPlan, BeamModel, BeamSequence, Machine};
+use arcsim_plan::{ArcPlan, BeamSequence, Machine};
 use serde::{Deserialize, Serialize};
 
 use crate::{Delivery, InputError, SequenceError};
@@ -59,7 +59,10 @@ pub fn spot_timeline(
         .as_ref()
         .ok_or_else(|| SequenceError::from(InputError::NoTimeline))?;
     let mut rows = Vec::new();
-    let bursts = matches!(&machine.beam, BeamModel::Scanning(b) if b.burst_switching_time_s > 0.0);
+    let bursts = machine
+        .beam
+        .burst_switching_time_s()
+        .is_some_and(|s| s > 0.0);
     let mut sequence = BeamSequence::new(&machine.beam);
     for row in &delivery.layers {
         let layer = plan

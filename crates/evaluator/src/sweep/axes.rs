@@ -256,9 +256,6 @@ pub(super) fn check_axis(
 /// Accepted dose-rate scales (from a thousandth to a thousand times the base machine's dose rate).
 pub const DOSE_RATE_SCALE_RANGE: (f64, f64) = (1e-3, 1e3);
 
-/// Checks a dose-rate scale axis's values (a list's each, a range's ends) against
-/// [`DOSE_RATE_SCALE_RANGE`]; the scaled beam model is then checked as a machine's
-/// ([`check_machine_values`]).
 /// An axis' values as written, located: each value of a list, or a range's ends.
 fn listed(spec: &AxisSpec, field: &str) -> Vec<(String, f64)> {
     match spec {
@@ -313,6 +310,9 @@ fn check_layer_counts(
     }
 }
 
+/// Checks a dose-rate scale axis's values (a list's each, a range's ends) against
+/// [`DOSE_RATE_SCALE_RANGE`]; the scaled beam model is then checked as a machine's
+/// ([`check_machine_values`]).
 pub(super) fn check_dose_rate_scales(
     spec: &AxisSpec,
     field: &str,
@@ -424,33 +424,14 @@ pub(super) fn check_machine_values(
                 ElstModel::ByEnergy { .. } | ElstModel::ByEnergyPair { .. } => {}
             },
             Axis::Window => m.default_window_deg = x,
-            Axis::ScanSpeed => {
-                // A `per_mu` model is refused before (it has no scanning speed).
-                if let Some(b) = m.beam.with_scan_speed(x) {
-                    m.beam = b;
-                }
-            }
-            Axis::DoseRateScale => m.beam = m.beam.with_dose_rate_scale(x),
-            Axis::BurstSwitching => {
-                // A `per_mu` model is refused before (it has no bursts).
-                if let Some(b) = m.beam.with_burst_switching_time(x) {
-                    m.beam = b;
-                }
-            }
-            // A model without spills is refused before.
-            Axis::SpillCharge => {
-                if let Some(b) = m.beam.with_spill_charge(x) {
-                    m.beam = b;
-                }
-            }
-            Axis::SpillRefill => {
-                if let Some(b) = m.beam.with_spill_refill_time(x) {
-                    m.beam = b;
-                }
-            }
-            // Whole numbers, checked before.
-            Axis::SpillMaxLayers => {
-                if let Some(b) = m.beam.with_spill_max_layers(x as u32) {
+            // A model that lacks what the axis sets is refused before.
+            Axis::ScanSpeed
+            | Axis::DoseRateScale
+            | Axis::BurstSwitching
+            | Axis::SpillCharge
+            | Axis::SpillRefill
+            | Axis::SpillMaxLayers => {
+                if let Some(b) = axis.set_beam(&m.beam, x) {
                     m.beam = b;
                 }
             }

@@ -45,6 +45,36 @@ impl Axis {
         }
     }
 
+    /// The axes that set the beam model, in the order a variant applies them.
+    pub(crate) const BEAM: [Axis; 6] = [
+        Axis::ScanSpeed,
+        Axis::DoseRateScale,
+        Axis::BurstSwitching,
+        Axis::SpillCharge,
+        Axis::SpillRefill,
+        Axis::SpillMaxLayers,
+    ];
+
+    /// `beam` with this beam axis set to `x`; `None` for an axis of [`Axis::BEAM`] the model
+    /// lacks (scanning speed or bursts on `per_mu`, spills on a model without them) and for any
+    /// other axis.
+    pub(crate) fn set_beam(
+        self,
+        beam: &arcsim_plan::BeamModel,
+        x: f64,
+    ) -> Option<arcsim_plan::BeamModel> {
+        match self {
+            Axis::ScanSpeed => beam.with_scan_speed(x),
+            Axis::DoseRateScale => Some(beam.with_dose_rate_scale(x)),
+            Axis::BurstSwitching => beam.with_burst_switching_time(x),
+            Axis::SpillCharge => beam.with_spill_charge(x),
+            Axis::SpillRefill => beam.with_spill_refill_time(x),
+            // Whole numbers from 1, checked when the sweep is loaded.
+            Axis::SpillMaxLayers => beam.with_spill_max_layers(x as u32),
+            _ => None,
+        }
+    }
+
     /// The field name in sweep files and output columns.
     pub fn field(self) -> &'static str {
         match self {
