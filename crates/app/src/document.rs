@@ -60,6 +60,10 @@ pub struct ResultDocument<'a> {
     /// (`simulate --certify`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub certificate: Option<&'a Certificate>,
+    /// Percentiles of the total over draws of the machine's timing spreads
+    /// (`simulate --monte-carlo`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub monte_carlo: Option<serde_json::Value>,
 }
 
 /// Where a plan or machine came from: its name in messages (a path) and the SHA-256 of its bytes.
@@ -114,6 +118,7 @@ impl<'a> ResultDocument<'a> {
             delivery,
             spots: None,
             certificate: None,
+            monte_carlo: None,
         }
     }
 
@@ -126,6 +131,12 @@ impl<'a> ResultDocument<'a> {
     /// The document with the delivery's certificate.
     pub fn with_certificate(mut self, certificate: &'a Certificate) -> Self {
         self.certificate = Some(certificate);
+        self
+    }
+
+    /// The document with a Monte Carlo of its total (`arcsim_evaluator::MonteCarlo` as JSON).
+    pub fn with_monte_carlo(mut self, monte_carlo: serde_json::Value) -> Self {
+        self.monte_carlo = Some(monte_carlo);
         self
     }
 

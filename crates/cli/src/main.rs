@@ -4,6 +4,8 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod calibrate;
+mod compare;
 mod error;
 mod generate;
 mod import;
@@ -54,6 +56,11 @@ enum Command {
         after_long_help = SWEEP_TERMS
     )]
     Sweep(sweep::Args),
+    /// Compare a delivery log with the simulation of its plan: totals, breakdowns, differences
+    /// by class, the worst layers, which motion model fits, the gantry's observed limits.
+    Compare(compare::Args),
+    /// Fit a machine to delivery logs (ELST, beam timing, gantry limits, spreads) and write it.
+    Calibrate(calibrate::Args),
     /// Join the CSV outputs of `sweep --shard K/N` into the single-run table.
     SweepMerge(sweep::MergeArgs),
 }
@@ -165,6 +172,8 @@ fn main() -> ExitCode {
         Command::Import(args) => import::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::SweepMerge(args) => sweep::merge(args),
+        Command::Compare(args) => compare::run(args),
+        Command::Calibrate(args) => calibrate::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

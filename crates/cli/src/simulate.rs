@@ -126,9 +126,14 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     angle_noise_deg: f64,
-    /// Seed of the virtual log's angle noise.
+    /// Seed of the virtual log's angle noise and of the Monte Carlo draws.
     #[arg(long, value_name = "N", default_value_t = 0)]
     seed: u64,
+    /// Simulate N more deliveries with the machine's timing spreads (`spread`, measured by
+    /// `arcsim calibrate`) drawn per switch and per layer; print (and write with --json) the
+    /// 5th, 50th and 95th percentiles of the total.
+    #[arg(long, value_name = "N")]
+    monte_carlo: Option<usize>,
     /// Write the sampled timeline as CSV.
     #[arg(long, value_name = "TIMELINE")]
     csv: Option<PathBuf>,
@@ -690,6 +695,72 @@ fn check_sample_count(args: &Args, delivery: &Delivery) -> Result<(), CliError> 
     Ok(())
 }
 
+/// `--monte-carlo` needs draws and a machine with spreads: refused before anything is simulated.
+fn check_monte_carlo(args: &Args, machine: &arcsim_plan::Machine) -> Result<(), CliError> {
+    let Some(n) = args.monte_carlo else {
+        return Ok(());
+    };
+    if n == 0 || n > arcsim_evaluator::MAX_DRAWS {
+        return Err(CliError::usage(format!(
+            "--monte-carlo {n}: expected 1 to {} draws",
+            arcsim_evaluator::MAX_DRAWS
+        )));
+    }
+    if machine.spread.is_none() {
+        return Err(CliError::failed(format!(
+            "--monte-carlo: the machine {} has no timing spreads (`spread`: elst_up_sd_s, \
+             elst_down_sd_s, beam_time_sd_fraction); `arcsim calibrate` measures them in delivery logs",
+            crate::input::machine_name(args.machine.as_deref())
+        )));
+    }
+    Ok(())
+}
+
+fn monte_carlo(
+    plan: &arcsim_plan::ArcPlan,
+    machine: &arcsim_plan::Machine,
+    opts: &arcsim_sequencer::Options,
+    draws: usize,
+    seed: u64,
+    plan_path: &Path,
+) -> Result<arcsim_evaluator::MonteCarlo, CliError> {
+    let fail =
+        |e: String| CliError::failed(format!("{}: {e}", crate::input::input_name(plan_path)));
+    let arcs = arcsim_plan::resolve(plan, machine).map_err(|e| fail(e.to_string()))?;
+    let limits = machine_limits(machine).map_err(|e| fail(e.to_string()))?;
+    let opts = arcsim_sequencer::Options {
+        servo_period_s: opts.servo_period_s.or(machine.servo_period_s),
+        ..opts.clone()
+    };
+    let spread = machine.spread.unwrap_or(arcsim_plan::TimingSpread {
+        elst_up_sd_s: 0.0,
+        elst_down_sd_s: 0.0,
+        elst_same_sd_s: 0.0,
+        beam_time_sd_fraction: 0.0,
+    });
+    arcsim_evaluator::monte_carlo(&arcs, &limits, &opts, &spread, draws, seed)
+        .map_err(|e| fail(e.to_string()))
+}
+
+fn monte_carlo_lines(mc: &arcsim_evaluator::MonteCarlo) -> String {
+    let sp = &mc.spread;
+    format!(
+        "Monte Carlo, {} draws (seed {}; sd of ELST up {} s, down {} s, same {} s, beam-on {} %):\n  \
+         total P5 {:.2} s, P50 {:.2} s, P95 {:.2} s (mean {:.2} s, sd {:.2} s)\n",
+        mc.draws,
+        mc.seed,
+        sp.elst_up_sd_s,
+        sp.elst_down_sd_s,
+        sp.elst_same_sd_s,
+        100.0 * sp.beam_time_sd_fraction,
+        mc.p5_s,
+        mc.p50_s,
+        mc.p95_s,
+        mc.mean_s,
+        mc.sd_s
+    )
+}
+
 pub fn run(args: Args) -> Result<(), CliError> {
     check_args(&args)?;
     let (plan, plan_sha256) = load_plan_hashed(&args.plan)?;
@@ -712,6 +783,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     for n in &notes {
         eprintln!("note: {n}");
     }
+    check_monte_carlo(&args, &machine)?;
     let delivery = simulate(&plan, &machine, &opts)
         .map_err(|e| CliError::failed(format!("{}: {e}", crate::input::input_name(&args.plan))))?;
     check_sample_count(&args, &delivery)?;
@@ -719,9 +791,18 @@ pub fn run(args: Args) -> Result<(), CliError> {
         true => Some(certificate(&plan, &machine, &delivery, &args.plan)?),
         false => None,
     };
+    let monte_carlo = match args.monte_carlo {
+        Some(n) => Some(monte_carlo(
+            &plan, &machine, &opts, n, args.seed, &args.plan,
+        )?),
+        None => None,
+    };
     let mut text = summary(&delivery, &plan.name, &machine.name);
     if let Some(c) = &certificate {
         text.push_str(&certificate_lines(c, delivery.total_s, delivery.motion));
+    }
+    if let Some(mc) = &monte_carlo {
+        text.push_str(&monte_carlo_lines(mc));
     }
     crate::output::print(&text);
     // The spot timeline for --spots and --log, and for the beam's-eye view of the Rerun outputs.
@@ -757,6 +838,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
         }
         if let Some(c) = &certificate {
             doc = doc.with_certificate(c);
+        }
+        if let Some(mc) = &monte_carlo {
+            let value = serde_json::to_value(mc).map_err(|e| CliError::failed(e.to_string()))?;
+            doc = doc.with_monte_carlo(value);
         }
         let text = doc.to_json().map_err(|e| CliError::failed(e.to_string()))?;
         crate::output::write_file(path, text.as_bytes())?;

@@ -7,6 +7,7 @@ mod csv_tables;
 mod docs_examples;
 mod free_motion_oracle;
 mod hardening;
+mod log_tools;
 mod logs;
 mod messages;
 mod probe;

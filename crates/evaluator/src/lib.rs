@@ -17,10 +17,14 @@
 //! combinations decoded from their index, shards are index progressions ([`ShardIndices`]), and
 //! [`Evaluator::run`] reads its [`IndexList`] a chunk at a time. A sweep of more than
 //! [`MAX_COMBINATIONS`] combinations is refused when it is loaded.
+//!
+//! [`monte_carlo`] draws a machine's timing spreads (measured by `arcsim calibrate`) per switch
+//! and per layer and gives the percentiles of one plan's total.
 
 mod csv;
 mod error;
 mod mode;
+mod monte_carlo;
 mod run;
 mod shard;
 mod summary;
@@ -33,6 +37,7 @@ pub use csv::{
 };
 pub use error::EvalError;
 pub use mode::RunMode;
+pub use monte_carlo::{monte_carlo, MonteCarlo, MAX_DRAWS};
 pub use run::{Evaluator, Outcome, Row, Status};
 pub use shard::{IndexList, Shard, ShardIndices};
 pub use summary::{

@@ -4,18 +4,37 @@
 //! finite, required columns present, columns found by name or through a [`ColumnMap`]) and
 //! locates every problem by file, line and column. [`virtual_log`] samples a simulated delivery
 //! as the log a machine would write, with optional seeded encoder noise; [`to_csv`] writes it.
+//!
+//! [`match_layers`] finds the plan's layers in a log's beam-on segments, [`compare`] sets a log
+//! beside a simulation of its plan, and [`calibrate`] fits a machine to one or more logs
+//! ([`kinematics`]: what the angle trace shows of the gantry's limits).
 
 #![warn(missing_docs)]
 
+mod calibrate;
 mod columns;
+mod compare;
 mod error;
+pub mod kinematics;
+mod matching;
 mod read;
 mod sample;
 mod virtual_log;
 mod write;
 
+pub use calibrate::{
+    calibrate, lowest_cluster, CalibrateError, Calibration, CalibrationReport, Cluster, ElstFit,
+    FittedValue, LoggedRun, Residual, BOOTSTRAP_DRAWS,
+};
 pub use columns::{ColumnMap, Field};
+pub use compare::{
+    compare, ClassStats, Comparison, LayerComparison, MotionFit, TimeSplit, WORST_LAYERS,
+};
 pub use error::LogError;
+pub use matching::{
+    angle_diff_deg, beam_segments, match_layers, BeamSegment, LoggedLayer, MatchError,
+    ANGLE_TOLERANCE_DEG, LOG_ENERGY_TOLERANCE_MEV,
+};
 pub use read::{parse_log, read_log, MAX_LOG_BYTES};
 pub use sample::{DeliveryLog, LogSample};
 pub use virtual_log::{

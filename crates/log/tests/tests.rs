@@ -1,4 +1,6 @@
 //! The integration tests of `arcsim-log`, one module per file, linked into one test binary.
 
+mod calibration;
+mod compare;
 mod read_errors;
 mod virtual_logs;

@@ -17,6 +17,7 @@ mod model;
 mod plausible;
 mod resolve;
 pub mod spill;
+mod spread;
 mod validate;
 mod zero;
 
@@ -40,6 +41,7 @@ pub use model::{
 pub use plausible::{machine_warnings, plan_warnings, Warning};
 pub use resolve::resolve;
 pub use spill::{BeamSequence, ContinueSpillIf, LayerBeam, SpillModel, SpotAcrossSpills};
+pub use spread::TimingSpread;
 pub use validate::{
     validate_plan, ENERGY_RANGE_MEV, MAX_ANGLE_DEG, MAX_LAYER_TIME_S, MAX_PAINTINGS,
     MAX_SPEED_DEG_PER_S, MAX_SPOTS_PER_LAYER, MAX_SPOT_MU, MAX_SPOT_POSITION_MM,

@@ -53,6 +53,12 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
     if let Some(p) = machine.servo_period_s {
         m.range("servo_period_s", p, SERVO_PERIOD_RANGE_S, "s");
     }
+    if let Some(spread) = &machine.spread {
+        for (name, x) in spread.fields() {
+            m.check(&format!("spread.{name}"), x, false, "");
+            m.at_most(&format!("spread.{name}"), x, MAX_SWITCH_TIME_S, "");
+        }
+    }
     m.issues
 }
 

@@ -146,6 +146,10 @@ pub struct Machine {
     /// Servo period in seconds when motion is discretised; continuous time when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub servo_period_s: Option<f64>,
+    /// How much the switch and beam-on times vary (measured by `arcsim calibrate`); drawn by
+    /// `simulate --monte-carlo`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spread: Option<crate::TimingSpread>,
 }
 
 /// Kinematic limits of the gantry (magnitudes).

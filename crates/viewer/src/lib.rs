@@ -17,6 +17,7 @@
 
 #![warn(missing_docs)]
 
+mod compare;
 mod delivery;
 mod error;
 mod layout;
@@ -24,6 +25,7 @@ mod output;
 mod spots;
 mod sweep;
 
+pub use compare::{save_comparison, AngleSeries, COMPARISON_APP_ID};
 pub use delivery::log_delivery;
 pub use error::ViewerError;
 pub use layout::send_delivery_blueprint;

@@ -1,0 +1,158 @@
+//! `arcsim calibrate`: a machine fitted to delivery logs — ELST, beam timing and gantry limits
+//! with 95 % intervals, what the logs cannot determine, the residual per log before and after.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use arcsim_log::{CalibrationReport, ElstFit, LoggedRun};
+
+use crate::input::{input_name, load_machine, load_plan};
+use crate::simulate::{MotionArg, ScheduleArg};
+use crate::CliError;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ElstArg {
+    /// One time up, one down, one at the same energy.
+    Constant,
+    /// The upward time a line in the energy step (up_coeffs_s = [c0, c1]).
+    Poly,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The machine to start from: what the logs do not determine is kept from it.
+    #[arg(long)]
+    machine: PathBuf,
+    /// Pairs of a plan and its delivery log: PLAN LOG [PLAN LOG ...].
+    #[arg(required = true, num_args = 2.., value_name = "PLAN LOG")]
+    inputs: Vec<PathBuf>,
+    /// Where to write the fitted machine (JSON).
+    #[arg(short = 'o', long = "output", value_name = "FITTED.json")]
+    output: PathBuf,
+    /// Write the report (every value with its interval, the residuals) as JSON.
+    #[arg(long, value_name = "REPORT")]
+    json: Option<PathBuf>,
+    /// How the ELST is fitted.
+    #[arg(long, value_enum, default_value_t = ElstArg::Constant)]
+    elst: ElstArg,
+    /// The logs' column names, e.g. `t_s=TIME,gantry_angle_deg=GantryAngle,beam_on=BeamOn`.
+    #[arg(long, value_name = "MAP")]
+    columns: Option<String>,
+    /// Motion model of the residuals' simulations (default free).
+    #[arg(long, value_enum)]
+    motion: Option<MotionArg>,
+    /// Speed schedule of the residuals' simulations.
+    #[arg(long, value_enum, default_value_t = ScheduleArg::Optimal)]
+    schedule: ScheduleArg,
+}
+
+pub fn run(args: Args) -> Result<(), CliError> {
+    if !args.inputs.len().is_multiple_of(2) {
+        return Err(CliError::usage(format!(
+            "expected pairs of a plan and its log, got {} paths (the last, {}, has no log)",
+            args.inputs.len(),
+            args.inputs[args.inputs.len() - 1].display()
+        )));
+    }
+    let base = load_machine(Some(&args.machine))?;
+    let runs = args
+        .inputs
+        .chunks(2)
+        .map(|pair| {
+            Ok(LoggedRun {
+                plan_name: input_name(&pair[0]),
+                plan: load_plan(&pair[0])?,
+                log: crate::compare::read(&pair[1], args.columns.as_deref())?,
+            })
+        })
+        .collect::<Result<Vec<_>, CliError>>()?;
+    let fit = match args.elst {
+        ElstArg::Constant => ElstFit::Constant,
+        ElstArg::Poly => ElstFit::Polynomial,
+    };
+    let opts = crate::compare::options(args.motion, args.schedule, &runs[0].plan, &base);
+    let cal = arcsim_log::calibrate(&base, &runs, fit, &opts)
+        .map_err(|e| CliError::failed(e.to_string()))?;
+    let machine_json =
+        serde_json::to_string_pretty(&cal.machine).map_err(|e| CliError::failed(e.to_string()))?;
+    // The fitted machine must read back as a machine file.
+    arcsim_app::machine_from_text(&args.output.display().to_string(), &machine_json)
+        .map_err(|e| CliError::failed(format!("the fitted machine is not valid: {e}")))?;
+    let report = match &args.json {
+        Some(_) => Some(report_json(&cal.report)?),
+        None => None,
+    };
+    crate::output::print(&summary(&cal.report, &input_name(&args.machine)));
+    crate::output::write_file(&args.output, format!("{machine_json}\n").as_bytes())?;
+    if let (Some(path), Some(text)) = (&args.json, report) {
+        crate::output::write_file(path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn report_json(report: &CalibrationReport) -> Result<String, CliError> {
+    let mut doc = serde_json::to_value(report).map_err(|e| CliError::failed(e.to_string()))?;
+    if let Some(o) = doc.as_object_mut() {
+        o.insert("format".into(), "arcsim-calibration/1".into());
+    }
+    serde_json::to_string_pretty(&doc).map_err(|e| CliError::failed(e.to_string()))
+}
+
+/// The readable report printed on standard output.
+pub fn summary(r: &CalibrationReport, base: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "calibrated from {} on {} log(s): {}",
+        base,
+        r.logs.len(),
+        r.logs.join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "  field                              base        fitted     95 % interval            n  "
+    );
+    for v in &r.values {
+        let interval = v
+            .interval
+            .map_or_else(|| "-".to_string(), |[a, b]| format!("{a:.6} – {b:.6}"));
+        let base = v.base.map_or_else(|| "-".to_string(), |b| format!("{b}"));
+        let _ = writeln!(
+            s,
+            "  {:<32} {:>9}  {:>12.6}  {:<24} {:>4}  {}",
+            v.field,
+            base,
+            v.value,
+            interval,
+            v.observations,
+            if v.determined { "fitted" } else { "kept" }
+        );
+    }
+    let _ = writeln!(s, "how each value was found:");
+    for v in &r.values {
+        let _ = writeln!(s, "  {}: {}", v.field, v.note);
+    }
+    let sp = &r.spread;
+    let _ = writeln!(
+        s,
+        "spreads (sd): ELST up {:.4} s, down {:.4} s, same {:.4} s; beam-on time {:.2} %",
+        sp.elst_up_sd_s,
+        sp.elst_down_sd_s,
+        sp.elst_same_sd_s,
+        100.0 * sp.beam_time_sd_fraction
+    );
+    let _ = writeln!(s, "residuals (simulated - logged total):");
+    for x in &r.residuals {
+        let _ = writeln!(
+            s,
+            "  {}: logged {:.2} s; base {:.2} s ({:+.2} %); fitted {:.2} s ({:+.2} %)",
+            x.log,
+            x.logged_total_s,
+            x.base_total_s,
+            x.base_error_pct,
+            x.fitted_total_s,
+            x.fitted_error_pct
+        );
+    }
+    s
+}

@@ -1,0 +1,841 @@
+//! A machine fitted to delivery logs: what the logs determine, with 95 % intervals, and the
+//! base machine's value (said so) where they do not.
+//!
+//! - **ELST** (up, down, same energy): a switch lasts its ELST unless the gantry makes it wait,
+//!   so the switches that last their ELST are the lowest cluster of each kind's beam-off gaps
+//!   ([`lowest_cluster`]); its median is the ELST and its spread (less the log's time
+//!   resolution) the ELST's spread. With [`ElstFit::Polynomial`] the upward time is a line in
+//!   the energy step, fitted to the lowest cluster of residuals the same way.
+//! - **Beam** (`per_mu` machines): a layer's beam-on time is linear in the time per MU and the
+//!   time between spots (its MU and its number of spot-to-spot moves); least squares over every
+//!   logged layer.
+//! - **Gantry**: the plateau levels of the observed speed, acceleration, deceleration and jerk
+//!   ([`crate::kinematics`]); a level not held long enough is not the limit.
+//!
+//! Intervals: bootstrap over the switches and layers (a fixed seed, [`BOOTSTRAP_DRAWS`] draws)
+//! for the timings, the fit noise over the plateau for the gantry.
+
+use arcsim_plan::{
+    layer_beam_time, resolve, ArcPlan, BeamModel, ElstModel, Machine, PerMuBeam, ResolvedArc,
+    TimingSpread,
+};
+use arcsim_sequencer::{simulate, Options, SequenceError};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::compare::switch_class;
+use crate::kinematics::{observe, trace, ObservedKinematics, Plateau};
+use crate::matching::{match_layers, LoggedLayer, MatchError};
+use crate::DeliveryLog;
+
+/// Bootstrap draws behind each timing's interval.
+pub const BOOTSTRAP_DRAWS: usize = 200;
+
+/// How the ELST is fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ElstFit {
+    /// One time up, one down, one at the same energy.
+    #[default]
+    Constant,
+    /// The upward time a line in the energy step (`up_coeffs_s = [c0, c1]`).
+    Polynomial,
+}
+
+/// One logged delivery of one plan.
+#[derive(Debug, Clone)]
+pub struct LoggedRun {
+    /// The plan's name (as the user gave it).
+    pub plan_name: String,
+    /// The plan.
+    pub plan: ArcPlan,
+    /// Its log.
+    pub log: DeliveryLog,
+}
+
+/// Why a calibration cannot be made.
+#[derive(Debug, Error)]
+pub enum CalibrateError {
+    /// A plan does not resolve on the base machine.
+    #[error("{plan}: {source}")]
+    Plan {
+        /// The plan.
+        plan: String,
+        /// Why.
+        source: arcsim_plan::PlanError,
+    },
+    /// A log does not fit its plan.
+    #[error(transparent)]
+    Match(#[from] MatchError),
+    /// A simulation for the residuals failed.
+    #[error("{plan}: {source}")]
+    Simulate {
+        /// The plan.
+        plan: String,
+        /// Why.
+        source: SequenceError,
+    },
+    /// No run given.
+    #[error("no plan and log to calibrate from")]
+    NoRuns,
+}
+
+/// One fitted (or kept) machine value.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FittedValue {
+    /// The machine file's field, e.g. `elst.up_s`.
+    pub field: String,
+    /// Its unit.
+    pub unit: String,
+    /// The base machine's value (`None`: the base has no such field).
+    pub base: Option<f64>,
+    /// The value written to the fitted machine.
+    pub value: f64,
+    /// 95 % interval, when fitted.
+    pub interval: Option<[f64; 2]>,
+    /// Observations behind it.
+    pub observations: usize,
+    /// Whether the logs determine it (otherwise the base value is kept).
+    pub determined: bool,
+    /// How it was found, or why it was not.
+    pub note: String,
+}
+
+/// A log's total, logged and predicted by the base and the fitted machine.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Residual {
+    /// The plan.
+    pub plan: String,
+    /// The log.
+    pub log: String,
+    /// From the first beam-on to the last beam-off in the log, s.
+    pub logged_total_s: f64,
+    /// The base machine's simulated total, s.
+    pub base_total_s: f64,
+    /// The fitted machine's simulated total, s.
+    pub fitted_total_s: f64,
+    /// (base − logged) / logged, %.
+    pub base_error_pct: f64,
+    /// (fitted − logged) / logged, %.
+    pub fitted_error_pct: f64,
+}
+
+/// What a calibration found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibrationReport {
+    /// The logs, in the order given.
+    pub logs: Vec<String>,
+    /// Every value the calibration considers.
+    pub values: Vec<FittedValue>,
+    /// The spreads written to the fitted machine.
+    pub spread: TimingSpread,
+    /// The observed gantry motion over all logs.
+    pub observed: ObservedKinematics,
+    /// Per log, the residual before and after.
+    pub residuals: Vec<Residual>,
+}
+
+/// The fitted machine and its report.
+#[derive(Debug, Clone)]
+pub struct Calibration {
+    /// A complete machine: the base with the fitted values.
+    pub machine: Machine,
+    /// What was fitted, how well, and what was not.
+    pub report: CalibrationReport,
+}
+
+/// The lowest cluster of durations: its centre and spread, and how many it holds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cluster {
+    /// Median of the cluster.
+    pub centre: f64,
+    /// Robust standard deviation of the cluster: 1.4826 × the median distance below the centre
+    /// (or its median absolute deviation, if larger).
+    pub sd: f64,
+    /// Members.
+    pub count: usize,
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn mad_sd(v: &[f64], centre: f64) -> f64 {
+    let mut dev: Vec<f64> = v.iter().map(|x| (x - centre).abs()).collect();
+    1.4826 * median(&mut dev)
+}
+
+/// The lowest cluster of `residuals` (gaps less a model, or the gaps themselves): start from the
+/// median of the lowest tenth, then keep every value up to three spreads above the centre and
+/// re-centre, until it settles. `floor_sd` is the least spread assumed (the time resolution).
+pub fn lowest_cluster(residuals: &[f64], floor_sd: f64) -> Option<Cluster> {
+    if residuals.is_empty() {
+        return None;
+    }
+    let mut sorted = residuals.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let k0 = (sorted.len() / 10).max(3).min(sorted.len());
+    let mut centre = median(&mut sorted[..k0].to_vec());
+    // Start as tight as the time resolution and let the cluster widen to its own spread (at
+    // most a tenth of its centre): starting wide lets the gaps the gantry lengthened just
+    // beyond the ELST pull the centre up.
+    let mut sd = floor_sd;
+    let mut count = 0;
+    for _ in 0..20 {
+        let mut members: Vec<f64> = sorted
+            .iter()
+            .copied()
+            .filter(|x| *x <= centre + 3.0 * sd)
+            .collect();
+        let c = median(&mut members);
+        let s = mad_sd(&members, c)
+            .max(floor_sd)
+            .min(0.1 * c.abs().max(floor_sd));
+        let settled = (c - centre).abs() <= 1e-12 * c.abs().max(1.0) && members.len() == count;
+        (centre, sd, count) = (c, s, members.len());
+        if settled {
+            break;
+        }
+    }
+    // The spread from the cluster's lower side, which the gaps the gantry lengthened do not
+    // reach: for a normal cluster the median distance below the centre is 0.674 sd.
+    let mut below: Vec<f64> = sorted
+        .iter()
+        .filter(|x| **x < centre)
+        .map(|x| centre - x)
+        .collect();
+    if below.len() >= 2 {
+        sd = sd.max(1.4826 * median(&mut below));
+    }
+    Some(Cluster { centre, sd, count })
+}
+
+/// Percentile interval (2.5 %, 97.5 %) of a statistic over bootstrap resamples of `n` items.
+fn bootstrap(n: usize, seed: u64, stat: &dyn Fn(&[usize]) -> Option<f64>) -> Option<[f64; 2]> {
+    if n < 2 {
+        return None;
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut values: Vec<f64> = (0..BOOTSTRAP_DRAWS)
+        .filter_map(|_| {
+            let idx: Vec<usize> = (0..n).map(|_| rng.random_range(0..n)).collect();
+            stat(&idx).filter(|x| x.is_finite())
+        })
+        .collect();
+    if values.len() < BOOTSTRAP_DRAWS / 2 {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let at = |q: f64| values[((values.len() - 1) as f64 * q).round() as usize];
+    Some([at(0.025), at(0.975)])
+}
+
+/// One logged run, resolved and matched.
+struct Matched {
+    arcs: Vec<ResolvedArc>,
+    layers: Vec<LoggedLayer>,
+    period_s: f64,
+}
+
+/// A beam-off gap between two layers of one arc.
+#[derive(Debug, Clone, Copy)]
+struct Gap {
+    class: &'static str,
+    step_mev: f64,
+    duration_s: f64,
+}
+
+fn typical_period(log: &DeliveryLog) -> f64 {
+    let mut d: Vec<f64> = log
+        .samples
+        .windows(2)
+        .map(|w| w[1].t_s - w[0].t_s)
+        .collect();
+    if d.is_empty() {
+        0.0
+    } else {
+        median(&mut d)
+    }
+}
+
+fn gaps(m: &Matched) -> Vec<Gap> {
+    let flat: Vec<(usize, f64)> = m
+        .arcs
+        .iter()
+        .flat_map(|a| a.layers.iter().map(move |l| (a.arc_index, l.energy_mev)))
+        .collect();
+    m.layers
+        .windows(2)
+        .filter_map(|w| {
+            let (a, b) = (flat[w[0].index], flat[w[1].index]);
+            (a.0 == b.0).then(|| Gap {
+                class: switch_class(a.1, b.1),
+                step_mev: b.1 - a.1,
+                duration_s: w[1].start_s - w[0].end_s,
+            })
+        })
+        .collect()
+}
+
+/// Fits a machine to `runs`, starting from `base` (see the module documentation); `options` are
+/// the simulations' (for the residuals).
+pub fn calibrate(
+    base: &Machine,
+    runs: &[LoggedRun],
+    elst_fit: ElstFit,
+    options: &Options,
+) -> Result<Calibration, CalibrateError> {
+    if runs.is_empty() {
+        return Err(CalibrateError::NoRuns);
+    }
+    let matched = runs
+        .iter()
+        .map(|r| {
+            let arcs = resolve(&r.plan, base).map_err(|source| CalibrateError::Plan {
+                plan: r.plan_name.clone(),
+                source,
+            })?;
+            let layers = match_layers(&r.log, &arcs)?;
+            Ok(Matched {
+                arcs,
+                layers,
+                period_s: typical_period(&r.log),
+            })
+        })
+        .collect::<Result<Vec<_>, CalibrateError>>()?;
+    let period = matched.iter().map(|m| m.period_s).fold(0.0, f64::max);
+    // Each edge is within half a period: a gap or a beam-on time is off by up to one period,
+    // variance period²/6.
+    let resolution_sd = period / 6f64.sqrt();
+    let all_gaps: Vec<Gap> = matched.iter().flat_map(gaps).collect();
+    let mut values = Vec::new();
+    let mut machine = base.clone();
+    let elst = fit_elst(base, &all_gaps, elst_fit, resolution_sd, &mut values);
+    machine.elst = elst.model;
+    let beam = fit_beam(base, runs, &matched, resolution_sd, &mut values);
+    if let Some(b) = beam.model {
+        machine.beam = b;
+    }
+    let traces: Vec<_> = runs.iter().map(|r| trace(&r.log)).collect();
+    let observed = observe(&traces);
+    fit_gantry(base, &observed, &mut machine, &mut values);
+    let spread = TimingSpread {
+        elst_up_sd_s: elst.sd[0],
+        elst_down_sd_s: elst.sd[1],
+        elst_same_sd_s: elst.sd[2],
+        beam_time_sd_fraction: beam.sd_fraction,
+    };
+    machine.spread = Some(spread);
+    describe(&mut machine, base, runs, &values);
+    let residuals = residuals(base, &machine, runs, &matched, options)?;
+    Ok(Calibration {
+        machine,
+        report: CalibrationReport {
+            logs: runs.iter().map(|r| r.log.source.clone()).collect(),
+            values,
+            spread,
+            observed,
+            residuals,
+        },
+    })
+}
+
+/// The fitted ELST model and the spreads (up, down, same).
+struct ElstResult {
+    model: ElstModel,
+    sd: [f64; 3],
+}
+
+fn base_elst(base: &Machine) -> (Option<f64>, Option<f64>, f64) {
+    match &base.elst {
+        ElstModel::Constant { up_s, down_s, .. } => {
+            (Some(*up_s), Some(*down_s), base.elst.same_s())
+        }
+        ElstModel::Polynomial { down_s, .. } => (None, Some(*down_s), base.elst.same_s()),
+        _ => (None, None, base.elst.same_s()),
+    }
+}
+
+fn fit_elst(
+    base: &Machine,
+    gaps: &[Gap],
+    fit: ElstFit,
+    res_sd: f64,
+    values: &mut Vec<FittedValue>,
+) -> ElstResult {
+    let (base_up, base_down, base_same) = base_elst(base);
+    let of = |class: &str| -> Vec<f64> {
+        gaps.iter()
+            .filter(|g| g.class == class)
+            .map(|g| g.duration_s)
+            .collect()
+    };
+    let spread_of = |c: &Cluster| (c.sd * c.sd - res_sd * res_sd).max(0.0).sqrt();
+    let mut one = |field: &str, d: Vec<f64>, base_value: Option<f64>, seed: u64| {
+        let base_or = base_value.unwrap_or(0.0);
+        match lowest_cluster(&d, res_sd).filter(|c| c.count >= 3) {
+            Some(c) => {
+                let interval = bootstrap(d.len(), seed, &|idx| {
+                    let s: Vec<f64> = idx.iter().map(|&i| d[i]).collect();
+                    lowest_cluster(&s, res_sd).map(|c| c.centre)
+                });
+                values.push(FittedValue {
+                    field: field.into(),
+                    unit: "s".into(),
+                    base: base_value,
+                    value: c.centre,
+                    interval,
+                    observations: c.count,
+                    determined: true,
+                    note: format!(
+                        "median of the {} of {} switches that last their ELST (the lowest cluster of beam-off gaps)",
+                        c.count,
+                        d.len()
+                    ),
+                });
+                (c.centre, spread_of(&c))
+            }
+            None => {
+                values.push(kept(
+                    field,
+                    "s",
+                    base_value,
+                    d.len(),
+                    "fewer than 3 such switches in the logs: the base value is kept",
+                ));
+                (base_or, 0.0)
+            }
+        }
+    };
+    let (down, down_sd) = one("elst.down_s", of("downward switch"), base_down, 2);
+    let (same, same_sd) = one("elst.same_s", of("same energy"), Some(base_same), 3);
+    let (model, up_sd) = match fit {
+        ElstFit::Constant => {
+            let (up, up_sd) = one("elst.up_s", of("upward switch"), base_up, 1);
+            (
+                ElstModel::Constant {
+                    up_s: up,
+                    down_s: down,
+                    same_s: same,
+                },
+                up_sd,
+            )
+        }
+        ElstFit::Polynomial => {
+            let ups: Vec<(f64, f64)> = gaps
+                .iter()
+                .filter(|g| g.class == "upward switch")
+                .map(|g| (g.step_mev, g.duration_s))
+                .collect();
+            let (coeffs, sd) = fit_up_line(&ups, res_sd, base_up.unwrap_or(1.0), values);
+            (
+                ElstModel::Polynomial {
+                    down_s: down,
+                    same_s: same,
+                    up_coeffs_s: coeffs.to_vec(),
+                },
+                sd,
+            )
+        }
+    };
+    ElstResult {
+        model,
+        sd: [up_sd, down_sd, same_sd],
+    }
+}
+
+fn kept(field: &str, unit: &str, base: Option<f64>, n: usize, why: &str) -> FittedValue {
+    FittedValue {
+        field: field.into(),
+        unit: unit.into(),
+        base,
+        value: base.unwrap_or(0.0),
+        interval: None,
+        observations: n,
+        determined: false,
+        note: why.into(),
+    }
+}
+
+/// Least squares of `y = c0 + c1 x` over the points `idx` of `pts`.
+fn line(pts: &[(f64, f64)], idx: &[usize]) -> Option<[f64; 2]> {
+    let n = idx.len() as f64;
+    let (sx, sy) = idx
+        .iter()
+        .fold((0.0, 0.0), |(a, b), &i| (a + pts[i].0, b + pts[i].1));
+    let (mx, my) = (sx / n, sy / n);
+    let (sxx, sxy) = idx.iter().fold((0.0, 0.0), |(a, b), &i| {
+        let dx = pts[i].0 - mx;
+        (a + dx * dx, b + dx * (pts[i].1 - my))
+    });
+    (sxx > 0.0).then(|| [my - sxy / sxx * mx, sxy / sxx])
+}
+
+/// The upward ELST as a line in the energy step, over the lowest cluster of its residuals.
+fn line_cluster(pts: &[(f64, f64)], res_sd: f64) -> Option<([f64; 2], f64, usize)> {
+    let all: Vec<usize> = (0..pts.len()).collect();
+    let first = lowest_cluster(&pts.iter().map(|p| p.1).collect::<Vec<_>>(), res_sd)?;
+    let mut c = [first.centre, 0.0];
+    let mut sd = first.sd;
+    let mut members = all.clone();
+    for _ in 0..20 {
+        let r: Vec<f64> = pts.iter().map(|p| p.1 - c[0] - c[1] * p.0).collect();
+        members = all.iter().copied().filter(|&i| r[i] <= 3.0 * sd).collect();
+        let next = line(pts, &members)?;
+        let rm: Vec<f64> = members
+            .iter()
+            .map(|&i| pts[i].1 - next[0] - next[1] * pts[i].0)
+            .collect();
+        sd = mad_sd(&rm, 0.0)
+            .max(res_sd)
+            .min(0.1 * c[0].abs().max(res_sd));
+        let settled = (next[0] - c[0]).abs() + (next[1] - c[1]).abs() < 1e-12;
+        c = next;
+        if settled {
+            break;
+        }
+    }
+    Some((c, sd, members.len()))
+}
+
+fn fit_up_line(
+    pts: &[(f64, f64)],
+    res_sd: f64,
+    scale: f64,
+    values: &mut Vec<FittedValue>,
+) -> ([f64; 2], f64) {
+    let Some((c, sd, count)) = line_cluster(pts, res_sd).filter(|x| x.2 >= 3) else {
+        values.push(kept("elst.up_coeffs_s", "s, s/MeV", None, pts.len(), "fewer than 3 upward switches over distinct energy steps: the upward time is the base machine's constant"));
+        return ([scale, 0.0], 0.0);
+    };
+    for (k, name) in ["elst.up_coeffs_s[0]", "elst.up_coeffs_s[1]"]
+        .iter()
+        .enumerate()
+    {
+        let interval = bootstrap(pts.len(), 10 + k as u64, &|idx| {
+            let s: Vec<(f64, f64)> = idx.iter().map(|&i| pts[i]).collect();
+            line_cluster(&s, res_sd).map(|x| x.0[k])
+        });
+        values.push(FittedValue {
+            field: (*name).into(),
+            unit: if k == 0 { "s".into() } else { "s/MeV".into() },
+            base: None,
+            value: c[k],
+            interval,
+            observations: count,
+            determined: true,
+            note: format!("line in the energy step through the {count} of {} upward switches that last their ELST", pts.len()),
+        });
+    }
+    (c, (sd * sd - res_sd * res_sd).max(0.0).sqrt())
+}
+
+/// The fitted beam model (when fitted) and the spread of a layer's beam time.
+struct BeamResult {
+    model: Option<BeamModel>,
+    sd_fraction: f64,
+}
+
+/// `(MU term, moves term, logged beam-on)` of each logged layer with spots.
+fn beam_rows(runs: &[LoggedRun], matched: &[Matched]) -> Vec<(f64, f64, f64)> {
+    let unit = |s, w| {
+        BeamModel::PerMu(PerMuBeam {
+            s_per_mu: s,
+            spot_switch_time_s: w,
+            min_spot_time_s: 0.0,
+        })
+    };
+    let (mu_unit, move_unit) = (unit(1.0, 0.0), unit(0.0, 1.0));
+    let mut rows = Vec::new();
+    for (r, m) in runs.iter().zip(matched) {
+        let flat: Vec<(usize, usize, usize)> = m
+            .arcs
+            .iter()
+            .flat_map(|a| {
+                a.layers
+                    .iter()
+                    .map(move |l| (a.arc_index, l.control_point, l.layer))
+            })
+            .collect();
+        for l in &m.layers {
+            let (a, cp, k) = flat[l.index];
+            let Some(layer) = r
+                .plan
+                .arcs
+                .get(a)
+                .and_then(|a| a.control_points.get(cp))
+                .and_then(|c| c.layers.get(k))
+            else {
+                continue;
+            };
+            if layer.irradiation_time_s.is_some() || layer.spots.is_none() {
+                continue;
+            }
+            let (Ok(x1), Ok(x2)) = (
+                layer_beam_time(layer, &mu_unit),
+                layer_beam_time(layer, &move_unit),
+            ) else {
+                continue;
+            };
+            rows.push((x1.spot_irradiation_s, x2.scanning_s, l.beam_on_s));
+        }
+    }
+    rows
+}
+
+/// Least squares of `y = s x1 + w x2` over `idx`.
+fn beam_ls(rows: &[(f64, f64, f64)], idx: &[usize]) -> Option<[f64; 2]> {
+    let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &i in idx {
+        let (x1, x2, y) = rows[i];
+        a11 += x1 * x1;
+        a12 += x1 * x2;
+        a22 += x2 * x2;
+        b1 += x1 * y;
+        b2 += x2 * y;
+    }
+    let det = a11 * a22 - a12 * a12;
+    (det.abs() > 1e-12 * (a11 * a22).max(1e-300))
+        .then(|| [(a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det])
+}
+
+fn fit_beam(
+    base: &Machine,
+    runs: &[LoggedRun],
+    matched: &[Matched],
+    res_sd: f64,
+    values: &mut Vec<FittedValue>,
+) -> BeamResult {
+    let BeamModel::PerMu(b) = &base.beam else {
+        values.push(kept(
+            "beam",
+            "",
+            None,
+            0,
+            "only a per_mu beam model is fitted: the base machine's scanning model is kept",
+        ));
+        return BeamResult {
+            model: None,
+            sd_fraction: 0.0,
+        };
+    };
+    let rows = beam_rows(runs, matched);
+    let all: Vec<usize> = (0..rows.len()).collect();
+    let fit = (rows.len() >= 3).then(|| beam_ls(&rows, &all)).flatten();
+    let Some([s, w]) = fit else {
+        for (f, u, v) in [
+            ("beam.s_per_mu", "s/MU", b.s_per_mu),
+            ("beam.spot_switch_time_s", "s", b.spot_switch_time_s),
+        ] {
+            values.push(kept(f, u, Some(v), rows.len(), "fewer than 3 logged layers with spots and distinct spot counts: the base value is kept"));
+        }
+        return BeamResult {
+            model: None,
+            sd_fraction: 0.0,
+        };
+    };
+    for (k, (f, u, base_v, v)) in [
+        ("beam.s_per_mu", "s/MU", b.s_per_mu, s),
+        ("beam.spot_switch_time_s", "s", b.spot_switch_time_s, w),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let interval = bootstrap(rows.len(), 20 + k as u64, &|idx| {
+            beam_ls(&rows, idx).map(|x| x[k])
+        });
+        values.push(FittedValue {
+            field: f.into(),
+            unit: u.into(),
+            base: Some(base_v),
+            value: v,
+            interval,
+            observations: rows.len(),
+            determined: true,
+            note: format!(
+                "least squares of the {} logged layers' beam-on times on their MU and spot moves",
+                rows.len()
+            ),
+        });
+    }
+    if b.min_spot_time_s > 0.0 {
+        values.push(kept("beam.min_spot_time_s", "s", Some(b.min_spot_time_s), 0, "not fitted (the fit assumes no spot is held at its minimum time): the base value is kept"));
+    }
+    let rel: Vec<f64> = rows
+        .iter()
+        .map(|r| r.2 / (s * r.0 + w * r.1) - 1.0)
+        .filter(|x| x.is_finite())
+        .collect();
+    let res_rel: f64 = rows
+        .iter()
+        .map(|r| (res_sd / (s * r.0 + w * r.1)).powi(2))
+        .filter(|x| x.is_finite())
+        .sum::<f64>()
+        / rows.len() as f64;
+    let n = rel.len().max(2) as f64;
+    let mean = rel.iter().sum::<f64>() / n;
+    let var = rel.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    BeamResult {
+        model: Some(BeamModel::PerMu(PerMuBeam {
+            s_per_mu: s,
+            spot_switch_time_s: w,
+            min_spot_time_s: b.min_spot_time_s,
+        })),
+        sd_fraction: (var - res_rel).max(0.0).sqrt(),
+    }
+}
+
+fn gantry_value(
+    field: &str,
+    unit: &str,
+    base: Option<f64>,
+    p: Option<&Plateau>,
+    what: &str,
+) -> FittedValue {
+    match p {
+        Some(p) if p.reached => FittedValue {
+            field: field.into(),
+            unit: unit.into(),
+            base,
+            value: p.level,
+            interval: Some(p.interval),
+            observations: 1,
+            determined: true,
+            note: format!("plateau of the observed {what}, held {:.1} s (local fits over 2 s)", p.held_s),
+        },
+        Some(p) => kept(field, unit, base, 1, &format!("the observed {what} peaks at {:.4} but is held only {:.2} s: the limit is not reached, the base value is kept", p.peak, p.held_s)),
+        None => kept(field, unit, base, 0, &format!("no {what} in the logs: the base value is kept")),
+    }
+}
+
+fn fit_gantry(
+    base: &Machine,
+    obs: &ObservedKinematics,
+    machine: &mut Machine,
+    values: &mut Vec<FittedValue>,
+) {
+    let g = &base.gantry;
+    let base_d = g.max_decel_deg_per_s2.unwrap_or(g.max_accel_deg_per_s2);
+    let v = gantry_value(
+        "gantry.max_speed_deg_per_s",
+        "deg/s",
+        Some(g.max_speed_deg_per_s),
+        obs.speed.as_ref(),
+        "speed",
+    );
+    let a = gantry_value(
+        "gantry.max_accel_deg_per_s2",
+        "deg/s^2",
+        Some(g.max_accel_deg_per_s2),
+        obs.accel.as_ref(),
+        "acceleration",
+    );
+    let mut d = gantry_value(
+        "gantry.max_decel_deg_per_s2",
+        "deg/s^2",
+        Some(base_d),
+        obs.decel.as_ref(),
+        "deceleration",
+    );
+    let j = gantry_value(
+        "gantry.max_jerk_deg_per_s3",
+        "deg/s^3",
+        Some(g.max_jerk_deg_per_s3),
+        obs.jerk.as_ref(),
+        "jerk",
+    );
+    let out = &mut machine.gantry;
+    out.max_speed_deg_per_s = v.value;
+    out.max_jerk_deg_per_s3 = j.value;
+    match (a.determined, d.determined) {
+        (true, true) if (a.value - d.value).abs() <= 0.05 * a.value.max(d.value) => {
+            out.max_accel_deg_per_s2 = a.value;
+            out.max_decel_deg_per_s2 = None;
+            d.note
+                .push_str("; within 5 % of the acceleration: the machine keeps one limit, A");
+        }
+        (true, true) => {
+            out.max_accel_deg_per_s2 = a.value;
+            out.max_decel_deg_per_s2 = Some(d.value);
+        }
+        (true, false) => {
+            out.max_accel_deg_per_s2 = a.value;
+            out.max_decel_deg_per_s2 = g.max_decel_deg_per_s2;
+        }
+        (false, true) => out.max_decel_deg_per_s2 = Some(d.value),
+        (false, false) => {}
+    }
+    values.extend([v, a, d, j]);
+}
+
+fn describe(machine: &mut Machine, base: &Machine, runs: &[LoggedRun], values: &[FittedValue]) {
+    let fitted: Vec<&str> = values
+        .iter()
+        .filter(|v| v.determined)
+        .map(|v| v.field.as_str())
+        .collect();
+    let kept: Vec<&str> = values
+        .iter()
+        .filter(|v| !v.determined)
+        .map(|v| v.field.as_str())
+        .collect();
+    machine.name = format!("{}-calibrated", base.name);
+    machine.description = Some(format!(
+        "{} calibrated by arcsim calibrate on {} log(s). Fitted: {}. Kept from the base machine: {}. Spreads measured in the logs.",
+        base.name,
+        runs.len(),
+        if fitted.is_empty() { "nothing".to_string() } else { fitted.join(", ") },
+        if kept.is_empty() { "nothing".to_string() } else { kept.join(", ") },
+    ));
+    for r in runs {
+        machine.sources.push(format!(
+            "delivery log {} (plan {})",
+            r.log.source, r.plan_name
+        ));
+    }
+}
+
+fn residuals(
+    base: &Machine,
+    fitted: &Machine,
+    runs: &[LoggedRun],
+    matched: &[Matched],
+    options: &Options,
+) -> Result<Vec<Residual>, CalibrateError> {
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    runs.par_iter()
+        .zip(matched)
+        .map(|(r, m)| {
+            let sim = |machine: &Machine| {
+                simulate(&r.plan, machine, &opts)
+                    .map(|d| d.total_s)
+                    .map_err(|source| CalibrateError::Simulate {
+                        plan: r.plan_name.clone(),
+                        source,
+                    })
+            };
+            let logged = m.layers[m.layers.len() - 1].end_s - m.layers[0].start_s;
+            let (b, f) = (sim(base)?, sim(fitted)?);
+            Ok(Residual {
+                plan: r.plan_name.clone(),
+                log: r.log.source.clone(),
+                logged_total_s: logged,
+                base_total_s: b,
+                fitted_total_s: f,
+                base_error_pct: 100.0 * (b - logged) / logged,
+                fitted_error_pct: 100.0 * (f - logged) / logged,
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,278 @@
+//! A log's beam-on segments matched to a plan's layers.
+//!
+//! A segment is a run of beam-on samples; its edges are put halfway between the last sample of
+//! one state and the first of the other (unbiased for a beam switched at a random instant).
+//! Consecutive segments of one energy form a run; the plan's consecutive layers of one energy
+//! form one too. The runs must agree in number and energy (with the log's energies); inside a
+//! run of `r` layers the `r - 1` longest beam-off gaps are the layer changes and any other gap is
+//! an interruption inside a layer. Without energies the whole log is one run.
+
+use arcsim_plan::ResolvedArc;
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::DeliveryLog;
+
+/// Energies closer than this (MeV) are the same energy in a log (logs round energies).
+pub const LOG_ENERGY_TOLERANCE_MEV: f64 = 0.1;
+
+/// How far (degrees) beyond the edge of its window a layer may be irradiated in a log before the
+/// log is taken for another plan's.
+pub const ANGLE_TOLERANCE_DEG: f64 = 2.0;
+
+/// One beam-on stretch of a log.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BeamSegment {
+    /// Beam-on, s (log time), halfway between the last beam-off sample and the first beam-on one.
+    pub start_s: f64,
+    /// Beam-off, s (log time).
+    pub end_s: f64,
+    /// Gantry angle at the first beam-on sample, degrees.
+    pub angle_start_deg: f64,
+    /// Gantry angle at the last beam-on sample, degrees.
+    pub angle_end_deg: f64,
+    /// The energy the log gives for the segment (at its first sample that has one), MeV.
+    pub energy_mev: Option<f64>,
+}
+
+/// One plan layer as the log shows it delivered.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoggedLayer {
+    /// Index of the layer in delivery order (as the simulation's rows).
+    pub index: usize,
+    /// Beam-on of its first segment, s (log time).
+    pub start_s: f64,
+    /// Beam-off of its last segment, s (log time).
+    pub end_s: f64,
+    /// Beam-on time: the sum of its segments, s.
+    pub beam_on_s: f64,
+    /// How many beam-on segments it was delivered in (1: no interruption).
+    pub segments: usize,
+    /// Gantry angle at its first beam-on sample, degrees.
+    pub angle_start_deg: f64,
+    /// Gantry angle at its last beam-on sample, degrees.
+    pub angle_end_deg: f64,
+}
+
+/// A log that does not fit the plan, located.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("{file}: {message}")]
+pub struct MatchError {
+    /// The log as named to the reader.
+    pub file: String,
+    /// What differs and where.
+    pub message: String,
+}
+
+/// One plan layer, in delivery order, as matching needs it.
+#[derive(Debug, Clone, Copy)]
+struct Planned {
+    arc: usize,
+    control_point: usize,
+    angle_deg: f64,
+    window_deg: f64,
+    energy_mev: f64,
+}
+
+fn planned(arcs: &[ResolvedArc]) -> Vec<Planned> {
+    arcs.iter()
+        .flat_map(|a| {
+            a.layers.iter().map(move |l| Planned {
+                arc: a.arc_index,
+                control_point: l.control_point,
+                angle_deg: l.angle_deg,
+                window_deg: l.window_deg,
+                energy_mev: l.energy_mev,
+            })
+        })
+        .collect()
+}
+
+/// The log's beam-on segments in time order.
+pub fn beam_segments(log: &DeliveryLog) -> Vec<BeamSegment> {
+    let s = &log.samples;
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < s.len() {
+        if !s[i].beam_on {
+            i += 1;
+            continue;
+        }
+        let first = i;
+        while i + 1 < s.len() && s[i + 1].beam_on {
+            i += 1;
+        }
+        let last = i;
+        let start_s = match first {
+            0 => s[0].t_s,
+            k => 0.5 * (s[k - 1].t_s + s[k].t_s),
+        };
+        let end_s = match s.get(last + 1) {
+            Some(next) => 0.5 * (s[last].t_s + next.t_s),
+            None => s[last].t_s,
+        };
+        out.push(BeamSegment {
+            start_s,
+            end_s,
+            angle_start_deg: s[first].gantry_angle_deg,
+            angle_end_deg: s[last].gantry_angle_deg,
+            energy_mev: s[first..=last].iter().find_map(|x| x.energy_mev),
+        });
+        i += 1;
+    }
+    out
+}
+
+/// Consecutive items of one energy: `(first index, count, energy)`.
+fn runs(energies: impl Iterator<Item = Option<f64>>) -> Vec<(usize, usize, Option<f64>)> {
+    let mut out: Vec<(usize, usize, Option<f64>)> = Vec::new();
+    for (i, e) in energies.enumerate() {
+        match out.last_mut() {
+            Some((_, n, last)) if same_energy(*last, e) => *n += 1,
+            _ => out.push((i, 1, e)),
+        }
+    }
+    out
+}
+
+fn same_energy(a: Option<f64>, b: Option<f64>) -> bool {
+    match (a, b) {
+        (Some(x), Some(y)) => (x - y).abs() <= LOG_ENERGY_TOLERANCE_MEV,
+        (None, None) => true,
+        _ => false,
+    }
+}
+
+fn mev(e: Option<f64>) -> String {
+    e.map_or_else(|| "no energy".to_string(), |e| format!("{e} MeV"))
+}
+
+/// Matches the log's beam-on segments to the layers of `arcs` (delivery order); see the module
+/// documentation for the rule and [`MatchError`] for a log that does not fit.
+pub fn match_layers(
+    log: &DeliveryLog,
+    arcs: &[ResolvedArc],
+) -> Result<Vec<LoggedLayer>, MatchError> {
+    let plan = planned(arcs);
+    let segs = beam_segments(log);
+    let fail = |message: String| MatchError {
+        file: log.source.clone(),
+        message,
+    };
+    if segs.is_empty() {
+        return Err(fail("the log has no beam-on sample".into()));
+    }
+    let use_energy = log.has_energy && segs.iter().all(|s| s.energy_mev.is_some());
+    let seg_runs = runs(segs.iter().map(|s| s.energy_mev.filter(|_| use_energy)));
+    let plan_runs = runs(plan.iter().map(|p| use_energy.then_some(p.energy_mev)));
+    let head = format!(
+        "log has {} beam-on segments, the plan {} layers",
+        segs.len(),
+        plan.len()
+    );
+    for k in 0..seg_runs.len().max(plan_runs.len()) {
+        let (s, p) = (seg_runs.get(k), plan_runs.get(k));
+        let differs = match (s, p) {
+            (Some(s), Some(p)) => !same_energy(s.2, p.2) || s.1 < p.1,
+            _ => true,
+        };
+        if differs {
+            let at = s.map_or(segs[segs.len() - 1].end_s, |s| segs[s.0].start_s);
+            let what = match (s, p) {
+                (Some(s), Some(p)) if same_energy(s.2, p.2) => format!(
+                    "{} beam-on segments of {} in the log, {} layers in the plan",
+                    s.1,
+                    mev(s.2),
+                    p.1
+                ),
+                (Some(s), Some(p)) => format!("{} in the log, {} in the plan", mev(s.2), mev(p.2)),
+                (Some(s), None) => format!("{} in the log, the plan has ended", mev(s.2)),
+                (None, Some(p)) => format!("the log has ended, {} in the plan", mev(p.2)),
+                (None, None) => unreachable!("k < max of the two lengths"),
+            };
+            return Err(fail(format!(
+                "{head}; the first that differs is at t = {at:.3} s: {what}"
+            )));
+        }
+    }
+    let mut out = Vec::with_capacity(plan.len());
+    for (s, p) in seg_runs.iter().zip(&plan_runs) {
+        let run = &segs[s.0..s.0 + s.1];
+        let cuts = layer_cuts(run, p.1);
+        let mut from = 0;
+        for (j, &to) in cuts.iter().enumerate() {
+            let parts = &run[from..to];
+            out.push(logged_layer(p.0 + j, parts));
+            from = to;
+        }
+    }
+    check_angles(&out, &plan).map_err(fail)?;
+    Ok(out)
+}
+
+/// Where a run of segments splits into `layers` layers: the end (exclusive) of each layer's
+/// segments, cutting at the `layers - 1` longest gaps.
+fn layer_cuts(run: &[BeamSegment], layers: usize) -> Vec<usize> {
+    let mut gaps: Vec<(f64, usize)> = run
+        .windows(2)
+        .enumerate()
+        .map(|(i, w)| (w[1].start_s - w[0].end_s, i + 1))
+        .collect();
+    gaps.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut cuts: Vec<usize> = gaps
+        .iter()
+        .take(layers.saturating_sub(1))
+        .map(|g| g.1)
+        .collect();
+    cuts.sort_unstable();
+    cuts.push(run.len());
+    cuts
+}
+
+fn logged_layer(index: usize, parts: &[BeamSegment]) -> LoggedLayer {
+    let (first, last) = (parts[0], parts[parts.len() - 1]);
+    LoggedLayer {
+        index,
+        start_s: first.start_s,
+        end_s: last.end_s,
+        beam_on_s: parts.iter().map(|p| p.end_s - p.start_s).sum(),
+        segments: parts.len(),
+        angle_start_deg: first.angle_start_deg,
+        angle_end_deg: last.angle_end_deg,
+    }
+}
+
+/// Signed difference `a - b` of two angles, in (-180, 180].
+pub fn angle_diff_deg(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(360.0);
+    if d > 180.0 {
+        d - 360.0
+    } else {
+        d
+    }
+}
+
+/// Every logged layer irradiated within its window (plus [`ANGLE_TOLERANCE_DEG`]).
+fn check_angles(logged: &[LoggedLayer], plan: &[Planned]) -> Result<(), String> {
+    for l in logged {
+        let p = plan[l.index];
+        let reach = p.window_deg / 2.0 + ANGLE_TOLERANCE_DEG;
+        for a in [l.angle_start_deg, l.angle_end_deg] {
+            if angle_diff_deg(a, p.angle_deg).abs() > reach {
+                return Err(format!(
+                    "layer {} (arc {}, control point {}, {} MeV) is irradiated at {a:.2} deg \
+                     in the log (t = {:.3} s), the plan's window is {} ± {} deg: a log of \
+                     another plan?",
+                    l.index,
+                    p.arc,
+                    p.control_point,
+                    p.energy_mev,
+                    l.start_s,
+                    p.angle_deg,
+                    p.window_deg / 2.0
+                ));
+            }
+        }
+    }
+    Ok(())
+}
