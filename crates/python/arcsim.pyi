@@ -173,8 +173,55 @@ class Delivery:
         gantry_angle_deg, beam_on, energy_mev, spot, mu (NaN where empty), a sample every
         `period` s; seeded Gaussian noise of `angle_noise_deg` on the angles. With `path`, also
         writes the arcsim-log/1 CSV. Raises ValueError for a bad period or noise."""
+    def monte_carlo(self, draws: int, seed: int = 0) -> Dict[str, Any]:
+        """Percentiles of the total over `draws` deliveries with the machine's timing spreads
+        (`spread`, measured by `calibrate`) drawn per switch and per layer, as `simulate
+        --monte-carlo`: p5_s, p50_s, p95_s, mean_s, sd_s, totals_s. Raises SimulationError when
+        the machine has no spreads."""
     def to_json(self) -> str:
         """The result document, equal to `arcsim simulate --json` for the same inputs."""
+
+class Comparison:
+    """A delivery log beside the simulation of its plan (`arcsim compare`)."""
+
+    @property
+    def difference_s(self) -> float:
+        """Logged minus simulated total (s)."""
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """The logged and simulated splits, differences by class, worst layers, motion fits,
+        observed gantry limits (everything but the per-layer rows)."""
+    @property
+    def layers(self) -> Dict[str, Any]:
+        """One row per layer, logged and simulated start, end, angles, beam-on and transition
+        times, as columns."""
+    def to_pandas(self) -> Any:
+        """The per-layer rows as a pandas DataFrame (needs pandas)."""
+    def to_json(self) -> str:
+        """The comparison as `arcsim compare --json` writes it."""
+
+def compare(
+    plan: Plan,
+    log: _Path,
+    machine: Optional[Machine] = None,
+    motion: Optional[str] = None,
+    schedule: str = "optimal",
+    columns: Optional[str] = None,
+) -> Comparison:
+    """`arcsim compare`: the log matched to the plan's layers and set beside its simulation.
+    Raises LogError for a log that cannot be read or does not fit the plan."""
+
+def calibrate(
+    machine: Machine,
+    runs: Sequence[Tuple[Plan, _Path]],
+    elst: str = "constant",
+    motion: Optional[str] = None,
+    schedule: str = "optimal",
+    columns: Optional[str] = None,
+) -> Tuple[Machine, Dict[str, Any]]:
+    """`arcsim calibrate`: a machine fitted to (plan, log) pairs, starting from `machine`;
+    elst "constant" or "poly". Returns the fitted machine and the report (values with 95 %
+    intervals, what the logs do not determine, spreads, residuals before and after)."""
 
 def simulate(
     plan: Plan,

@@ -691,3 +691,53 @@ def test_dask_maps_simulate_over_plans_and_settings():
     assert len(got) == 4
     for plan, jerk, t in got:
         assert t == total((plan, jerk))[2]
+
+
+MADE_UP_MACHINE = {
+    "format": "arcsim-machine/1", "name": "made-up",
+    "gantry": {"max_speed_deg_per_s": 4.0, "max_accel_deg_per_s2": 0.3, "max_jerk_deg_per_s3": 0.4},
+    "beam": {"s_per_mu": 0.004, "spot_switch_time_s": 0.002, "min_spot_time_s": 0.0},
+    "elst": {"kind": "constant", "up_s": 3.2, "down_s": 0.8, "same_s": 0.0},
+    "default_window_deg": 1.0,
+}
+
+
+def test_compare_calibrate_and_monte_carlo(tmp_path):
+    machine_file = tmp_path / "made-up.json"
+    machine_file.write_text(json.dumps(MADE_UP_MACHINE))
+    made_up = arcsim.load_machine(machine_file)
+    runs = []
+    for name in ("lung", "two-arc"):
+        plan = arcsim.load_plan(f"plans/{name}.json")
+        log = tmp_path / f"{name}.csv"
+        arcsim.simulate(plan, made_up).to_log(log, angle_noise_deg=0.01, seed=1)
+        runs.append((plan, log))
+    # compare equals the command's JSON, row for row.
+    c = arcsim.compare(runs[0][0], runs[0][1], made_up)
+    code, _, err = cli("compare", "plans/lung.json", str(runs[0][1]), "--machine", str(machine_file),
+                       "--json", str(tmp_path / "cmp.json"))
+    assert code == 0, err
+    cli_doc = json.loads((tmp_path / "cmp.json").read_text())
+    assert c.difference_s == cli_doc["difference_s"]
+    assert list(c.layers["logged_start_s"]) == [r["logged_start_s"] for r in cli_doc["layers"]]
+    assert abs(c.difference_s) <= 0.01 + 1e-9
+    assert c.summary["better_motion"] == "free"
+    with pytest.raises(arcsim.LogError, match="the first that differs"):
+        arcsim.compare(arcsim.load_plan("plans/prostate.json"), runs[0][1], made_up)
+    # calibrate recovers the made-up machine from the ATOM one.
+    fitted, report = arcsim.calibrate(arcsim.Machine.atom(), runs)
+    values = {v["field"]: v for v in report["values"]}
+    assert values["elst.up_s"]["value"] == pytest.approx(3.2, rel=0.02)
+    assert values["elst.down_s"]["value"] == pytest.approx(0.8, rel=0.02)
+    assert values["beam.s_per_mu"]["value"] == pytest.approx(0.004, rel=0.02)
+    assert values["gantry.max_accel_deg_per_s2"]["value"] == pytest.approx(0.3, rel=0.05)
+    for r in report["residuals"]:
+        assert abs(r["fitted_error_pct"]) < 1.0
+    # The fitted machine simulates and carries spreads to draw.
+    d = arcsim.simulate(runs[0][0], fitted)
+    mc = d.monte_carlo(6, seed=3)
+    assert mc["p5_s"] <= mc["p50_s"] <= mc["p95_s"] and len(mc["totals_s"]) == 6
+    with pytest.raises(arcsim.SimulationError, match="no timing spreads"):
+        arcsim.simulate(runs[0][0], made_up).monte_carlo(3)
+    with pytest.raises(ValueError, match="elst"):
+        arcsim.calibrate(made_up, runs, elst="cubic")

@@ -125,7 +125,11 @@ pub fn summary(r: &CalibrationReport, base: &str) -> String {
             v.value,
             interval,
             v.observations,
-            if v.determined { "fitted" } else { "kept" }
+            match (v.determined, v.base) {
+                (true, _) => "fitted",
+                (false, Some(b)) if b != v.value => "raised",
+                _ => "kept",
+            }
         );
     }
     let _ = writeln!(s, "how each value was found:");

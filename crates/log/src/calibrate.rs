@@ -711,7 +711,11 @@ fn gantry_value(
             determined: true,
             note: format!("plateau of the observed {what}, held {:.1} s (local fits over 2 s)", p.held_s),
         },
-        Some(p) => kept(field, unit, base, 1, &format!("the observed {what} peaks at {:.4} but is held only {:.2} s: the limit is not reached, the base value is kept", p.peak, p.held_s)),
+        Some(p) if base.is_some_and(|b| p.level > b) => FittedValue {
+            value: p.level,
+            ..kept(field, unit, base, 1, &format!("the observed {what} is not held as a limit (plateau {:.4} held {:.2} s) but exceeds the base value: raised to it, a lower bound of the limit", p.level, p.held_s))
+        },
+        Some(p) => kept(field, unit, base, 1, &format!("the observed {what} peaks at {:.4} (held {:.2} s): the limit is not resolved, the base value is kept", p.peak, p.held_s)),
         None => kept(field, unit, base, 0, &format!("no {what} in the logs: the base value is kept")),
     }
 }
@@ -755,25 +759,27 @@ fn fit_gantry(
     let out = &mut machine.gantry;
     out.max_speed_deg_per_s = v.value;
     out.max_jerk_deg_per_s3 = j.value;
-    match (a.determined, d.determined) {
-        (true, true) if (a.value - d.value).abs() <= 0.05 * a.value.max(d.value) => {
-            out.max_accel_deg_per_s2 = a.value;
-            out.max_decel_deg_per_s2 = None;
+    // One limit A unless the deceleration differs from it by more than 5 %.
+    out.max_accel_deg_per_s2 = a.value;
+    let same = (a.value - d.value).abs() <= 0.05 * a.value.max(d.value);
+    out.max_decel_deg_per_s2 = match (a.determined || d.determined, same) {
+        (true, true) => {
             d.note
                 .push_str("; within 5 % of the acceleration: the machine keeps one limit, A");
+            None
         }
-        (true, true) => {
-            out.max_accel_deg_per_s2 = a.value;
-            out.max_decel_deg_per_s2 = Some(d.value);
-        }
-        (true, false) => {
-            out.max_accel_deg_per_s2 = a.value;
-            out.max_decel_deg_per_s2 = g.max_decel_deg_per_s2;
-        }
-        (false, true) => out.max_decel_deg_per_s2 = Some(d.value),
-        (false, false) => {}
-    }
+        (_, false) => Some(d.value),
+        (false, true) => g.max_decel_deg_per_s2.filter(|_| d.value != a.value),
+    };
     values.extend([v, a, d, j]);
+}
+
+fn list(fields: &[&str]) -> String {
+    if fields.is_empty() {
+        "nothing".to_string()
+    } else {
+        fields.join(", ")
+    }
 }
 
 fn describe(machine: &mut Machine, base: &Machine, runs: &[LoggedRun], values: &[FittedValue]) {
@@ -782,18 +788,24 @@ fn describe(machine: &mut Machine, base: &Machine, runs: &[LoggedRun], values: &
         .filter(|v| v.determined)
         .map(|v| v.field.as_str())
         .collect();
+    let raised: Vec<&str> = values
+        .iter()
+        .filter(|v| !v.determined && v.base.is_some_and(|b| b != v.value))
+        .map(|v| v.field.as_str())
+        .collect();
     let kept: Vec<&str> = values
         .iter()
-        .filter(|v| !v.determined)
+        .filter(|v| !v.determined && !raised.contains(&v.field.as_str()))
         .map(|v| v.field.as_str())
         .collect();
     machine.name = format!("{}-calibrated", base.name);
     machine.description = Some(format!(
-        "{} calibrated by arcsim calibrate on {} log(s). Fitted: {}. Kept from the base machine: {}. Spreads measured in the logs.",
+        "{} calibrated by arcsim calibrate on {} log(s). Fitted: {}. Raised to what the logs show (a lower bound, the limit not resolved): {}. Kept from the base machine: {}. Spreads measured in the logs.",
         base.name,
         runs.len(),
-        if fitted.is_empty() { "nothing".to_string() } else { fitted.join(", ") },
-        if kept.is_empty() { "nothing".to_string() } else { kept.join(", ") },
+        list(&fitted),
+        list(&raised),
+        list(&kept),
     ));
     for r in runs {
         machine.sources.push(format!(

@@ -7,6 +7,9 @@
 //! *plateau level* of a quantity is the median of the fitted values within four noise standard
 //! deviations of the largest one (two for jerk), and the time spent there says whether the limit
 //! was reached at all: a top speed held less than [`HOLD_SPEED_S`] is a peak, not the limit.
+//! A fit averages over its window, so a plateau level is a lower bound of the limit when the
+//! limit is not held; the jerk, whose phases are often shorter than the window, counts only where
+//! the acceleration limit is resolved and a reversal lasts [`REVERSAL_WINDOWS`] windows.
 
 use serde::Serialize;
 
@@ -23,6 +26,10 @@ pub const HOLD_ACCEL_S: f64 = 0.5;
 
 /// A top jerk counts as the limit only when held this long, s (jerk phases are short).
 pub const HOLD_JERK_S: f64 = 0.2;
+
+/// The jerk counts as the limit only where an acceleration reversal (2A/J) lasts this many
+/// windows: shorter jerk phases read low.
+pub const REVERSAL_WINDOWS: f64 = 0.6;
 
 /// Most fit centres per log (longer logs are fitted at every k-th sample).
 const MAX_CENTRES: usize = 400_000;
@@ -261,12 +268,23 @@ pub fn observe(traces: &[Trace]) -> ObservedKinematics {
             .filter(|a| *a > 0.0)
     });
     let jerk = pooled(&|v| Some(v[2].abs()));
+    let accel = plateau(&accel, noise * unit[1], 4.0, HOLD_ACCEL_S);
+    let mut jerk = plateau(&jerk, noise * unit[2], 2.0, HOLD_JERK_S);
+    // A fit over the window averages a jerk phase shorter than the window: the jerk is taken as
+    // the limit only where the acceleration limit is resolved too and a reversal from -A to +A
+    // (2A/J) lasts at least REVERSAL_WINDOWS windows.
+    if let Some(j) = jerk.as_mut() {
+        let resolved = accel
+            .filter(|a| a.reached)
+            .is_some_and(|a| 2.0 * a.level / j.level.max(1e-12) >= REVERSAL_WINDOWS * WINDOW_S);
+        j.reached &= resolved;
+    }
     ObservedKinematics {
         window_s: WINDOW_S,
         angle_noise_deg: noise,
         speed: plateau(&speed, noise * unit[0], 4.0, HOLD_SPEED_S),
-        accel: plateau(&accel, noise * unit[1], 4.0, HOLD_ACCEL_S),
+        accel,
         decel: plateau(&decel, noise * unit[1], 4.0, HOLD_ACCEL_S),
-        jerk: plateau(&jerk, noise * unit[2], 2.0, HOLD_JERK_S),
+        jerk,
     }
 }

@@ -15,6 +15,7 @@ use pyo3::prelude::*;
 mod convert;
 mod inputs;
 mod log;
+mod logtools;
 mod profile;
 mod simulate;
 mod sweep;
@@ -75,6 +76,9 @@ fn arcsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(inputs::load_plan, m)?)?;
     m.add_function(wrap_pyfunction!(inputs::load_machine, m)?)?;
     m.add_function(wrap_pyfunction!(log::load_log, m)?)?;
+    m.add_class::<logtools::Comparison>()?;
+    m.add_function(wrap_pyfunction!(logtools::compare, m)?)?;
+    m.add_function(wrap_pyfunction!(logtools::calibrate, m)?)?;
     m.add_class::<simulate::Delivery>()?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::schedule_arrays, m)?)?;

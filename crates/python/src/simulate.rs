@@ -18,7 +18,7 @@ use crate::convert::{columns, data_frame, serde_to_py};
 use crate::inputs::{check_each, check_positive, floats, opt_number, positive, Machine, Plan};
 use crate::{PlanError, SimulationError};
 
-fn schedule_of(name: &str) -> PyResult<Schedule> {
+pub(crate) fn schedule_of(name: &str) -> PyResult<Schedule> {
     match name {
         "scan" => Ok(Schedule::Scan),
         "optimal" => Ok(Schedule::Optimal),
@@ -30,7 +30,7 @@ fn schedule_of(name: &str) -> PyResult<Schedule> {
     }
 }
 
-fn motion_of(name: Option<&str>) -> PyResult<Option<Motion>> {
+pub(crate) fn motion_of(name: Option<&str>) -> PyResult<Option<Motion>> {
     match name {
         None => Ok(None),
         Some("free") => Ok(Some(Motion::Free)),
@@ -101,6 +101,49 @@ impl Delivery {
     #[getter]
     fn margins<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         serde_to_py(py, &self.delivery.margins)
+    }
+
+    /// Percentiles of the total over `draws` deliveries with the machine's timing spreads
+    /// (`spread`, measured by `calibrate`) drawn per switch and per layer, as `simulate
+    /// --monte-carlo` gives them: dict `p5_s`, `p50_s`, `p95_s`, `mean_s`, `sd_s`, `totals_s`.
+    /// Raises SimulationError when the machine has no spreads. The GIL is released.
+    #[pyo3(signature = (draws, seed=0))]
+    fn monte_carlo<'py>(
+        &self,
+        py: Python<'py>,
+        draws: usize,
+        seed: u64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let Some(spread) = self.machine.spread else {
+            return Err(SimulationError::new_err(format!(
+                "monte_carlo: the machine {} has no timing spreads (`spread`); calibrate() measures them in delivery logs",
+                self.machine_source.file
+            )));
+        };
+        if draws == 0 || draws > arcsim_evaluator::MAX_DRAWS {
+            return Err(PyValueError::new_err(format!(
+                "draws: expected 1 to {}, got {draws}",
+                arcsim_evaluator::MAX_DRAWS
+            )));
+        }
+        let d = &self.delivery;
+        let opts = arcsim_sequencer::Options {
+            schedule: d.schedule,
+            build_timeline: false,
+            servo_period_s: d.servo_period_s,
+            motion: d.motion,
+            arc_ends: d.arc_ends,
+        };
+        let mc = py
+            .detach(|| {
+                let arcs =
+                    arcsim_plan::resolve(&self.plan, &self.machine).map_err(|e| e.to_string())?;
+                let limits = machine_limits(&self.machine).map_err(|e| e.to_string())?;
+                arcsim_evaluator::monte_carlo(&arcs, &limits, &opts, &spread, draws, seed)
+                    .map_err(|e| e.to_string())
+            })
+            .map_err(SimulationError::new_err)?;
+        serde_to_py(py, &mc)
     }
 
     /// The certificate of this delivery, as `simulate --certify` gives it (dict `lower_bound_s`,

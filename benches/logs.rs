@@ -1,0 +1,105 @@
+//! What reading a delivery log costs: `compare` (matching, differences, the angle trace's local
+//! fits) on a 180-layer plan's 10 ms log, with and without the two simulations the command runs,
+//! and `calibrate` (the fits, bootstrap intervals and the residual simulations) on that log.
+//! The log is the plan's free-motion delivery on a made-up machine with 0.01 deg angle noise.
+//! `cargo bench --bench logs`
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use arcsim_log::{
+    calibrate, compare, virtual_log, DeliveryLog, ElstFit, LoggedRun, VirtualLogOptions,
+};
+use arcsim_plan::{load_machine, load_plan, parse_machine, resolve};
+use arcsim_sequencer::{
+    machine_limits, simulate_resolved, spot_timeline, Motion, Options, Schedule,
+};
+use criterion::{criterion_group, criterion_main, Criterion};
+
+const MADE_UP: &str = r#"{
+  "format": "arcsim-machine/1", "name": "made-up",
+  "gantry": {"max_speed_deg_per_s": 4.0, "max_accel_deg_per_s2": 0.3, "max_jerk_deg_per_s3": 0.4},
+  "beam": {"s_per_mu": 0.004, "spot_switch_time_s": 0.002, "min_spot_time_s": 0.0},
+  "elst": {"kind": "constant", "up_s": 3.2, "down_s": 0.8, "same_s": 0.0},
+  "default_window_deg": 1.0
+}"#;
+
+fn bench(c: &mut Criterion) {
+    let root = arcsim_suite::repo_root();
+    let plan = load_plan(root.join("plans/prostate.json")).expect("plan");
+    let machine = parse_machine(MADE_UP, "made-up").expect("machine");
+    let atom = load_machine(root.join("scenarios/machine-atom.json")).expect("atom");
+    let free = Options {
+        motion: Motion::Free,
+        ..Options::new(Schedule::Optimal)
+    };
+    let constant = Options::new(Schedule::Optimal);
+    let arcs = resolve(&plan, &machine).expect("resolves");
+    let limits = machine_limits(&machine).expect("limits");
+    let delivered = simulate_resolved(&arcs, &limits, &free).expect("simulated");
+    let spots = spot_timeline(&plan, &machine, &delivered).expect("spots");
+    let opts = VirtualLogOptions {
+        period_s: 0.01,
+        angle_noise_deg: 0.01,
+        seed: 1,
+    };
+    let log = DeliveryLog {
+        source: "prostate.csv".into(),
+        samples: virtual_log(&delivered, &spots, &opts).expect("log"),
+        has_energy: true,
+        has_spot: true,
+        has_mu: true,
+    };
+    let other = simulate_resolved(&arcs, &limits, &constant).expect("simulated");
+    let mut group = c.benchmark_group("logs");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(20));
+    group.bench_function(
+        "compare prostate (180 layers, 10 ms), simulations given",
+        |b| {
+            b.iter(|| {
+                black_box(
+                    compare(&arcs, &delivered, &[&other], black_box(&log))
+                        .expect("compare")
+                        .difference_s,
+                )
+            })
+        },
+    );
+    group.bench_function(
+        "compare prostate (180 layers, 10 ms), with both simulations",
+        |b| {
+            b.iter(|| {
+                let (main, alt) = rayon::join(
+                    || simulate_resolved(&arcs, &limits, &free).expect("free"),
+                    || simulate_resolved(&arcs, &limits, &constant).expect("constant"),
+                );
+                black_box(
+                    compare(&arcs, &main, &[&alt], black_box(&log))
+                        .expect("compare")
+                        .difference_s,
+                )
+            })
+        },
+    );
+    let runs = [LoggedRun {
+        plan_name: "prostate".into(),
+        plan: plan.clone(),
+        log: log.clone(),
+    }];
+    group.bench_function("calibrate from the ATOM machine on prostate's log", |b| {
+        b.iter(|| {
+            black_box(
+                calibrate(&atom, &runs, ElstFit::Constant, &free)
+                    .expect("calibrate")
+                    .report
+                    .values
+                    .len(),
+            )
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,209 @@
+//! `compare` and `calibrate`: delivery logs against simulations, and a machine fitted to logs,
+//! as `arcsim compare` and `arcsim calibrate` compute them (the GIL released).
+
+use std::path::PathBuf;
+
+use arcsim_app::{sha256_hex, SimulateRequest, Source};
+use arcsim_sequencer::{machine_limits, simulate_resolved, ArcEnds, Motion, Options};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyAny, PyDict, PyTuple};
+
+use crate::convert::{columns, data_frame, serde_to_py};
+use crate::inputs::{Machine, Plan};
+use crate::{LogError, SimulationError};
+
+fn read(path: &std::path::Path, columns: Option<&str>) -> PyResult<arcsim_log::DeliveryLog> {
+    let map = arcsim_log::ColumnMap::parse(columns.unwrap_or(""), "columns")
+        .map_err(|e| LogError::new_err(e.to_string()))?;
+    arcsim_log::read_log(path, &map).map_err(|e| LogError::new_err(e.to_string()))
+}
+
+fn options(
+    schedule: &str,
+    motion: Option<&str>,
+    plan: &Plan,
+    machine: &Machine,
+) -> PyResult<Options> {
+    let request = SimulateRequest {
+        schedule: crate::simulate::schedule_of(schedule)?,
+        motion: crate::simulate::motion_of(motion)?,
+        arc_ends: ArcEnds::Rest,
+        period_s: None,
+    };
+    Ok(request.options(&plan.plan, &machine.machine).0)
+}
+
+/// A delivery log set beside the simulation of its plan (`arcsim compare`).
+#[pyclass(frozen, module = "arcsim")]
+pub struct Comparison {
+    comparison: arcsim_log::Comparison,
+}
+
+#[pymethods]
+impl Comparison {
+    /// Logged minus simulated total (s).
+    #[getter]
+    fn difference_s(&self) -> f64 {
+        self.comparison.difference_s
+    }
+
+    /// Everything but the per-layer rows (dict): the logged and simulated splits, the classes,
+    /// the worst layers, the motion fits, the observed gantry limits.
+    #[getter]
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let mut v = serde_json::to_value(&self.comparison)
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+        if let Some(o) = v.as_object_mut() {
+            o.remove("layers");
+        }
+        crate::convert::to_py(py, &v)
+    }
+
+    /// One row per layer, logged and simulated, as a dict of numpy arrays.
+    #[getter]
+    fn layers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let rows: Vec<serde_json::Value> = self
+            .comparison
+            .layers
+            .iter()
+            .map(|r| serde_json::to_value(r).unwrap_or_default())
+            .collect();
+        columns(py, &rows, &[], &["index"])
+    }
+
+    /// The per-layer rows as a pandas DataFrame (needs pandas).
+    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        data_frame(py, self.layers(py)?)
+    }
+
+    /// The comparison as `arcsim compare --json` writes it (without the plan's file name).
+    fn to_json(&self) -> PyResult<String> {
+        serde_json::to_string_pretty(&self.comparison)
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Comparison(log={:?}, logged {:.2} s, simulated {:.2} s, better motion {})",
+            self.comparison.log,
+            self.comparison.logged.total_s,
+            self.comparison.simulated.total_s,
+            self.comparison.better_motion
+        )
+    }
+}
+
+/// Compares the delivery log at `log` (an `arcsim-log/1` CSV, or another CSV through
+/// `columns`) with `plan` simulated on `machine` (default the built-in ATOM machine), as
+/// `arcsim compare` does. Raises LogError for a log that cannot be read or does not fit the plan.
+#[pyfunction]
+#[pyo3(signature = (plan, log, machine=None, motion=None, schedule="optimal", columns=None))]
+pub fn compare(
+    py: Python<'_>,
+    plan: &Bound<'_, Plan>,
+    log: PathBuf,
+    machine: Option<&Bound<'_, Machine>>,
+    motion: Option<&str>,
+    schedule: &str,
+    columns: Option<&str>,
+) -> PyResult<Comparison> {
+    let plan = plan.get();
+    let builtin;
+    let machine = match machine {
+        Some(m) => m.get(),
+        None => {
+            builtin = Machine::builtin();
+            &builtin
+        }
+    };
+    let opts = options(schedule, motion, plan, machine)?;
+    let log = read(&log, columns)?;
+    let comparison = py.detach(|| -> Result<_, PyErr> {
+        let arcs = arcsim_plan::resolve(&plan.plan, &machine.machine)
+            .map_err(|e| crate::PlanError::new_err(e.to_string()))?;
+        arcsim_log::match_layers(&log, &arcs).map_err(|e| LogError::new_err(e.to_string()))?;
+        let limits = machine_limits(&machine.machine)
+            .map_err(|e| SimulationError::new_err(e.to_string()))?;
+        let opts = Options {
+            servo_period_s: machine.machine.servo_period_s,
+            ..opts
+        };
+        let main = simulate_resolved(&arcs, &limits, &opts)
+            .map_err(|e| SimulationError::new_err(e.to_string()))?;
+        let other = Options {
+            motion: match opts.motion {
+                Motion::Free => Motion::Constant,
+                Motion::Constant => Motion::Free,
+            },
+            servo_period_s: None,
+            ..opts.clone()
+        };
+        let alt = simulate_resolved(&arcs, &limits, &other).ok();
+        let others: Vec<&arcsim_sequencer::Delivery> = alt.iter().collect();
+        arcsim_log::compare(&arcs, &main, &others, &log)
+            .map_err(|e| LogError::new_err(e.to_string()))
+    })?;
+    Ok(Comparison { comparison })
+}
+
+/// Fits a machine to delivery logs, starting from `machine`, as `arcsim calibrate` does.
+/// `runs` is a list of `(plan, log_path)` pairs; `elst` is "constant" or "poly". Returns
+/// `(fitted Machine, report dict)`: every value with its 95 % interval, what the logs do not
+/// determine, the spreads, the residual per log before and after.
+#[pyfunction]
+#[pyo3(signature = (machine, runs, elst="constant", motion=None, schedule="optimal", columns=None))]
+pub fn calibrate<'py>(
+    py: Python<'py>,
+    machine: &Bound<'py, Machine>,
+    runs: Vec<(Bound<'py, Plan>, PathBuf)>,
+    elst: &str,
+    motion: Option<&str>,
+    schedule: &str,
+    columns: Option<&str>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let base = machine.get();
+    let fit = match elst {
+        "constant" => arcsim_log::ElstFit::Constant,
+        "poly" => arcsim_log::ElstFit::Polynomial,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "elst: expected \"constant\" or \"poly\", got {other:?}"
+            )))
+        }
+    };
+    let Some((first, _)) = runs.first() else {
+        return Err(PyValueError::new_err(
+            "runs: expected at least one (plan, log) pair",
+        ));
+    };
+    let opts = options(schedule, motion, first.get(), base)?;
+    let logged = runs
+        .iter()
+        .map(|(plan, path)| {
+            let plan = plan.get();
+            Ok(arcsim_log::LoggedRun {
+                plan_name: plan.source.file.clone(),
+                plan: plan.plan.clone(),
+                log: read(path, columns)?,
+            })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let cal = py
+        .detach(|| arcsim_log::calibrate(&base.machine, &logged, fit, &opts))
+        .map_err(|e| match e {
+            arcsim_log::CalibrateError::Match(m) => LogError::new_err(m.to_string()),
+            other => SimulationError::new_err(other.to_string()),
+        })?;
+    let text = serde_json::to_string_pretty(&cal.machine)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    let fitted = Machine {
+        machine: cal.machine,
+        source: Source {
+            file: format!("{} (calibrated)", base.source.file),
+            sha256: sha256_hex(text.as_bytes()),
+        },
+    };
+    let report = serde_to_py(py, &cal.report)?;
+    PyTuple::new(py, [Bound::new(py, fitted)?.into_any(), report])
+}
