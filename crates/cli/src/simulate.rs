@@ -745,7 +745,7 @@ fn monte_carlo(
 fn monte_carlo_lines(mc: &arcsim_evaluator::MonteCarlo) -> String {
     let sp = &mc.spread;
     format!(
-        "Monte Carlo, {} draws (seed {}; sd of ELST up {} s, down {} s, same {} s, beam-on {} %):\n  \
+        "Monte Carlo, {} draws (seed {}; sd of ELST up {:.4} s, down {:.4} s, same {:.4} s, beam-on {:.2} %):\n  \
          total P5 {:.2} s, P50 {:.2} s, P95 {:.2} s (mean {:.2} s, sd {:.2} s)\n",
         mc.draws,
         mc.seed,
@@ -759,6 +759,56 @@ fn monte_carlo_lines(mc: &arcsim_evaluator::MonteCarlo) -> String {
         mc.mean_s,
         mc.sd_s
     )
+}
+
+/// What `--json` adds to the delivery, when asked for.
+struct Extras<'a> {
+    spots: Option<&'a [SpotRow]>,
+    certificate: Option<&'a Certificate>,
+    monte_carlo: Option<&'a arcsim_evaluator::MonteCarlo>,
+}
+
+/// The `--json` result document.
+fn write_json(
+    path: &Path,
+    args: &Args,
+    (plan, plan_sha256, machine, machine_sha256): (
+        &arcsim_plan::ArcPlan,
+        &str,
+        &arcsim_plan::Machine,
+        &str,
+    ),
+    delivery: &Delivery,
+    (warnings, notes): (&[arcsim_plan::Warning], &[String]),
+    extras: &Extras,
+) -> Result<(), CliError> {
+    let from = arcsim_app::Provenance {
+        plan_source: arcsim_app::Source {
+            file: crate::input::input_name(&args.plan),
+            sha256: plan_sha256.to_string(),
+        },
+        machine,
+        machine_source: arcsim_app::Source {
+            file: crate::input::machine_name(args.machine.as_deref()),
+            sha256: machine_sha256.to_string(),
+        },
+        warnings,
+        notes,
+        strict: args.strict,
+    };
+    let mut doc = arcsim_app::ResultDocument::new(plan, &from, delivery);
+    if let Some(spots) = extras.spots {
+        doc = doc.with_spots(spots);
+    }
+    if let Some(c) = extras.certificate {
+        doc = doc.with_certificate(c);
+    }
+    if let Some(mc) = extras.monte_carlo {
+        let value = serde_json::to_value(mc).map_err(|e| CliError::failed(e.to_string()))?;
+        doc = doc.with_monte_carlo(value);
+    }
+    let text = doc.to_json().map_err(|e| CliError::failed(e.to_string()))?;
+    crate::output::write_file(path, text.as_bytes())
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
@@ -818,33 +868,25 @@ pub fn run(args: Args) -> Result<(), CliError> {
     };
 
     if let Some(path) = &args.json {
-        let from = arcsim_app::Provenance {
-            plan_source: arcsim_app::Source {
-                file: crate::input::input_name(&args.plan),
-                sha256: plan_sha256,
-            },
-            machine: &machine,
-            machine_source: arcsim_app::Source {
-                file: crate::input::machine_name(args.machine.as_deref()),
-                sha256: machine_sha256,
-            },
-            warnings: &warnings,
-            notes: &notes,
-            strict: args.strict,
+        let outputs = Extras {
+            spots: spots.as_deref().filter(|_| args.spots.is_some()),
+            certificate: certificate.as_ref(),
+            monte_carlo: monte_carlo.as_ref(),
         };
-        let mut doc = arcsim_app::ResultDocument::new(&plan, &from, &delivery);
-        if let Some(spots) = spots.as_ref().filter(|_| args.spots.is_some()) {
-            doc = doc.with_spots(spots);
-        }
-        if let Some(c) = &certificate {
-            doc = doc.with_certificate(c);
-        }
-        if let Some(mc) = &monte_carlo {
-            let value = serde_json::to_value(mc).map_err(|e| CliError::failed(e.to_string()))?;
-            doc = doc.with_monte_carlo(value);
-        }
-        let text = doc.to_json().map_err(|e| CliError::failed(e.to_string()))?;
-        crate::output::write_file(path, text.as_bytes())?;
+        let inputs = (
+            &plan,
+            plan_sha256.as_str(),
+            &machine,
+            machine_sha256.as_str(),
+        );
+        write_json(
+            path,
+            &args,
+            inputs,
+            &delivery,
+            (&warnings, &notes),
+            &outputs,
+        )?;
     }
     if let Some(path) = &args.csv {
         write_csv(path, &delivery, args.dt)?;
