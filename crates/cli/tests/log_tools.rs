@@ -85,6 +85,35 @@ fn compare_sets_a_log_beside_its_simulation() {
     }
     assert!(doc["difference_s"].as_f64().expect("difference").abs() <= 0.01 + 1e-9);
     assert!(std::fs::metadata(&out_rrd).expect("rrd").len() > 1000);
+    // The same log under a vendor's column names reads through --columns.
+    let original = std::fs::read_to_string(&log).expect("log");
+    let renamed = d.join("vendor.csv");
+    let body = original.replacen(
+        "t_s,gantry_angle_deg,beam_on,energy_mev",
+        "TIME,GantryAngle,Beam,Energy",
+        1,
+    );
+    std::fs::write(&renamed, body).expect("renamed");
+    let out = arcsim(&[
+        "compare",
+        "plans/lung.json",
+        path_str(&renamed),
+        "--machine",
+        path_str(&d.join("made-up.json")),
+        "--columns",
+        "t_s=TIME,gantry_angle_deg=GantryAngle,beam_on=Beam,energy_mev=Energy",
+    ]);
+    let (again, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let totals = |s: &str| {
+        s.lines()
+            .find(|l| l.starts_with("difference of the totals"))
+            .map(str::to_string)
+    };
+    assert!(
+        totals(&again).is_some() && totals(&again) == totals(&stdout),
+        "{again}"
+    );
 }
 
 #[test]
@@ -138,6 +167,25 @@ fn compare_refuses_a_log_of_another_plan_and_writes_nothing() {
         );
         assert!(!out_json.exists(), "{name}");
     }
+    // A 1 GiB log (sparse) is refused with its size before it is read.
+    let huge = d.join("huge.csv");
+    std::fs::File::create(&huge)
+        .and_then(|f| f.set_len(1 << 30))
+        .expect("sparse file");
+    let out = arcsim(&[
+        "compare",
+        "plans/lung.json",
+        path_str(&huge),
+        "--json",
+        path_str(&out_json),
+    ]);
+    let stderr = text(&out).1;
+    assert!(
+        !out.status.success() && stderr.contains("1073741824"),
+        "{stderr}"
+    );
+    assert!(!out_json.exists());
+    let _ = std::fs::remove_file(&huge);
 }
 
 #[test]

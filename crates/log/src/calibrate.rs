@@ -815,6 +815,15 @@ fn describe(machine: &mut Machine, base: &Machine, runs: &[LoggedRun], values: &
     }
 }
 
+/// `100 x / of` (0 for a log of no duration: one sample).
+fn percent(x: f64, of: f64) -> f64 {
+    if of > 0.0 {
+        100.0 * x / of
+    } else {
+        0.0
+    }
+}
+
 fn residuals(
     base: &Machine,
     fitted: &Machine,
@@ -845,8 +854,8 @@ fn residuals(
                 logged_total_s: logged,
                 base_total_s: b,
                 fitted_total_s: f,
-                base_error_pct: 100.0 * (b - logged) / logged,
-                fitted_error_pct: 100.0 * (f - logged) / logged,
+                base_error_pct: percent(b - logged, logged),
+                fitted_error_pct: percent(f - logged, logged),
             })
         })
         .collect()
