@@ -275,4 +275,14 @@ fn observed_lines(s: &mut String, o: &ObservedKinematics, c: &Comparison) {
         "deg/s^2",
     );
     line(s, "jerk", &o.jerk, l.max_jerk_deg_per_s3, "deg/s^3");
+    let _ = match &o.jerk_reversals {
+        Some(r) => writeln!(
+            s,
+            "  jerk from the acceleration's reversals: {:.4} deg/s^3 ({}) against the limit {} deg/s^3",
+            r.level,
+            if r.reached { "reached" } else { "fewer than 3 reversals" },
+            l.max_jerk_deg_per_s3
+        ),
+        None => writeln!(s, "  jerk from the acceleration's reversals: none (the acceleration limits are not both held)"),
+    };
 }

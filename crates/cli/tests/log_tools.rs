@@ -238,7 +238,19 @@ fn calibrate_fits_a_machine_that_simulate_reads_and_draws() {
         );
         assert!(f.abs() < 1.0 && f.abs() < b.abs(), "{res}");
     }
-    // The fitted machine carries spreads: a Monte Carlo of a plan draws them.
+    // These logs have no jitter: the spreads measured are (close to) none. With spreads set, a
+    // Monte Carlo of a plan draws them.
+    let spread = &m["spread"];
+    assert!(
+        spread["elst_down_sd_s"].as_f64().expect("sd") < 0.01,
+        "{spread}"
+    );
+    let mut jittery = m.clone();
+    jittery["spread"] = serde_json::json!({
+        "elst_up_sd_s": 0.1, "elst_down_sd_s": 0.03, "beam_time_sd_fraction": 0.02
+    });
+    let fitted = d.join("jittery.json");
+    std::fs::write(&fitted, jittery.to_string()).expect("machine");
     let mc = d.join("mc.json");
     let out = arcsim(&[
         "simulate",

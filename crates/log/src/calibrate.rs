@@ -1,16 +1,18 @@
 //! A machine fitted to delivery logs: what the logs determine, with 95 % intervals, and the
 //! base machine's value (said so) where they do not.
 //!
-//! - **ELST** (up, down, same energy): a switch lasts its ELST unless the gantry makes it wait,
-//!   so the switches that last their ELST are the lowest cluster of each kind's beam-off gaps
-//!   ([`lowest_cluster`]); its median is the ELST and its spread (less the log's time
-//!   resolution) the ELST's spread. With [`ElstFit::Polynomial`] the upward time is a line in
-//!   the energy step, fitted to the lowest cluster of residuals the same way.
+//! - **ELST** (up, down, same energy): a switch lasts its ELST unless the gantry makes it wait.
+//!   A first fit takes the peak of the lowest cluster of each kind's beam-off gaps
+//!   ([`lowest_cluster`]); then each plan is simulated on the first fit, and the ELST is the
+//!   median of the gaps whose switch the simulation times at its ELST (when there are 3), its
+//!   spread their robust spread less the log's time resolution. With [`ElstFit::Polynomial`]
+//!   the upward time is a line in the energy step, fitted to those switches.
 //! - **Beam** (`per_mu` machines): a layer's beam-on time is linear in the time per MU and the
 //!   time between spots (its MU and its number of spot-to-spot moves); least squares over every
 //!   logged layer.
-//! - **Gantry**: the plateau levels of the observed speed, acceleration, deceleration and jerk
-//!   ([`crate::kinematics`]); a level not held long enough is not the limit.
+//! - **Gantry**: the plateau levels of the observed speed, acceleration and deceleration, the
+//!   jerk from the acceleration's reversals ([`crate::kinematics`]); a level not held long
+//!   enough is not the limit (the base value is kept, or raised to it when it is higher).
 //!
 //! Intervals: bootstrap over the switches and layers (a fixed seed, [`BOOTSTRAP_DRAWS`] draws)
 //! for the timings, the fit noise over the plateau for the gantry.
@@ -149,10 +151,9 @@ pub struct Calibration {
 /// The lowest cluster of durations: its centre and spread, and how many it holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cluster {
-    /// Median of the cluster.
+    /// The peak of the values' density.
     pub centre: f64,
-    /// Robust standard deviation of the cluster: 1.4826 × the median distance below the centre
-    /// (or its median absolute deviation, if larger).
+    /// Robust standard deviation of the cluster: 1.4826 × the median distance below the centre.
     pub sd: f64,
     /// Members.
     pub count: usize,
@@ -173,9 +174,11 @@ fn mad_sd(v: &[f64], centre: f64) -> f64 {
     1.4826 * median(&mut dev)
 }
 
-/// The lowest cluster of `residuals` (gaps less a model, or the gaps themselves): start from the
-/// median of the lowest tenth, then keep every value up to three spreads above the centre and
-/// re-centre, until it settles. `floor_sd` is the least spread assumed (the time resolution).
+/// The lowest cluster of `residuals` (gaps less a model, or the gaps themselves): from the
+/// median of the lowest tenth, a mean shift (Gaussian kernel, bandwidth 3 % of that start, at
+/// least `floor_sd`, the time resolution) climbs to the nearest peak of the values' density;
+/// the spread is 1.4826 × the median distance below the peak (which the gaps the gantry
+/// lengthened do not reach); the cluster holds the values within three spreads of the peak.
 pub fn lowest_cluster(residuals: &[f64], floor_sd: f64) -> Option<Cluster> {
     if residuals.is_empty() {
         return None;
@@ -184,37 +187,34 @@ pub fn lowest_cluster(residuals: &[f64], floor_sd: f64) -> Option<Cluster> {
     sorted.sort_by(f64::total_cmp);
     let k0 = (sorted.len() / 10).max(3).min(sorted.len());
     let mut centre = median(&mut sorted[..k0].to_vec());
-    // Start as tight as the time resolution and let the cluster widen to its own spread (at
-    // most a tenth of its centre): starting wide lets the gaps the gantry lengthened just
-    // beyond the ELST pull the centre up.
-    let mut sd = floor_sd;
-    let mut count = 0;
-    for _ in 0..20 {
-        let mut members: Vec<f64> = sorted
-            .iter()
-            .copied()
-            .filter(|x| *x <= centre + 3.0 * sd)
-            .collect();
-        let c = median(&mut members);
-        let s = mad_sd(&members, c)
-            .max(floor_sd)
-            .min(0.1 * c.abs().max(floor_sd));
-        let settled = (c - centre).abs() <= 1e-12 * c.abs().max(1.0) && members.len() == count;
-        (centre, sd, count) = (c, s, members.len());
+    let h = (0.03 * centre.abs()).max(floor_sd).max(1e-9);
+    for _ in 0..500 {
+        let (mut sw, mut swx) = (0.0, 0.0);
+        for x in &sorted {
+            let w = (-0.5 * ((x - centre) / h).powi(2)).exp();
+            sw += w;
+            swx += w * x;
+        }
+        let next = if sw > 0.0 { swx / sw } else { centre };
+        let settled = (next - centre).abs() <= 1e-12 * centre.abs().max(1.0);
+        centre = next;
         if settled {
             break;
         }
     }
-    // The spread from the cluster's lower side, which the gaps the gantry lengthened do not
-    // reach: for a normal cluster the median distance below the centre is 0.674 sd.
     let mut below: Vec<f64> = sorted
         .iter()
         .filter(|x| **x < centre)
         .map(|x| centre - x)
         .collect();
-    if below.len() >= 2 {
-        sd = sd.max(1.4826 * median(&mut below));
-    }
+    let sd = match below.len() {
+        0 | 1 => floor_sd,
+        _ => (1.4826 * median(&mut below)).max(floor_sd),
+    };
+    let count = sorted
+        .iter()
+        .filter(|x| (**x - centre).abs() <= 3.0 * sd)
+        .count();
     Some(Cluster { centre, sd, count })
 }
 
@@ -251,6 +251,8 @@ struct Gap {
     class: &'static str,
     step_mev: f64,
     duration_s: f64,
+    /// The layer it leads to (delivery order).
+    to_layer: usize,
 }
 
 fn typical_period(log: &DeliveryLog) -> f64 {
@@ -280,6 +282,7 @@ fn gaps(m: &Matched) -> Vec<Gap> {
                 class: switch_class(a.1, b.1),
                 step_mev: b.1 - a.1,
                 duration_s: w[1].start_s - w[0].end_s,
+                to_layer: w[1].index,
             })
         })
         .collect()
@@ -318,8 +321,8 @@ pub fn calibrate(
     let all_gaps: Vec<Gap> = matched.iter().flat_map(gaps).collect();
     let mut values = Vec::new();
     let mut machine = base.clone();
-    let elst = fit_elst(base, &all_gaps, elst_fit, resolution_sd, &mut values);
-    machine.elst = elst.model;
+    let first = fit_elst(base, &all_gaps, None, elst_fit, resolution_sd, &mut values);
+    machine.elst = first.model;
     let beam = fit_beam(base, runs, &matched, resolution_sd, &mut values);
     if let Some(b) = beam.model {
         machine.beam = b;
@@ -327,6 +330,30 @@ pub fn calibrate(
     let traces: Vec<_> = runs.iter().map(|r| trace(&r.log)).collect();
     let observed = observe(&traces);
     fit_gantry(base, &observed, &mut machine, &mut values);
+    // Second pass: the switches a simulation on the first fit times at their ELST carry the
+    // ELST alone (no gap the gantry lengthened pulls it up).
+    let lasting = lasting_switches(&machine, runs, options)?;
+    let clean: Vec<Gap> = matched
+        .iter()
+        .zip(&lasting)
+        .flat_map(|(m, lasts)| {
+            gaps(m)
+                .into_iter()
+                .filter(|g| lasts.get(g.to_layer).copied().unwrap_or(false))
+        })
+        .collect();
+    let mut elst_values = Vec::new();
+    let elst = fit_elst(
+        base,
+        &all_gaps,
+        Some(&clean),
+        elst_fit,
+        resolution_sd,
+        &mut elst_values,
+    );
+    machine.elst = elst.model;
+    values.retain(|v| !v.field.starts_with("elst."));
+    values.splice(0..0, elst_values);
     let spread = TimingSpread {
         elst_up_sd_s: elst.sd[0],
         elst_down_sd_s: elst.sd[1],
@@ -364,62 +391,141 @@ fn base_elst(base: &Machine) -> (Option<f64>, Option<f64>, f64) {
     }
 }
 
+/// Per run, by delivery-order layer index: whether a simulation on `machine` times the switch
+/// into that layer at its ELST (lost time within 5 ms + 1 %).
+fn lasting_switches(
+    machine: &Machine,
+    runs: &[LoggedRun],
+    options: &Options,
+) -> Result<Vec<Vec<bool>>, CalibrateError> {
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    runs.par_iter()
+        .map(|r| {
+            let d =
+                simulate(&r.plan, machine, &opts).map_err(|source| CalibrateError::Simulate {
+                    plan: r.plan_name.clone(),
+                    source,
+                })?;
+            let mut lasts = vec![false; d.layers.len()];
+            for t in &d.transitions {
+                if let Some(x) = lasts.get_mut(t.to_layer) {
+                    *x = t.lost_s <= 0.005 + 0.01 * t.elst_s;
+                }
+            }
+            Ok(lasts)
+        })
+        .collect()
+}
+
+/// One ELST value being fitted: its field, the class of switches, the base value, a seed.
+struct ElstKind<'a> {
+    field: &'a str,
+    class: &'a str,
+    base: Option<f64>,
+    seed: u64,
+}
+
+fn durations_of(gaps: &[Gap], class: &str) -> Vec<f64> {
+    gaps.iter()
+        .filter(|g| g.class == class)
+        .map(|g| g.duration_s)
+        .collect()
+}
+
+/// One ELST (see [`fit_elst`]) and its spread; its value row pushed to `values`.
+fn fit_one_elst(
+    kind: &ElstKind,
+    gaps: &[Gap],
+    clean: Option<&[Gap]>,
+    res_sd: f64,
+    values: &mut Vec<FittedValue>,
+) -> (f64, f64) {
+    let spread_of = |sd: f64| (sd * sd - res_sd * res_sd).max(0.0).sqrt();
+    let d = durations_of(gaps, kind.class);
+    let row = |value: f64, interval, observations, note: String| FittedValue {
+        field: kind.field.into(),
+        unit: "s".into(),
+        base: kind.base,
+        value,
+        interval,
+        observations,
+        determined: true,
+        note,
+    };
+    if let Some(c) = clean
+        .map(|c| durations_of(c, kind.class))
+        .filter(|c| c.len() >= 3)
+    {
+        let centre = median(&mut c.clone());
+        let sd = mad_sd(&c, centre).max(res_sd);
+        let interval = bootstrap(c.len(), kind.seed, &|idx| {
+            let mut s: Vec<f64> = idx.iter().map(|&i| c[i]).collect();
+            Some(median(&mut s))
+        });
+        let note = format!(
+            "median of the {} of {} switches that a simulation on the first fit times at their ELST",
+            c.len(),
+            d.len()
+        );
+        values.push(row(centre, interval, c.len(), note));
+        return (centre, spread_of(sd));
+    }
+    match lowest_cluster(&d, res_sd).filter(|c| c.count >= 3) {
+        Some(c) => {
+            let interval = bootstrap(d.len(), kind.seed, &|idx| {
+                let s: Vec<f64> = idx.iter().map(|&i| d[i]).collect();
+                lowest_cluster(&s, res_sd).map(|c| c.centre)
+            });
+            let note = format!(
+                "peak of the lowest cluster of the {} beam-off gaps ({} within three spreads of it)",
+                d.len(),
+                c.count
+            );
+            values.push(row(c.centre, interval, c.count, note));
+            (c.centre, spread_of(c.sd))
+        }
+        None => {
+            values.push(kept(
+                kind.field,
+                "s",
+                kind.base,
+                d.len(),
+                "fewer than 3 such switches in the logs: the base value is kept",
+            ));
+            (kind.base.unwrap_or(0.0), 0.0)
+        }
+    }
+}
+
+/// The ELST of each kind: with `clean` (the switches a simulation times at their ELST), the
+/// median of those of the kind when there are 3 or more; otherwise the lowest cluster of all
+/// the kind's gaps.
 fn fit_elst(
     base: &Machine,
     gaps: &[Gap],
+    clean: Option<&[Gap]>,
     fit: ElstFit,
     res_sd: f64,
     values: &mut Vec<FittedValue>,
 ) -> ElstResult {
     let (base_up, base_down, base_same) = base_elst(base);
-    let of = |class: &str| -> Vec<f64> {
-        gaps.iter()
-            .filter(|g| g.class == class)
-            .map(|g| g.duration_s)
-            .collect()
+    let mut one = |field: &str, class: &str, base_value: Option<f64>, seed: u64| {
+        let kind = ElstKind {
+            field,
+            class,
+            base: base_value,
+            seed,
+        };
+        fit_one_elst(&kind, gaps, clean, res_sd, values)
     };
-    let spread_of = |c: &Cluster| (c.sd * c.sd - res_sd * res_sd).max(0.0).sqrt();
-    let mut one = |field: &str, d: Vec<f64>, base_value: Option<f64>, seed: u64| {
-        let base_or = base_value.unwrap_or(0.0);
-        match lowest_cluster(&d, res_sd).filter(|c| c.count >= 3) {
-            Some(c) => {
-                let interval = bootstrap(d.len(), seed, &|idx| {
-                    let s: Vec<f64> = idx.iter().map(|&i| d[i]).collect();
-                    lowest_cluster(&s, res_sd).map(|c| c.centre)
-                });
-                values.push(FittedValue {
-                    field: field.into(),
-                    unit: "s".into(),
-                    base: base_value,
-                    value: c.centre,
-                    interval,
-                    observations: c.count,
-                    determined: true,
-                    note: format!(
-                        "median of the {} of {} switches that last their ELST (the lowest cluster of beam-off gaps)",
-                        c.count,
-                        d.len()
-                    ),
-                });
-                (c.centre, spread_of(&c))
-            }
-            None => {
-                values.push(kept(
-                    field,
-                    "s",
-                    base_value,
-                    d.len(),
-                    "fewer than 3 such switches in the logs: the base value is kept",
-                ));
-                (base_or, 0.0)
-            }
-        }
-    };
-    let (down, down_sd) = one("elst.down_s", of("downward switch"), base_down, 2);
-    let (same, same_sd) = one("elst.same_s", of("same energy"), Some(base_same), 3);
+    let (down, down_sd) = one("elst.down_s", "downward switch", base_down, 2);
+    let (same, same_sd) = one("elst.same_s", "same energy", Some(base_same), 3);
     let (model, up_sd) = match fit {
         ElstFit::Constant => {
-            let (up, up_sd) = one("elst.up_s", of("upward switch"), base_up, 1);
+            let (up, up_sd) = one("elst.up_s", "upward switch", base_up, 1);
             (
                 ElstModel::Constant {
                     up_s: up,
@@ -430,11 +536,17 @@ fn fit_elst(
             )
         }
         ElstFit::Polynomial => {
-            let ups: Vec<(f64, f64)> = gaps
-                .iter()
-                .filter(|g| g.class == "upward switch")
-                .map(|g| (g.step_mev, g.duration_s))
-                .collect();
+            let ups_of = |gaps: &[Gap]| -> Vec<(f64, f64)> {
+                gaps.iter()
+                    .filter(|g| g.class == "upward switch")
+                    .map(|g| (g.step_mev, g.duration_s))
+                    .collect()
+            };
+            // The cleaned switches when they are enough (their lowest cluster is all of them).
+            let ups = clean
+                .map(ups_of)
+                .filter(|u| u.len() >= 3)
+                .unwrap_or_else(|| ups_of(gaps));
             let (coeffs, sd) = fit_up_line(&ups, res_sd, base_up.unwrap_or(1.0), values);
             (
                 ElstModel::Polynomial {
@@ -749,13 +861,25 @@ fn fit_gantry(
         obs.decel.as_ref(),
         "deceleration",
     );
-    let j = gantry_value(
-        "gantry.max_jerk_deg_per_s3",
-        "deg/s^3",
-        Some(g.max_jerk_deg_per_s3),
-        obs.jerk.as_ref(),
-        "jerk",
-    );
+    let j = match obs.jerk_reversals.filter(|r| r.reached) {
+        Some(r) => FittedValue {
+            field: "gantry.max_jerk_deg_per_s3".into(),
+            unit: "deg/s^3".into(),
+            base: Some(g.max_jerk_deg_per_s3),
+            value: r.level,
+            interval: Some(r.interval),
+            observations: (r.held_s * r.level / (2.0 * obs.accel.map_or(1.0, |a| a.level))).round() as usize,
+            determined: true,
+            note: "median over the acceleration's reversals between its plateaus: the slope between the half-way points, the 2 s fits' averaging undone".into(),
+        },
+        None => gantry_value(
+            "gantry.max_jerk_deg_per_s3",
+            "deg/s^3",
+            Some(g.max_jerk_deg_per_s3),
+            obs.jerk.as_ref(),
+            "jerk (fewer than 3 reversals of the acceleration between its plateaus)",
+        ),
+    };
     let out = &mut machine.gantry;
     out.max_speed_deg_per_s = v.value;
     out.max_jerk_deg_per_s3 = j.value;

@@ -8,8 +8,9 @@
 //! deviations of the largest one (two for jerk), and the time spent there says whether the limit
 //! was reached at all: a top speed held less than [`HOLD_SPEED_S`] is a peak, not the limit.
 //! A fit averages over its window, so a plateau level is a lower bound of the limit when the
-//! limit is not held; the jerk, whose phases are often shorter than the window, counts only where
-//! the acceleration limit is resolved and a reversal lasts [`REVERSAL_WINDOWS`] windows.
+//! limit is not held. Jerk phases are often shorter than the window, so the jerk limit is read
+//! from the acceleration instead ([`jerk_from_reversals`]): how fast it turns from one plateau
+//! to the other, with the window's averaging undone.
 
 use serde::Serialize;
 
@@ -27,9 +28,8 @@ pub const HOLD_ACCEL_S: f64 = 0.5;
 /// A top jerk counts as the limit only when held this long, s (jerk phases are short).
 pub const HOLD_JERK_S: f64 = 0.2;
 
-/// The jerk counts as the limit only where an acceleration reversal (2A/J) lasts this many
-/// windows: shorter jerk phases read low.
-pub const REVERSAL_WINDOWS: f64 = 0.6;
+/// Reversals of the acceleration needed to read the jerk from them.
+pub const MIN_REVERSALS: usize = 3;
 
 /// Most fit centres per log (longer logs are fitted at every k-th sample).
 const MAX_CENTRES: usize = 400_000;
@@ -64,8 +64,12 @@ pub struct ObservedKinematics {
     pub accel: Option<Plateau>,
     /// Deceleration (acceleration against the direction of travel, as a magnitude).
     pub decel: Option<Plateau>,
-    /// Jerk (magnitude).
+    /// Jerk (magnitude) read directly from the cubic fits: a lower bound where jerk phases are
+    /// shorter than the window, never taken as the limit itself.
     pub jerk: Option<Plateau>,
+    /// The jerk from the acceleration's reversals between its plateaus ([`jerk_from_reversals`]):
+    /// `reached` with at least [`MIN_REVERSALS`] of them.
+    pub jerk_reversals: Option<Plateau>,
 }
 
 /// Fitted values at the fit centres: `(speed, accel, jerk)` and their standard deviations per
@@ -269,22 +273,122 @@ pub fn observe(traces: &[Trace]) -> ObservedKinematics {
     });
     let jerk = pooled(&|v| Some(v[2].abs()));
     let accel = plateau(&accel, noise * unit[1], 4.0, HOLD_ACCEL_S);
+    let decel = plateau(&decel, noise * unit[1], 4.0, HOLD_ACCEL_S);
     let mut jerk = plateau(&jerk, noise * unit[2], 2.0, HOLD_JERK_S);
-    // A fit over the window averages a jerk phase shorter than the window: the jerk is taken as
-    // the limit only where the acceleration limit is resolved too and a reversal from -A to +A
-    // (2A/J) lasts at least REVERSAL_WINDOWS windows.
     if let Some(j) = jerk.as_mut() {
-        let resolved = accel
-            .filter(|a| a.reached)
-            .is_some_and(|a| 2.0 * a.level / j.level.max(1e-12) >= REVERSAL_WINDOWS * WINDOW_S);
-        j.reached &= resolved;
+        j.reached = false;
     }
+    // Reversals need both plateaus resolved: the level they run between.
+    let level = match (accel, decel) {
+        (Some(a), Some(d)) if a.reached && d.reached => Some(a.level.min(d.level)),
+        _ => None,
+    };
     ObservedKinematics {
         window_s: WINDOW_S,
         angle_noise_deg: noise,
         speed: plateau(&speed, noise * unit[0], 4.0, HOLD_SPEED_S),
         accel,
-        decel: plateau(&decel, noise * unit[1], 4.0, HOLD_ACCEL_S),
+        decel,
         jerk,
+        jerk_reversals: level.and_then(|l| jerk_from_reversals(traces, l)),
     }
+}
+
+/// Fraction of a ramp's true slope that the local quadratic fits show between its half-way
+/// points: a ramp of `tau_s` from -1 to +1, averaged by the fits' kernel (the second-derivative
+/// kernel of a least-squares quadratic over the window, 15/16 (1 - u²)² per half-width).
+fn ramp_slope_factor(tau_s: f64) -> f64 {
+    let h = WINDOW_S / 2.0;
+    let ramp = |t: f64| (2.0 * t / tau_s).clamp(-1.0, 1.0);
+    let fitted = |t: f64| {
+        let n = 400;
+        let du = 2.0 / n as f64;
+        (0..n)
+            .map(|k| {
+                let u = -1.0 + (k as f64 + 0.5) * du;
+                15.0 / 16.0 * (1.0 - u * u).powi(2) * ramp(t - u * h) * du
+            })
+            .sum::<f64>()
+    };
+    // The fitted ramp is odd and increasing: bisect for where it is 1/2.
+    let (mut lo, mut hi) = (0.0, tau_s / 2.0 + h);
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if fitted(mid) < 0.5 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    // Measured slope: 1 over the time between the half-way points; true slope 2 / tau.
+    (1.0 / (2.0 * lo)) / (2.0 / tau_s)
+}
+
+/// The jerk limit from the acceleration's reversals: every turn of the fitted acceleration from
+/// one plateau to the other (from above 0.9 `level` to below -0.9 `level`, or back) gives its
+/// slope between the half-way points ±`level`/2, with the fits' averaging undone
+/// ([`ramp_slope_factor`], by fixed-point iteration); the median over the reversals within 25 %
+/// of their 90th percentile (a slower turn is the gantry in no hurry, not its limit), `reached`
+/// with [`MIN_REVERSALS`] of them.
+pub fn jerk_from_reversals(traces: &[Trace], level: f64) -> Option<Plateau> {
+    let mut found = Vec::new();
+    for t in traces {
+        let a: Vec<f64> = t.values.iter().map(|v| v[1]).collect();
+        let mut from: Option<(usize, f64)> = None; // last index on a plateau, its sign
+        for k in 0..a.len() {
+            if a[k].abs() >= 0.9 * level {
+                let sign = a[k].signum();
+                if let Some((i, s)) = from.filter(|(_, s)| *s != sign) {
+                    if let Some(slope) = half_way_slope(&t.t_s[i..=k], &a[i..=k], s * level) {
+                        found.push(deblurred(slope, level));
+                    }
+                }
+                from = Some((k, sign));
+            }
+        }
+    }
+    if found.is_empty() {
+        return None;
+    }
+    found.sort_by(f64::total_cmp);
+    // Turns slower than the limit (the gantry in no hurry) are left out: the median of those
+    // within 25 % of the 90th percentile.
+    let q90 = found[((found.len() - 1) as f64 * 0.9).round() as usize];
+    found.retain(|x| *x >= 0.75 * q90);
+    let n = found.len() as f64;
+    let level_j = found[found.len() / 2];
+    let mean = found.iter().sum::<f64>() / n;
+    let sd = (found.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+    let half = 1.96 * 1.2533 * sd / n.sqrt();
+    Some(Plateau {
+        level: level_j,
+        peak: found[found.len() - 1],
+        held_s: n * 2.0 * level / level_j.max(1e-12),
+        fit_sd: sd,
+        interval: [level_j - half, level_j + half],
+        reached: found.len() >= MIN_REVERSALS,
+    })
+}
+
+/// The slope of `a` (times `t`) between its crossings of `+start/2` and `-start/2`, going from
+/// `start` to `-start`; `None` if it does not cross both.
+fn half_way_slope(t: &[f64], a: &[f64], start: f64) -> Option<f64> {
+    let cross = |target: f64| -> Option<f64> {
+        (1..a.len()).find_map(|k| {
+            let (a0, a1) = (a[k - 1] - target, a[k] - target);
+            (a0 * start > 0.0 && a1 * start <= 0.0)
+                .then(|| t[k - 1] + (t[k] - t[k - 1]) * a0 / (a0 - a1))
+        })
+    };
+    let (t1, t2) = (cross(start / 2.0)?, cross(-start / 2.0)?);
+    (t2 > t1).then(|| start.abs() / (t2 - t1))
+}
+
+/// The jerk whose ramp between ±`level`, averaged by the fits, shows `slope`.
+fn deblurred(slope: f64, level: f64) -> f64 {
+    let mut j = slope;
+    for _ in 0..30 {
+        j = slope / ramp_slope_factor(2.0 * level / j);
+    }
+    j
 }

@@ -269,3 +269,65 @@ fn the_observed_limits_of_a_known_motion_are_its_own() {
     assert!(jerk.peak <= j * 1.001 && jerk.peak > 0.5 * j, "{jerk:?}");
     assert!(!jerk.reached, "{jerk:?}");
 }
+
+#[test]
+fn the_jerk_is_read_from_the_acceleration_reversals() {
+    // The acceleration turns between +A and -A at J (1.5 s ramps, shorter than the 2 s fits),
+    // holding each plateau 3 s; integrated on 1 ms steps, sampled every 10 ms, noiseless and
+    // with 0.01 deg of noise.
+    let (j, a): (f64, f64) = (0.4, 0.3);
+    let mut phases: Vec<(f64, f64)> = vec![(j, a / j)];
+    for k in 0..8 {
+        let sign = if k % 2 == 0 { -1.0 } else { 1.0 };
+        phases.push((0.0, 3.0));
+        phases.push((sign * j, 2.0 * a / j));
+    }
+    phases.push((0.0, 3.0));
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for noise in [0.0, 0.01] {
+        let (mut t, mut x, mut v, mut acc) = (0.0_f64, 0.0_f64, 5.0_f64, 0.0_f64);
+        let mut samples = Vec::new();
+        let dt: f64 = 1e-3;
+        for &(jerk, duration) in &phases {
+            let steps = (duration / dt).round() as usize;
+            for _ in 0..steps {
+                if samples.len() as f64 * 0.01 <= t + 1e-9 {
+                    let (u1, u2): (f64, f64) = (1.0 - rng.random::<f64>(), rng.random::<f64>());
+                    let n = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+                    samples.push(LogSample {
+                        t_s: samples.len() as f64 * 0.01,
+                        gantry_angle_deg: x + noise * n,
+                        beam_on: false,
+                        energy_mev: None,
+                        spot: None,
+                        mu: None,
+                    });
+                }
+                x += v * dt + 0.5 * acc * dt * dt + jerk * dt.powi(3) / 6.0;
+                v += acc * dt + 0.5 * jerk * dt * dt;
+                acc += jerk * dt;
+                t += dt;
+            }
+        }
+        let log = DeliveryLog {
+            source: "reversals".into(),
+            samples,
+            has_energy: false,
+            has_spot: false,
+            has_mu: false,
+        };
+        let o = observe(&[trace(&log)]);
+        let accel = o.accel.expect("accel");
+        assert!(
+            accel.reached && (accel.level / a - 1.0).abs() < 0.02,
+            "noise {noise}: {accel:?}"
+        );
+        let r = o.jerk_reversals.expect("reversals");
+        assert!(
+            r.reached && (r.level / j - 1.0).abs() < 0.03,
+            "noise {noise}: {r:?}"
+        );
+        // The cubic fits alone read the 1.5 s ramps low.
+        assert!(!o.jerk.expect("jerk").reached);
+    }
+}
