@@ -1,7 +1,7 @@
 //! What reading a delivery log costs: `compare` (matching, differences, the angle trace's local
 //! fits) on a 180-layer plan's 10 ms log, with and without the two simulations the command runs,
 //! and `calibrate` (the fits, bootstrap intervals and the residual simulations) on that log.
-//! The log is the plan's free-motion delivery on a made-up machine with 0.01 deg angle noise.
+//! The log is the plan's free-motion delivery on the tests' hidden machine with 0.01 deg angle noise.
 //! `cargo bench --bench logs`
 
 use std::hint::black_box;
@@ -14,20 +14,13 @@ use arcsim_plan::{load_machine, load_plan, parse_machine, resolve};
 use arcsim_sequencer::{
     machine_limits, simulate_resolved, spot_timeline, Motion, Options, Schedule,
 };
+use arcsim_test_support::HIDDEN_MACHINE_JSON;
 use criterion::{criterion_group, criterion_main, Criterion};
-
-const MADE_UP: &str = r#"{
-  "format": "arcsim-machine/1", "name": "made-up",
-  "gantry": {"max_speed_deg_per_s": 4.0, "max_accel_deg_per_s2": 0.3, "max_jerk_deg_per_s3": 0.4},
-  "beam": {"s_per_mu": 0.004, "spot_switch_time_s": 0.002, "min_spot_time_s": 0.0},
-  "elst": {"kind": "constant", "up_s": 3.2, "down_s": 0.8, "same_s": 0.0},
-  "default_window_deg": 1.0
-}"#;
 
 fn bench(c: &mut Criterion) {
     let root = arcsim_suite::repo_root();
     let plan = load_plan(root.join("plans/prostate.json")).expect("plan");
-    let machine = parse_machine(MADE_UP, "made-up").expect("machine");
+    let machine = parse_machine(HIDDEN_MACHINE_JSON, "hidden").expect("machine");
     let atom = load_machine(root.join("scenarios/machine-atom.json")).expect("atom");
     let free = Options {
         motion: Motion::Free,

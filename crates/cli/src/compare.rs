@@ -78,10 +78,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ..options(args.motion, args.schedule, &plan, &machine)
     };
     let other = Options {
-        motion: match opts.motion {
-            Motion::Free => Motion::Constant,
-            Motion::Constant => Motion::Free,
-        },
+        motion: opts.motion.other(),
         servo_period_s: None,
         ..opts.clone()
     };

@@ -4,18 +4,10 @@
 
 use std::path::{Path, PathBuf};
 
-use arcsim_test_support::temp_dir;
+use arcsim_test_support::{temp_dir, HIDDEN_MACHINE_JSON};
 use serde_json::Value;
 
 use crate::util::{arcsim, path_str, text};
-
-const HIDDEN: &str = r#"{
-  "format": "arcsim-machine/1", "name": "made-up",
-  "gantry": {"max_speed_deg_per_s": 4.0, "max_accel_deg_per_s2": 0.3, "max_jerk_deg_per_s3": 0.4},
-  "beam": {"s_per_mu": 0.004, "spot_switch_time_s": 0.002, "min_spot_time_s": 0.0},
-  "elst": {"kind": "constant", "up_s": 3.2, "down_s": 0.8, "same_s": 0.0},
-  "default_window_deg": 1.0
-}"#;
 
 fn dir(name: &str) -> PathBuf {
     let d = temp_dir().join(name);
@@ -23,10 +15,10 @@ fn dir(name: &str) -> PathBuf {
     d
 }
 
-/// `plans/PLAN.json` simulated on the made-up machine (free motion) and logged into `dir`.
+/// `plans/PLAN.json` simulated on the hidden machine (free motion) and logged into `dir`.
 fn log_of(dir: &Path, plan: &str) -> PathBuf {
-    let machine = dir.join("made-up.json");
-    std::fs::write(&machine, HIDDEN).expect("machine");
+    let machine = dir.join("hidden.json");
+    std::fs::write(&machine, HIDDEN_MACHINE_JSON).expect("machine");
     let log = dir.join(format!("{plan}.log.csv"));
     let out = arcsim(&[
         "simulate",
@@ -58,7 +50,7 @@ fn compare_sets_a_log_beside_its_simulation() {
         "plans/lung.json",
         path_str(&log),
         "--machine",
-        path_str(&d.join("made-up.json")),
+        path_str(&d.join("hidden.json")),
         "--json",
         path_str(&out_json),
         "--rrd",
@@ -99,7 +91,7 @@ fn compare_sets_a_log_beside_its_simulation() {
         "plans/lung.json",
         path_str(&renamed),
         "--machine",
-        path_str(&d.join("made-up.json")),
+        path_str(&d.join("hidden.json")),
         "--columns",
         "t_s=TIME,gantry_angle_deg=GantryAngle,beam_on=Beam,energy_mev=Energy",
     ]);

@@ -15,6 +15,7 @@ use arcsim_plan::{
 use arcsim_sequencer::{
     machine_limits, simulate, simulate_resolved, spot_timeline, Motion, Options, Schedule,
 };
+use arcsim_test_support::HIDDEN_MACHINE_JSON;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -24,17 +25,7 @@ fn repo() -> PathBuf {
 
 /// The machine the logs come from, unlike every bundled one.
 fn hidden() -> Machine {
-    parse_machine(
-        r#"{
-      "format": "arcsim-machine/1", "name": "hidden",
-      "gantry": {"max_speed_deg_per_s": 4.0, "max_accel_deg_per_s2": 0.3, "max_jerk_deg_per_s3": 0.4},
-      "beam": {"s_per_mu": 0.004, "spot_switch_time_s": 0.002, "min_spot_time_s": 0.0},
-      "elst": {"kind": "constant", "up_s": 3.2, "down_s": 0.8, "same_s": 0.0},
-      "default_window_deg": 1.0
-    }"#,
-        "hidden",
-    )
-    .expect("hidden machine")
+    parse_machine(HIDDEN_MACHINE_JSON, "hidden").expect("hidden machine")
 }
 
 fn free() -> Options {

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use arcsim_app::{sha256_hex, SimulateRequest, Source};
-use arcsim_sequencer::{machine_limits, simulate_resolved, ArcEnds, Motion, Options};
+use arcsim_sequencer::{machine_limits, simulate_resolved, ArcEnds, Options};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyAny, PyDict, PyTuple};
@@ -132,10 +132,7 @@ pub fn compare(
         let main = simulate_resolved(&arcs, &limits, &opts)
             .map_err(|e| SimulationError::new_err(e.to_string()))?;
         let other = Options {
-            motion: match opts.motion {
-                Motion::Free => Motion::Constant,
-                Motion::Constant => Motion::Free,
-            },
+            motion: opts.motion.other(),
             servo_period_s: None,
             ..opts.clone()
         };

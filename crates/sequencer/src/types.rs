@@ -74,6 +74,14 @@ pub enum Motion {
 impl Motion {
     pub(crate) const ALL: [Motion; 2] = [Motion::Constant, Motion::Free];
 
+    /// The other model: what a comparison with a log also simulates, to say which fits.
+    pub fn other(self) -> Motion {
+        match self {
+            Motion::Free => Motion::Constant,
+            Motion::Constant => Motion::Free,
+        }
+    }
+
     /// The name the CLI and the files use.
     pub fn name(self) -> &'static str {
         match self {

@@ -5,6 +5,7 @@
 //! - [`temp_dir`] and [`temp_file`]: a fresh temporary directory per call, in the target directory;
 //! - [`Rng`]: a small seeded generator, so random test cases are the same in every run;
 //! - [`skip_or_fail`] and [`atom_reference`]: a test that cannot run fails under CI and says why;
+//! - [`HIDDEN_MACHINE_JSON`]: the machine whose simulated deliveries stand in for delivery logs;
 //! - [`in_own_process`]: a test run alone in a child process, for one that changes what the whole
 //!   test binary shares;
 //! - `dicom` (feature `dicom`): DICOM RT (Ion) Plan files generated in memory, complete or with
@@ -14,10 +15,12 @@ mod alone;
 mod ci;
 #[cfg(feature = "dicom")]
 pub mod dicom;
+mod machines;
 mod rng;
 mod temp;
 
 pub use alone::in_own_process;
 pub use ci::{atom_reference, atom_reference_path, skip_or_fail, under_ci};
+pub use machines::HIDDEN_MACHINE_JSON;
 pub use rng::Rng;
 pub use temp::{temp_dir, temp_file};

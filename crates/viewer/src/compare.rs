@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use rerun::{RecordingStreamBuilder, TimeColumn};
+use rerun::TimeColumn;
 
 use crate::timelines::TIME;
 use crate::ViewerError;
@@ -33,14 +33,7 @@ pub fn save_comparison(
     title: &str,
     series: &[AngleSeries],
 ) -> Result<(), ViewerError> {
-    let rec = RecordingStreamBuilder::new(COMPARISON_APP_ID)
-        .enabled(true)
-        .recording_name(title)
-        .save(path)
-        .map_err(|source| ViewerError::Save {
-            path: path.to_owned(),
-            source,
-        })?;
+    let rec = crate::output::save_recording(COMPARISON_APP_ID, title, path)?;
     for s in series {
         for (what, t, values) in [
             ("angle", s.t_s, s.angle_deg),

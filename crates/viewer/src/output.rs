@@ -16,10 +16,28 @@ pub const DELIVERY_APP_ID: &str = "arcsim-delivery";
 const SEND_TIMEOUT: Duration = Duration::from_secs(20);
 
 fn builder(title: &str) -> RecordingStreamBuilder {
+    builder_of(DELIVERY_APP_ID, title)
+}
+
+fn builder_of(app_id: &'static str, title: &str) -> RecordingStreamBuilder {
     // `enabled(true)`: an explicit request for output ignores the `RERUN` environment variable.
-    RecordingStreamBuilder::new(DELIVERY_APP_ID)
+    RecordingStreamBuilder::new(app_id)
         .enabled(true)
         .recording_name(title)
+}
+
+/// A recording of application `app_id` named `title`, saved to the `.rrd` file `path`.
+pub(crate) fn save_recording(
+    app_id: &'static str,
+    title: &str,
+    path: &Path,
+) -> Result<RecordingStream, ViewerError> {
+    builder_of(app_id, title)
+        .save(path)
+        .map_err(|source| ViewerError::Save {
+            path: path.to_owned(),
+            source,
+        })
 }
 
 /// Logs, waits until everything reached the sink, then closes the stream (which finishes a file).
@@ -73,12 +91,7 @@ pub fn save_delivery(
     opts: &ViewerOptions,
 ) -> Result<(), ViewerError> {
     check(delivery, opts)?;
-    let rec = builder(title)
-        .save(path)
-        .map_err(|source| ViewerError::Save {
-            path: path.to_owned(),
-            source,
-        })?;
+    let rec = save_recording(DELIVERY_APP_ID, title, path)?;
     finish(rec, delivery, spots, opts, &path.display().to_string())
 }
 

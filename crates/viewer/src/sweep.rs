@@ -14,7 +14,7 @@ use std::path::Path;
 
 use arcsim_evaluator::{describe_setting, short, Axis, Row, Status};
 use rerun::components::TextLogLevel;
-use rerun::{RecordingStream, RecordingStreamBuilder, TimeColumn};
+use rerun::{RecordingStream, TimeColumn};
 
 use crate::layout::{send_sweep_blueprint, SweepPlot, SweepTab};
 use crate::ViewerError;
@@ -175,14 +175,7 @@ pub fn save_sweep(
     rows: &[Row],
     summary: Option<&str>,
 ) -> Result<(), ViewerError> {
-    let rec = RecordingStreamBuilder::new(SWEEP_APP_ID)
-        .enabled(true)
-        .recording_name(title)
-        .save(path)
-        .map_err(|source| ViewerError::Save {
-            path: path.to_owned(),
-            source,
-        })?;
+    let rec = crate::output::save_recording(SWEEP_APP_ID, title, path)?;
 
     // Plans, then (plan, schedule) groups, in first-seen order.
     let mut tabs: Vec<SweepTab> = vec![];
