@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use arcsim_test_support::temp_dir;
+use arcsim_test_support::{temp_dir, COLUMNS_SINCE_V1};
 
 use crate::util::{arcsim, path_str, sweep_file, text};
 use serde_json::Value;
@@ -115,22 +115,6 @@ fn older_shard_tables_still_merge() {
         "plans/prostate.json",
         serde_json::json!({"jerk_deg_per_s3": [0.5, 1]}),
     );
-    // What a V1 table lacks: the beam axes, the beam-on split and (newer still) the certificate.
-    let new_columns = [
-        "combinations",
-        "scan_speed_mm_per_s",
-        "dose_rate_scale",
-        "burst_switching_time_s",
-        "spill_charge_mu",
-        "spill_refill_time_s",
-        "spill_max_layers",
-        "burst_switching_s",
-        "spill_waiting_s",
-        "spot_irradiation_s",
-        "scanning_s",
-        "lower_bound_s",
-        "gap_s",
-    ];
     let mut shards = Vec::new();
     for k in 1..=2 {
         let path = dir.join(format!("shard-{k}.csv"));
@@ -146,7 +130,7 @@ fn older_shard_tables_still_merge() {
         let (header, rows) = table(&path);
         let keep: Vec<bool> = header
             .iter()
-            .map(|h| !new_columns.contains(&h.as_str()))
+            .map(|h| !COLUMNS_SINCE_V1.contains(&h.as_str()))
             .collect();
         let old: String = std::iter::once(&header)
             .chain(&rows)
@@ -179,7 +163,9 @@ fn older_shard_tables_still_merge() {
     let (header, rows) = table(&merged);
     assert_eq!(rows.len(), 2);
     assert!(
-        header.iter().all(|h| !new_columns.contains(&h.as_str())),
+        header
+            .iter()
+            .all(|h| !COLUMNS_SINCE_V1.contains(&h.as_str())),
         "{header:?}"
     );
     assert_eq!(rows[0][0], "0");

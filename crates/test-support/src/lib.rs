@@ -6,6 +6,7 @@
 //! - [`Rng`]: a small seeded generator, so random test cases are the same in every run;
 //! - [`skip_or_fail`] and [`atom_reference`]: a test that cannot run fails under CI and says why;
 //! - [`HIDDEN_MACHINE_JSON`]: the machine whose simulated deliveries stand in for delivery logs;
+//! - [`COLUMNS_SINCE_V1`]: the sweep-table columns an old (V1) table lacks;
 //! - [`in_own_process`]: a test run alone in a child process, for one that changes what the whole
 //!   test binary shares;
 //! - `dicom` (feature `dicom`): DICOM RT (Ion) Plan files generated in memory, complete or with
@@ -17,10 +18,12 @@ mod ci;
 pub mod dicom;
 mod machines;
 mod rng;
+mod sweep_csv;
 mod temp;
 
 pub use alone::in_own_process;
 pub use ci::{atom_reference, atom_reference_path, skip_or_fail, under_ci};
 pub use machines::HIDDEN_MACHINE_JSON;
 pub use rng::Rng;
+pub use sweep_csv::COLUMNS_SINCE_V1;
 pub use temp::{temp_dir, temp_file};

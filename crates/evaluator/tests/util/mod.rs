@@ -32,20 +32,5 @@ pub fn csv(rows: &[Row]) -> String {
     String::from_utf8(out).expect("utf-8")
 }
 
-/// The columns a V1 table does not have: the beam axes, the split of the beam-on time and
-/// (newer still) the certificate.
-pub const NEW_COLUMNS: [&str; 13] = [
-    "combinations",
-    "scan_speed_mm_per_s",
-    "dose_rate_scale",
-    "burst_switching_time_s",
-    "spill_charge_mu",
-    "spill_refill_time_s",
-    "spill_max_layers",
-    "burst_switching_s",
-    "spill_waiting_s",
-    "spot_irradiation_s",
-    "scanning_s",
-    "lower_bound_s",
-    "gap_s",
-];
+/// The columns a V1 table does not have (shared with the CLI's tests).
+pub use arcsim_test_support::COLUMNS_SINCE_V1 as NEW_COLUMNS;
