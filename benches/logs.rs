@@ -42,6 +42,8 @@ fn bench(c: &mut Criterion) {
         has_energy: true,
         has_spot: true,
         has_mu: true,
+        wraps_unwrapped: 0,
+        glitches_rejected: 0,
     };
     let other = simulate_resolved(&arcs, &limits, &constant).expect("simulated");
     let mut group = c.benchmark_group("logs");

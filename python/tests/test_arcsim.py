@@ -72,7 +72,7 @@ def test_certify_equals_the_cli(tmp_path):
     assert c == expected["certificate"]
     assert 0 < c["lower_bound_s"] <= d.total_s
     assert c["gap_s"] == pytest.approx(d.total_s - c["lower_bound_s"], rel=1e-12)
-    free_expected = cli_json(tmp_path, "simulate", "plans/lung.json", "--certify")
+    free_expected = cli_json(tmp_path, "simulate", "plans/lung.json", "--motion", "free", "--certify")
     f = arcsim.simulate(arcsim.load_plan("plans/lung.json"), motion="free").certify()
     assert f == free_expected["certificate"]
     assert 0 < f["lower_bound_s"] <= free_expected["total_s"]
@@ -721,7 +721,9 @@ def test_compare_calibrate_and_monte_carlo(tmp_path):
     assert c.difference_s == cli_doc["difference_s"]
     assert list(c.layers["logged_start_s"]) == [r["logged_start_s"] for r in cli_doc["layers"]]
     assert abs(c.difference_s) <= 0.01 + 1e-9
-    assert c.summary["better_motion"] == "free"
+    # The made-up machine names no controller: simulated (and logged) under the assumed one,
+    # constant speed per layer, which the log then fits best.
+    assert c.summary["motion"] == "constant" and c.summary["better_motion"] == "constant"
     with pytest.raises(arcsim.LogError, match="the first that differs"):
         arcsim.compare(arcsim.load_plan("plans/prostate.json"), runs[0][1], made_up)
     # calibrate recovers the made-up machine from the ATOM one.
@@ -733,6 +735,11 @@ def test_compare_calibrate_and_monte_carlo(tmp_path):
     assert values["gantry.max_accel_deg_per_s2"]["value"] == pytest.approx(0.3, rel=0.05)
     for r in report["residuals"]:
         assert abs(r["fitted_error_pct"]) < 1.0
+    # The controller is learnt from the logs and written into the fitted machine.
+    assert report["controller"]["decision"] == "chosen", report["controller"]
+    rms = report["controller"]["rms_beam_on_start_s"]
+    assert rms["constant"] * 3 <= rms["free"]
+    assert json.loads(fitted.to_json())["controller"]["motion"] == "constant"
     # The fitted machine simulates and carries spreads to draw.
     d = arcsim.simulate(runs[0][0], fitted)
     mc = d.monte_carlo(6, seed=3)

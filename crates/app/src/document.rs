@@ -20,6 +20,8 @@ pub struct OptionsOut {
     pub servo_period_s: Option<f64>,
     /// Whether implausible values were refused (`--strict`).
     pub strict: bool,
+    /// The controller the result was computed under and where it came from.
+    pub controller: crate::ControllerUsed,
 }
 
 /// A simulation's result with what produced it: the plan and machine (names, files, SHA-256 of
@@ -91,6 +93,8 @@ pub struct Provenance<'a> {
     pub notes: &'a [String],
     /// Whether implausible values were refused (`--strict`).
     pub strict: bool,
+    /// The controller the result is computed under and where it came from.
+    pub controller: &'a crate::ControllerUsed,
 }
 
 impl<'a> ResultDocument<'a> {
@@ -112,6 +116,7 @@ impl<'a> ResultDocument<'a> {
                 arc_ends: delivery.arc_ends.name(),
                 servo_period_s: delivery.servo_period_s,
                 strict: from.strict,
+                controller: from.controller.clone(),
             },
             warnings: from.warnings,
             notes: from.notes,

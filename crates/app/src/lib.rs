@@ -7,8 +7,9 @@
 //! - [`plan_from_bytes_warned`]: a plan file is native JSON or a DICOM RT Ion Plan, told apart by content
 //!   ("DICM" after the 128-byte preamble) or a `.dcm`/`.dicom` extension, not by trust in the name;
 //! - [`machine_from_text`] and [`builtin_machine`]: machine models, the ATOM machine built in;
-//! - [`SimulateRequest::options`]: `simulate`'s defaults (free motion unless a servo period applies
-//!   or the schedule is `prescribed`/`step-and-shoot`) and the notes they give rise to;
+//! - [`SimulateRequest::resolve`]: `simulate`'s defaults (the machine's controller, else the
+//!   documented assumption; constant speed where a servo period applies or the schedule is
+//!   `prescribed`/`step-and-shoot`), the notes they give rise to and the [`ControllerUsed`];
 //! - [`check_period`]: a servo period's range and plausibility;
 //! - [`ResultDocument`]: the `arcsim-result/1` JSON document of a simulation;
 //! - [`MoveRequest`]: one planner move with `arcsim profile`'s options.
@@ -24,4 +25,6 @@ pub use inputs::{
     read_plan_file_warned, sha256_hex, AppError, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
 };
 pub use moves::{MoveError, MoveRequest, SolvedMove};
-pub use request::{check_period, plausibility, refuse_implausible, SimulateRequest};
+pub use request::{
+    check_period, plausibility, refuse_implausible, ControllerUsed, SimulateRequest,
+};

@@ -3,15 +3,18 @@
 use arcsim_plan::{ArcPlan, Machine, Warning};
 use arcsim_sequencer::{ArcEnds, Motion, Options, Schedule};
 
+use serde::Serialize;
+
 use crate::AppError;
 
-/// What a user asks `simulate` for; `None` fields take the defaults of [`SimulateRequest::options`].
+/// What a user asks `simulate` for; `None` fields take the machine's controller, else the
+/// documented assumption ([`arcsim_plan::Controller::assumed`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SimulateRequest {
-    /// Speed schedule of each layer.
-    pub schedule: Schedule,
-    /// `None`: free motion, unless a servo period applies or the schedule is `prescribed` or
-    /// `step-and-shoot` (constant speed then).
+    /// Speed schedule of each layer (`None`: the machine's controller's).
+    pub schedule: Option<Schedule>,
+    /// Motion model (`None`: the machine's controller's, constant speed where a servo period
+    /// applies or the schedule is `prescribed` or `step-and-shoot`).
     pub motion: Option<Motion>,
     /// Arcs starting and ending at rest, or free.
     pub arc_ends: ArcEnds,
@@ -19,37 +22,117 @@ pub struct SimulateRequest {
     pub period_s: Option<f64>,
 }
 
+/// The controller a result was computed under, and where each part of it came from: what every
+/// output says beside its number.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ControllerUsed {
+    /// Motion model name (`constant`, `free`).
+    pub motion: &'static str,
+    /// Speed schedule name.
+    pub schedule: &'static str,
+    /// Where the motion came from: `option` (`--motion`), `machine` (its file's controller),
+    /// `assumed` (the file names none), or `rule` (forced by a servo period or the schedule).
+    pub motion_from: &'static str,
+    /// The machine file's controller source, or the assumption's text.
+    pub source: String,
+}
+
+impl ControllerUsed {
+    /// One line for text summaries, e.g. `controller: constant speed per layer, optimal schedule (machine: Wase …)`.
+    pub fn line(&self) -> String {
+        let motion = self
+            .motion
+            .parse::<Motion>()
+            .map(Motion::describe)
+            .unwrap_or(self.motion);
+        let from = match self.motion_from {
+            "option" => "from --motion".to_string(),
+            "rule" => "forced by the servo period or the schedule".to_string(),
+            "machine" => format!("machine file: {}", short_source(&self.source)),
+            _ => short_source(&self.source).to_string(),
+        };
+        format!("controller: {motion}, {} schedule ({from})", self.schedule)
+    }
+}
+
+/// The head of a controller's source for a one-line summary: up to its first `;`, and for a
+/// source that is not an assumption, up to its first `: ` (the full text is in the JSON).
+fn short_source(source: &str) -> &str {
+    let head = source.split(';').next().unwrap_or(source).trim();
+    if head.to_ascii_lowercase().starts_with("assumed") {
+        head
+    } else {
+        head.split(": ").next().unwrap_or(head).trim()
+    }
+}
+
 impl SimulateRequest {
+    /// The request with every choice left to the machine.
+    pub fn machine_default() -> Self {
+        SimulateRequest {
+            schedule: None,
+            motion: None,
+            arc_ends: ArcEnds::Rest,
+            period_s: None,
+        }
+    }
+
     /// The sequencer options for `plan` on `machine`, and notes on how the defaults applied.
     pub fn options(&self, plan: &ArcPlan, machine: &Machine) -> (Options, Vec<String>) {
+        let (opts, notes, _) = self.resolve(plan, machine);
+        (opts, notes)
+    }
+
+    /// As [`SimulateRequest::options`], with the controller used and where it came from.
+    pub fn resolve(
+        &self,
+        plan: &ArcPlan,
+        machine: &Machine,
+    ) -> (Options, Vec<String>, ControllerUsed) {
         let mut notes = Vec::new();
+        let controller = machine.controller_or_assumed();
+        let schedule = self.schedule.unwrap_or(controller.schedule);
         let prescribes = plan
             .arcs
             .iter()
             .flat_map(|a| &a.control_points)
             .any(|cp| cp.required_speed_deg_per_s.is_some());
-        if self.schedule == Schedule::Prescribed && !prescribes {
+        if schedule == Schedule::Prescribed && !prescribes {
             notes.push("the plan prescribes no speeds (no required_speed_deg_per_s), so `prescribed` gives the same speeds as `scan`".to_string());
         }
         let period = self.period_s.or(machine.servo_period_s);
-        let motion = match self.motion {
-            Some(m) => m,
-            None if period.is_some() => {
+        let from_machine = if machine.controller.is_some() {
+            "machine"
+        } else {
+            notes.push(format!("controller {}", controller.source));
+            "assumed"
+        };
+        let (motion, motion_from) = match self.motion {
+            Some(m) => (m, "option"),
+            None if controller.motion != Motion::Constant && period.is_some() => {
                 notes.push("a servo period applies, so the motion is constant speed per layer (free motion is continuous-time only)".to_string());
-                Motion::Constant
+                (Motion::Constant, "rule")
             }
-            None if matches!(self.schedule, Schedule::Prescribed | Schedule::StepAndShoot) => {
-                Motion::Constant
+            None if controller.motion != Motion::Constant
+                && matches!(schedule, Schedule::Prescribed | Schedule::StepAndShoot) =>
+            {
+                (Motion::Constant, "rule")
             }
-            None => Motion::Free,
+            None => (controller.motion, from_machine),
         };
         let opts = Options {
             servo_period_s: self.period_s,
             motion,
             arc_ends: self.arc_ends,
-            ..Options::new(self.schedule)
+            ..Options::new(schedule)
         };
-        (opts, notes)
+        let used = ControllerUsed {
+            motion: motion.name(),
+            schedule: schedule.name(),
+            motion_from,
+            source: controller.source,
+        };
+        (opts, notes, used)
     }
 }
 

@@ -2,12 +2,12 @@
 //! with 95 % intervals, what the logs cannot determine, the residual per log before and after.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use arcsim_log::{CalibrationReport, ElstFit, LoggedRun};
 
 use crate::input::{input_name, load_machine, load_plan};
-use crate::simulate::{MotionArg, ScheduleArg};
+use crate::simulate::{parse_motion, ScheduleArg};
 use crate::CliError;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -38,12 +38,16 @@ pub struct Args {
     /// The logs' column names, e.g. `t_s=TIME,gantry_angle_deg=GantryAngle,beam_on=BeamOn`.
     #[arg(long, value_name = "MAP")]
     columns: Option<String>,
-    /// Motion model of the residuals' simulations (default free).
+    /// Force the motion model instead of learning it from the logs (`constant` or `free`).
+    #[arg(long, value_parser = parse_motion, value_name = "MOTION")]
+    motion: Option<arcsim_sequencer::Motion>,
+    /// Speed schedule of the simulations (default: the base machine's controller's).
     #[arg(long, value_enum)]
-    motion: Option<MotionArg>,
-    /// Speed schedule of the residuals' simulations.
-    #[arg(long, value_enum, default_value_t = ScheduleArg::Optimal)]
-    schedule: ScheduleArg,
+    schedule: Option<ScheduleArg>,
+    /// Refuse (exit 1, nothing written) when the fit leaves a warning: a residual above the
+    /// noise, or a controller the logs do not determine.
+    #[arg(long)]
+    strict: bool,
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
@@ -54,6 +58,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
             args.inputs[args.inputs.len() - 1].display()
         )));
     }
+    let mut inputs: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
+    inputs.push(&args.machine);
+    crate::output::check_outputs(
+        &inputs,
+        &[
+            ("--output", Some(args.output.as_path())),
+            ("--json", args.json.as_deref()),
+        ],
+    )?;
     let base = load_machine(Some(&args.machine))?;
     let runs = args
         .inputs
@@ -70,9 +83,34 @@ pub fn run(args: Args) -> Result<(), CliError> {
         ElstArg::Constant => ElstFit::Constant,
         ElstArg::Poly => ElstFit::Polynomial,
     };
-    let opts = crate::compare::options(args.motion, args.schedule, &runs[0].plan, &base);
-    let cal = arcsim_log::calibrate(&base, &runs, fit, &opts)
+    let (opts, _) = crate::compare::options(None, args.schedule, &runs[0].plan, &base);
+    let cal = arcsim_log::calibrate_controller(&base, &runs, fit, &opts, args.motion)
         .map_err(|e| CliError::failed(e.to_string()))?;
+    if args.strict {
+        let mut doubts = cal.report.warnings.clone();
+        if let Some(e) = cal
+            .report
+            .controller
+            .as_ref()
+            .filter(|e| e.decision == "not determined")
+        {
+            doubts.push(format!(
+                "the controller is not determined by the logs ({})",
+                e.rms_beam_on_start_s
+                    .iter()
+                    .map(|(k, v)| format!("{k} {v:.3} s"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        if !doubts.is_empty() {
+            return Err(CliError::failed(format!(
+                "--strict: the fit leaves {} warning(s), nothing written:\n  {}",
+                doubts.len(),
+                doubts.join("\n  ")
+            )));
+        }
+    }
     let machine_json =
         serde_json::to_string_pretty(&cal.machine).map_err(|e| CliError::failed(e.to_string()))?;
     // The fitted machine must read back as a machine file.
@@ -82,7 +120,20 @@ pub fn run(args: Args) -> Result<(), CliError> {
         Some(_) => Some(report_json(&cal.report)?),
         None => None,
     };
-    crate::output::print(&summary(&cal.report, &input_name(&args.machine)));
+    let mut text = summary(&cal.report, &input_name(&args.machine));
+    if let Some(c) = &cal.machine.controller {
+        text.insert_str(
+            text.find('\n').map_or(text.len(), |i| i + 1),
+            &format!(
+                "controller: {}, {} schedule ({}): {}\n",
+                c.motion.describe(),
+                c.schedule.name(),
+                c.evidence.as_ref().map_or("", |e| e.decision.as_str()),
+                c.source
+            ),
+        );
+    }
+    crate::output::print(&text);
     crate::output::write_file(&args.output, format!("{machine_json}\n").as_bytes())?;
     if let (Some(path), Some(text)) = (&args.json, report) {
         crate::output::write_file(path, text.as_bytes())?;
@@ -157,6 +208,9 @@ pub fn summary(r: &CalibrationReport, base: &str) -> String {
             x.fitted_total_s,
             x.fitted_error_pct
         );
+    }
+    for w in &r.warnings {
+        let _ = writeln!(s, "warning: {w}");
     }
     s
 }

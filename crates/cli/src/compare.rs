@@ -7,10 +7,10 @@ use std::path::{Path, PathBuf};
 
 use arcsim_log::kinematics::{ObservedKinematics, Plateau};
 use arcsim_log::{read_log, ColumnMap, Comparison, DeliveryLog};
-use arcsim_sequencer::{machine_limits, simulate_resolved, Delivery, Motion, Options};
+use arcsim_sequencer::{machine_limits, simulate_resolved, Delivery, Motion, Options, Schedule};
 
 use crate::input::{input_name, load_machine, load_plan, machine_name};
-use crate::simulate::{MotionArg, ScheduleArg};
+use crate::simulate::{parse_motion, ScheduleArg};
 use crate::CliError;
 
 #[derive(clap::Args, Debug)]
@@ -22,13 +22,13 @@ pub struct Args {
     /// Machine model (JSON); default: the built-in ATOM article gantry.
     #[arg(long)]
     machine: Option<PathBuf>,
-    /// Motion model of the simulation (default free); the other one is simulated too, to say
-    /// which fits the log better.
+    /// Motion model of the simulation (default: the machine's controller); every other model is
+    /// simulated too, to say which fits the log better.
+    #[arg(long, value_parser = parse_motion, value_name = "MOTION")]
+    motion: Option<Motion>,
+    /// Speed schedule of the simulations (default: the machine's controller's).
     #[arg(long, value_enum)]
-    motion: Option<MotionArg>,
-    /// Speed schedule of the simulations.
-    #[arg(long, value_enum, default_value_t = ScheduleArg::Optimal)]
-    schedule: ScheduleArg,
+    schedule: Option<ScheduleArg>,
     /// The log's column names, e.g. `t_s=TIME,gantry_angle_deg=GantryAngle,beam_on=BeamOn`.
     #[arg(long, value_name = "MAP")]
     columns: Option<String>,
@@ -51,57 +51,77 @@ pub fn read(path: &Path, columns: Option<&str>) -> Result<DeliveryLog, CliError>
     read_log(path, &map).map_err(|e| CliError::failed(e.to_string()))
 }
 
-/// The options of `--motion` / `--schedule` (the defaults of `simulate`).
+/// The options of `--motion` / `--schedule` on `machine` (the defaults of `simulate`: the
+/// machine's controller), and the controller they amount to.
 pub fn options(
-    motion: Option<MotionArg>,
-    schedule: ScheduleArg,
+    motion: Option<Motion>,
+    schedule: Option<ScheduleArg>,
     plan: &arcsim_plan::ArcPlan,
     machine: &arcsim_plan::Machine,
-) -> Options {
+) -> (Options, arcsim_app::ControllerUsed) {
     let request = arcsim_app::SimulateRequest {
-        schedule: schedule.into(),
-        motion: motion.map(Motion::from),
-        arc_ends: arcsim_sequencer::ArcEnds::Rest,
-        period_s: None,
+        schedule: schedule.map(Schedule::from),
+        motion,
+        ..arcsim_app::SimulateRequest::machine_default()
     };
-    request.options(plan, machine).0
+    let (opts, _, used) = request.resolve(plan, machine);
+    (opts, used)
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
+    let mut inputs: Vec<&Path> = vec![args.plan.as_path(), args.log.as_path()];
+    inputs.extend(args.machine.as_deref());
+    crate::output::check_outputs(
+        &inputs,
+        &[
+            ("--json", args.json.as_deref()),
+            ("--rrd", args.rrd.as_deref()),
+        ],
+    )?;
     let plan = load_plan(&args.plan)?;
     let machine = load_machine(args.machine.as_deref())?;
     let log = read(&args.log, args.columns.as_deref())?;
     let arcs = arcsim_plan::resolve(&plan, &machine).map_err(crate::input::plan_error)?;
     let limits = machine_limits(&machine).map_err(|e| CliError::failed(e.to_string()))?;
+    let (opts, controller) = options(args.motion, args.schedule, &plan, &machine);
     let opts = Options {
         servo_period_s: machine.servo_period_s,
-        ..options(args.motion, args.schedule, &plan, &machine)
-    };
-    let other = Options {
-        motion: opts.motion.other(),
-        servo_period_s: None,
-        ..opts.clone()
+        ..opts
     };
     let fail = |e: arcsim_sequencer::SequenceError| {
         CliError::failed(format!("{}: {e}", input_name(&args.plan)))
     };
     // Match first: a log of another plan is refused before any simulation.
     arcsim_log::match_layers(&log, &arcs).map_err(|e| CliError::failed(e.to_string()))?;
-    let (main, alt) = rayon::join(
+    let others: Vec<Options> = Motion::ALL
+        .into_iter()
+        .filter(|&m| m != opts.motion)
+        .map(|motion| Options {
+            motion,
+            servo_period_s: None,
+            ..opts.clone()
+        })
+        .collect();
+    let (main, alts) = rayon::join(
         || simulate_resolved(&arcs, &limits, &opts),
-        || simulate_resolved(&arcs, &limits, &other),
+        || {
+            use rayon::prelude::*;
+            others
+                .par_iter()
+                .map(|o| simulate_resolved(&arcs, &limits, o))
+                .collect::<Vec<_>>()
+        },
     );
     let main = main.map_err(fail)?;
-    // The other model may not apply (free motion on a servo period): then only one is compared.
-    let alt = alt.ok();
-    let others: Vec<&Delivery> = alt.iter().collect();
+    // Another model may not apply (free motion on a servo period): then it is left out.
+    let alts: Vec<Delivery> = alts.into_iter().filter_map(Result::ok).collect();
+    let others: Vec<&Delivery> = alts.iter().collect();
     let c = arcsim_log::compare(&arcs, &main, &others, &log)
         .map_err(|e| CliError::failed(e.to_string()))?;
-    crate::output::print(&summary(
-        &c,
-        &plan.name,
-        &machine_name(args.machine.as_deref()),
-    ));
+    let mut text = summary(&c, &plan.name, &machine_name(args.machine.as_deref()));
+    let at = text.find('\n').map_or(text.len(), |i| i + 1);
+    text.insert_str(at, &format!("{}\n", controller.line()));
+    crate::output::print(&text);
     if let Some(path) = &args.json {
         let mut doc = serde_json::to_value(&c).map_err(|e| CliError::failed(e.to_string()))?;
         if let Some(o) = doc.as_object_mut() {
@@ -109,6 +129,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
             o.insert("plan".into(), plan.name.clone().into());
             o.insert("plan_file".into(), input_name(&args.plan).into());
             o.insert("machine".into(), machine.name.clone().into());
+            let used =
+                serde_json::to_value(&controller).map_err(|e| CliError::failed(e.to_string()))?;
+            o.insert("controller".into(), used);
         }
         let text =
             serde_json::to_string_pretty(&doc).map_err(|e| CliError::failed(e.to_string()))?;
@@ -232,6 +255,13 @@ pub fn summary(c: &Comparison, plan: &str, machine: &str) -> String {
         );
     }
     let _ = writeln!(s, "the log fits {} motion better", c.better_motion);
+    if c.better_motion != c.motion {
+        let _ = writeln!(
+            s,
+            "  the simulation's controller ({} motion) is not the one the log shows: `arcsim calibrate` learns it, or try --motion {}",
+            c.motion, c.better_motion
+        );
+    }
     observed_lines(&mut s, &c.observed, c);
     s
 }

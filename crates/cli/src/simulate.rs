@@ -26,22 +26,10 @@ pub enum ScheduleArg {
     StepAndShoot,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum MotionArg {
-    /// The gantry may change speed while the beam is on, anywhere inside the window (the
-    /// machine's real minimum time; seeded by the schedule's constant speeds).
-    Free,
-    /// One constant speed per layer, sweep centred in the window (ATOM's model).
-    Constant,
-}
-
-impl From<MotionArg> for Motion {
-    fn from(m: MotionArg) -> Self {
-        match m {
-            MotionArg::Free => Motion::Free,
-            MotionArg::Constant => Motion::Constant,
-        }
-    }
+/// Parses `--motion`: any motion model the sequencer has (`Motion::ALL`), so a new controller
+/// needs no new option code.
+pub fn parse_motion(text: &str) -> Result<Motion, String> {
+    text.parse::<Motion>().map_err(|e| e.to_string())
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -79,12 +67,16 @@ pub struct Args {
     /// Machine model (JSON); default: the built-in ATOM article gantry (scenarios/machine-atom.json).
     #[arg(long)]
     machine: Option<PathBuf>,
-    /// How layer speeds are chosen (with free motion: the constant-speed start and baseline).
-    #[arg(long, value_enum, default_value_t = ScheduleArg::Optimal)]
-    schedule: ScheduleArg,
-    /// Free motion (default; constant when a servo period applies) or constant speed per layer.
+    /// How layer speeds are chosen (with free motion: the constant-speed start and baseline);
+    /// default: the machine's controller's (optimal when the machine names none).
     #[arg(long, value_enum)]
-    motion: Option<MotionArg>,
+    schedule: Option<ScheduleArg>,
+    /// Motion model, overriding the machine's controller: `constant` (one speed per layer,
+    /// ATOM's model) or `free` (speed may change during beam-on). Default: the machine's
+    /// controller (constant speed per layer, assumed, when the machine names none; constant
+    /// when a servo period applies).
+    #[arg(long, value_parser = parse_motion, value_name = "MOTION")]
+    motion: Option<Motion>,
     /// Arc ends at rest (default) or free (free motion only).
     #[arg(long, value_enum, default_value_t = ArcEndsArg::Rest)]
     arc_ends: ArcEndsArg,
@@ -275,6 +267,20 @@ fn time_breakdown(s: &mut String, d: &Delivery) {
         fixed(b.lost_s, 2, 9),
         fixed(pct(b.lost_s), 1, 5)
     );
+}
+
+/// After the heading's first line: the controller the number comes from and where that came
+/// from, and how to see the other model as a what-if (constant speed is free motion's seed, so
+/// free motion shows both; free motion costs seconds, so it is asked for).
+pub fn insert_controller_lines(text: &mut String, used: &arcsim_app::ControllerUsed, d: &Delivery) {
+    let mut lines = format!("{}\n", used.line());
+    if d.motion == Motion::Constant {
+        lines.push_str(
+            "what-if: free motion (speed may change during beam-on) with --motion free\n",
+        );
+    }
+    let at = text.find('\n').map_or(text.len(), |i| i + 1);
+    text.insert_str(at, &lines);
 }
 
 /// The servo period, the saving of free motion, and what limits the transitions.
@@ -779,7 +785,11 @@ fn write_json(
         &str,
     ),
     delivery: &Delivery,
-    (warnings, notes): (&[arcsim_plan::Warning], &[String]),
+    (warnings, notes, controller): (
+        &[arcsim_plan::Warning],
+        &[String],
+        &arcsim_app::ControllerUsed,
+    ),
     extras: &Extras,
 ) -> Result<(), CliError> {
     let from = arcsim_app::Provenance {
@@ -795,6 +805,7 @@ fn write_json(
         warnings,
         notes,
         strict: args.strict,
+        controller,
     };
     let mut doc = arcsim_app::ResultDocument::new(plan, &from, delivery);
     if let Some(spots) = extras.spots {
@@ -824,12 +835,12 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     crate::input::report_warnings(&warnings, args.strict)?;
     let request = arcsim_app::SimulateRequest {
-        schedule: args.schedule.into(),
-        motion: args.motion.map(Motion::from),
+        schedule: args.schedule.map(Schedule::from),
+        motion: args.motion,
         arc_ends: args.arc_ends.into(),
         period_s: args.period,
     };
-    let (opts, notes) = request.options(&plan, &machine);
+    let (opts, notes, controller) = request.resolve(&plan, &machine);
     for n in &notes {
         eprintln!("note: {n}");
     }
@@ -848,6 +859,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         None => None,
     };
     let mut text = summary(&delivery, &plan.name, &machine.name);
+    insert_controller_lines(&mut text, &controller, &delivery);
     if let Some(c) = &certificate {
         text.push_str(&certificate_lines(c, delivery.total_s, delivery.motion));
     }
@@ -884,7 +896,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             &args,
             inputs,
             &delivery,
-            (&warnings, &notes),
+            (&warnings, &notes, &controller),
             &outputs,
         )?;
     }

@@ -278,6 +278,8 @@ fn simulate_free_and_constant_motion() {
     let o = arcsim(&[
         "simulate",
         "plans/prostate.json",
+        "--motion",
+        "free",
         "--arc-ends",
         "free",
         "--json",
@@ -292,7 +294,15 @@ fn simulate_free_and_constant_motion() {
     assert!(out.contains("motion free (arc ends free)"), "{out}");
     assert!(out.contains("free motion saves"), "{out}");
     let free_total = total_of(&out);
-    let c = arcsim(&["simulate", "plans/prostate.json", "--motion", "constant"]);
+    // The ATOM machine's own controller is constant speed per layer: free arc ends without
+    // --motion free are refused with the way out.
+    let refused = arcsim(&["simulate", "plans/prostate.json", "--arc-ends", "free"]);
+    assert!(
+        !refused.status.success() && text(&refused).1.contains("--motion free"),
+        "{}",
+        text(&refused).1
+    );
+    let c = arcsim(&["simulate", "plans/prostate.json"]);
     let (cout, cerr) = text(&c);
     assert!(c.status.success(), "{cerr}");
     assert!(
@@ -553,6 +563,8 @@ fn simulate_certify_prints_and_writes_the_bound() {
     let o = arcsim(&[
         "simulate",
         "plans/lung.json",
+        "--motion",
+        "free",
         "--certify",
         "--json",
         json.to_str().unwrap(),

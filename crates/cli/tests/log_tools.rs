@@ -205,6 +205,11 @@ fn calibrate_fits_a_machine_that_simulate_reads_and_draws() {
         "{stdout}"
     );
     let m = json(&fitted);
+    // The logs are of a free-motion machine; the ATOM base is constant speed per layer: the
+    // calibration learns the controller and writes it with its evidence.
+    assert_eq!(m["controller"]["motion"], "free", "{}", m["controller"]);
+    assert_eq!(m["controller"]["evidence"]["decision"], "chosen");
+    assert!(stdout.contains("controller: free motion"), "{stdout}");
     let within = |x: &Value, truth: f64, tol: f64| {
         let x = x.as_f64().expect("number");
         assert!((x / truth - 1.0).abs() <= tol, "{x} vs {truth}");
@@ -327,4 +332,117 @@ fn calibrate_and_monte_carlo_refuse_what_they_cannot_use_and_write_nothing() {
         "{stderr}"
     );
     assert!(!mc.exists());
+}
+
+/// Issue 44, finding 12: every output of `compare` and `calibrate` is checked against every
+/// input (through symlinks) and every other output before any work; `-` sends the JSON to
+/// standard output and the readable report to standard error.
+#[test]
+fn compare_and_calibrate_never_overwrite_their_inputs() {
+    let d = dir("log-outputs");
+    let log = log_of(&d, "lung");
+    let plan = d.join("lung.json");
+    std::fs::copy(crate::util::repo().join("plans/lung.json"), &plan).expect("plan copied");
+    let plan_before = std::fs::read(&plan).expect("plan");
+    let log_before = std::fs::read(&log).expect("log");
+    let refused = |args: &[&str], why: &str| {
+        let out = arcsim(args);
+        let stderr = text(&out).1;
+        assert!(
+            !out.status.success() && stderr.contains(why),
+            "{args:?}: {stderr}"
+        );
+    };
+    // compare --json PLAN.
+    refused(
+        &[
+            "compare",
+            path_str(&plan),
+            path_str(&log),
+            "--json",
+            path_str(&plan),
+        ],
+        "is also an input",
+    );
+    // Through a symlink to the log.
+    let link = d.join("link.json");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&log, &link).expect("symlink");
+    refused(
+        &[
+            "compare",
+            path_str(&plan),
+            path_str(&log),
+            "--json",
+            path_str(&link),
+        ],
+        "is also an input",
+    );
+    // calibrate -o LOG, and --json over the base machine.
+    let machine = d.join("hidden.json");
+    refused(
+        &[
+            "calibrate",
+            "--machine",
+            "scenarios/machine-atom.json",
+            path_str(&plan),
+            path_str(&log),
+            "-o",
+            path_str(&log),
+        ],
+        "is also an input",
+    );
+    let machine_before = std::fs::read(&machine).expect("machine");
+    refused(
+        &[
+            "calibrate",
+            "--machine",
+            path_str(&machine),
+            path_str(&plan),
+            path_str(&log),
+            "-o",
+            path_str(&d.join("fitted.json")),
+            "--json",
+            path_str(&machine),
+        ],
+        "is also an input",
+    );
+    // -o X --json X.
+    let same = d.join("same.json");
+    refused(
+        &[
+            "calibrate",
+            "--machine",
+            "scenarios/machine-atom.json",
+            path_str(&plan),
+            path_str(&log),
+            "-o",
+            path_str(&same),
+            "--json",
+            path_str(&same),
+        ],
+        "the same file as",
+    );
+    assert!(!same.exists());
+    // A missing directory is found before the work.
+    refused(
+        &[
+            "compare",
+            path_str(&plan),
+            path_str(&log),
+            "--json",
+            path_str(&d.join("no-such-dir/c.json")),
+        ],
+        "does not exist",
+    );
+    assert_eq!(std::fs::read(&plan).expect("plan"), plan_before);
+    assert_eq!(std::fs::read(&log).expect("log"), log_before);
+    assert_eq!(std::fs::read(&machine).expect("machine"), machine_before);
+    // --json -: the JSON alone on standard output, the report on standard error.
+    let out = arcsim(&["compare", path_str(&plan), path_str(&log), "--json", "-"]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let doc: Value = serde_json::from_str(&stdout).expect("only JSON on stdout");
+    assert_eq!(doc["format"], "arcsim-compare/1");
+    assert!(stderr.contains("the log fits"), "{stderr}");
 }

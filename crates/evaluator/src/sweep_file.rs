@@ -147,8 +147,8 @@ pub enum AxisSpec {
 pub struct ScheduleEntry {
     /// The speed schedule of each layer.
     pub schedule: Schedule,
-    /// Constant speed per layer (default) or free motion.
-    pub motion: Motion,
+    /// Constant speed per layer or free motion; `None`: the base machine's controller's.
+    pub motion: Option<Motion>,
     /// Arc ends at rest (default) or free (free motion only).
     pub arc_ends: ArcEnds,
     /// Axes replacing the top-level ones for this schedule (per axis).
@@ -478,7 +478,7 @@ impl<'de> Deserialize<'de> for Target {
 struct ScheduleObject {
     schedule: Schedule,
     #[serde(default)]
-    motion: Motion,
+    motion: Option<Motion>,
     #[serde(default)]
     arc_ends: ArcEnds,
     #[serde(default)]
@@ -497,14 +497,14 @@ impl<'de> Deserialize<'de> for ScheduleEntry {
                 let schedule = s.parse::<Schedule>().map_err(E::custom)?;
                 Ok(ScheduleEntry {
                     schedule,
-                    motion: Motion::Constant,
+                    motion: None,
                     arc_ends: ArcEnds::Rest,
                     axes: None,
                 })
             }
             fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<ScheduleEntry, M::Error> {
                 let o = ScheduleObject::deserialize(MapAccessDeserializer::new(map))?;
-                if o.motion == Motion::Constant && o.arc_ends == ArcEnds::Free {
+                if o.motion == Some(Motion::Constant) && o.arc_ends == ArcEnds::Free {
                     return Err(de::Error::custom(
                         "arc_ends \"free\" needs \"motion\": \"free\" (a constant-speed arc starts and ends at rest)",
                     ));

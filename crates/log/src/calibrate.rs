@@ -137,6 +137,15 @@ pub struct CalibrationReport {
     pub observed: ObservedKinematics,
     /// Per log, the residual before and after.
     pub residuals: Vec<Residual>,
+    /// Angle samples the reader rejected as encoder glitches and replaced, over all the logs
+    /// ([`DeliveryLog::glitches_rejected`]).
+    pub glitches_rejected: usize,
+    /// How the controller was decided (`None` from [`calibrate`] alone, which fits under the
+    /// motion it is given).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub controller: Option<arcsim_plan::ControllerEvidence>,
+    /// What the fit leaves doubtful: residuals above the noise, with their likely cause.
+    pub warnings: Vec<String>,
 }
 
 /// The fitted machine and its report.
@@ -330,6 +339,9 @@ pub fn calibrate(
     let traces: Vec<_> = runs.iter().map(|r| trace(&r.log)).collect();
     let observed = observe(&traces);
     fit_gantry(base, &observed, &mut machine, &mut values);
+    if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
+        refine_jerk(&mut machine, runs, &matched, options, &mut values);
+    }
     // Second pass: the switches a simulation on the first fit times at their ELST carry the
     // ELST alone (no gap the gantry lengthened pulls it up).
     let lasting = lasting_switches(&machine, runs, options)?;
@@ -354,10 +366,26 @@ pub fn calibrate(
     machine.elst = elst.model;
     values.retain(|v| !v.field.starts_with("elst."));
     values.splice(0..0, elst_values);
+    // Again on the final ELST: the first pass's lowest clusters shift the moves' share of the gaps.
+    if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
+        refine_jerk(&mut machine, runs, &matched, options, &mut values);
+    }
+    let mut elst_sd = elst.sd;
+    if options.motion == arcsim_sequencer::Motion::Constant {
+        let moves = move_times(&machine, runs, options)?;
+        censored_elst(
+            &mut machine,
+            &matched,
+            &moves,
+            resolution_sd,
+            &mut values,
+            &mut elst_sd,
+        );
+    }
     let spread = TimingSpread {
-        elst_up_sd_s: elst.sd[0],
-        elst_down_sd_s: elst.sd[1],
-        elst_same_sd_s: elst.sd[2],
+        elst_up_sd_s: elst_sd[0],
+        elst_down_sd_s: elst_sd[1],
+        elst_same_sd_s: elst_sd[2],
         beam_time_sd_fraction: beam.sd_fraction,
     };
     machine.spread = Some(spread);
@@ -371,6 +399,9 @@ pub fn calibrate(
             spread,
             observed,
             residuals,
+            glitches_rejected: runs.iter().map(|r| r.log.glitches_rejected).sum(),
+            controller: None,
+            warnings: Vec::new(),
         },
     })
 }
@@ -412,13 +443,138 @@ fn lasting_switches(
             let mut lasts = vec![false; d.layers.len()];
             for t in &d.transitions {
                 if let Some(x) = lasts.get_mut(t.to_layer) {
-                    *x = t.lost_s <= 0.005 + 0.01 * t.elst_s;
+                    // With constant speed per layer the move's own minimum time is known: a
+                    // switch whose move needs nearly its ELST is left out too, since its logged
+                    // gap is max(ELST + jitter, move) and would pull the median up.
+                    let clear = opts.motion != arcsim_sequencer::Motion::Constant
+                        || t.min_time_s <= ELST_CLEARANCE * t.elst_s;
+                    *x = t.lost_s <= 0.005 + 0.01 * t.elst_s && clear;
                 }
             }
             Ok(lasts)
         })
         .collect()
 }
+
+/// Per run, by delivery-order layer index: the minimum time of the move into that layer without
+/// its ELST, simulated on `machine` with constant speed per layer (`None` for a first layer).
+fn move_times(
+    machine: &Machine,
+    runs: &[LoggedRun],
+    options: &Options,
+) -> Result<Vec<Vec<Option<f64>>>, CalibrateError> {
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    runs.par_iter()
+        .map(|r| {
+            let d =
+                simulate(&r.plan, machine, &opts).map_err(|source| CalibrateError::Simulate {
+                    plan: r.plan_name.clone(),
+                    source,
+                })?;
+            let mut out = vec![None; d.layers.len()];
+            for t in &d.transitions {
+                if let Some(x) = out.get_mut(t.to_layer) {
+                    *x = Some(t.min_time_s);
+                }
+            }
+            Ok(out)
+        })
+        .collect()
+}
+
+/// Under constant speed per layer, each single-valued ELST by a censored fit
+/// ([`crate::censored`]) of every gap of its kind against its move's minimum time: the gaps the
+/// gantry lengthened count as "no longer than the move" instead of being dropped or taken as
+/// ELST. Where fewer than 3 gaps outlast their moves the ELST is not seen: the base value is
+/// kept, lowered to the shortest move the gaps show (the ELST is at most that).
+fn censored_elst(
+    machine: &mut Machine,
+    matched: &[Matched],
+    moves: &[Vec<Option<f64>>],
+    res_sd: f64,
+    values: &mut [FittedValue],
+    sd: &mut [f64; 3],
+) {
+    let pairs: Vec<(&'static str, f64, f64)> = matched
+        .iter()
+        .zip(moves)
+        .flat_map(|(m, mv)| {
+            gaps(m).into_iter().filter_map(|g| {
+                mv.get(g.to_layer)
+                    .copied()
+                    .flatten()
+                    .map(|t| (g.class, g.duration_s, t))
+            })
+        })
+        .collect();
+    for (field, class, k) in [
+        ("elst.up_s", "upward switch", 0),
+        ("elst.down_s", "downward switch", 1),
+        ("elst.same_s", "same energy", 2),
+    ] {
+        let slot: Option<&mut f64> =
+            match (&mut machine.elst, k) {
+                (ElstModel::Constant { up_s, .. }, 0) => Some(up_s),
+                (ElstModel::Constant { down_s, .. }, 1)
+                | (ElstModel::Polynomial { down_s, .. }, 1) => Some(down_s),
+                (ElstModel::Constant { same_s, .. }, 2)
+                | (ElstModel::Polynomial { same_s, .. }, 2) => Some(same_s),
+                _ => None,
+            };
+        let (Some(slot), Some(row)) = (slot, values.iter_mut().find(|v| v.field == field)) else {
+            continue;
+        };
+        // A gap far above both its simulated move and the first estimate is a move slower than
+        // the simulation's (other layer speeds): neither the ELST seen nor a censored one.
+        let (centre, width) = (*slot, (5.0 * sd[k].max(res_sd)).max(0.15 * *slot));
+        let cut = 2.0 * res_sd;
+        let obs: Vec<(f64, f64)> = pairs
+            .iter()
+            .filter(|p| p.0 == class)
+            .map(|p| (p.1, p.2))
+            .filter(|&(gap, mv)| gap <= mv + cut || (gap - centre).abs() <= width)
+            .collect();
+        if obs.is_empty() {
+            continue;
+        }
+        match crate::censored::fit(&obs, res_sd) {
+            Some(f) => {
+                *slot = f.mean;
+                sd[k] = f.sd;
+                row.value = f.mean;
+                row.interval = Some(crate::censored::interval(&obs, &f, res_sd));
+                row.observations = obs.len();
+                row.determined = true;
+                row.note = format!(
+                    "maximum likelihood of a normal ELST seen through max(ELST, move): {} gaps outlast their move (the ELST seen), {} are the move's time (the ELST no longer); moves from the planner on this fit",
+                    f.seen, f.censored
+                );
+            }
+            None => {
+                let shortest = obs.iter().map(|o| o.1).fold(f64::INFINITY, f64::min);
+                let kept_value = row.base.unwrap_or(*slot).min(shortest);
+                *slot = kept_value;
+                row.value = kept_value;
+                row.interval = None;
+                row.observations = obs.len();
+                row.determined = false;
+                row.note = format!(
+                    "not determined: the gantry lengthened all but {} of the {} switches, so the logs show only that the ELST is at most {:.4} s (the shortest move): the base value is kept, lowered to that bound",
+                    obs.iter().filter(|(g, m)| *g > m + 2.0 * res_sd).count(),
+                    obs.len(),
+                    shortest
+                );
+            }
+        }
+    }
+}
+
+/// Under constant speed per layer, a switch carries its ELST alone when its move needs at most
+/// this fraction of it (10 % is over 3 standard deviations of a few-% ELST jitter).
+const ELST_CLEARANCE: f64 = 0.9;
 
 /// One ELST value being fitted: its field, the class of switches, the base value, a seed.
 struct ElstKind<'a> {
@@ -832,6 +988,49 @@ fn gantry_value(
     }
 }
 
+/// Below this fraction of the base machine's speed limit the gantry is not moving at a
+/// meaningful speed: creeping through narrow windows (or standing still, its trace pure encoder
+/// noise) it approaches none of its limits, and a plateau of such motion is the plan's pace or
+/// noise, not the machine's limit (a still gantry's noise gave a "jerk limit" of 1e9 deg/s³).
+const MOVING_FRACTION_OF_BASE_SPEED: f64 = 0.2;
+
+/// Whether the logs show the gantry moving at a meaningful speed (see
+/// [`MOVING_FRACTION_OF_BASE_SPEED`]).
+fn moving(base: &Machine, obs: &ObservedKinematics) -> bool {
+    obs.speed.map_or(0.0, |p| p.peak)
+        >= MOVING_FRACTION_OF_BASE_SPEED * base.gantry.max_speed_deg_per_s
+}
+
+/// Under a constant-speed controller, J by the model ([`crate::transitions::fit_jerk`]): the
+/// reversals of the trace read the beam-on dwells between a move's turns as a slow jerk.
+fn refine_jerk(
+    machine: &mut Machine,
+    runs: &[LoggedRun],
+    matched: &[Matched],
+    options: &Options,
+    values: &mut [FittedValue],
+) {
+    let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
+    let start = machine.gantry.max_jerk_deg_per_s3;
+    let Some(fit) = crate::transitions::fit_jerk(machine, start, runs, &logged, options) else {
+        return;
+    };
+    machine.gantry.max_jerk_deg_per_s3 = fit.value;
+    if let Some(v) = values
+        .iter_mut()
+        .find(|v| v.field == "gantry.max_jerk_deg_per_s3")
+    {
+        v.value = fit.value;
+        v.interval = Some(fit.interval);
+        v.observations = fit.transitions;
+        v.determined = true;
+        v.note = format!(
+            "by the model: the J whose simulated moves (constant speed per layer) last as the {} logged beam-off gaps (golden section over ln J from the trace's {:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval from the misfit's curvature",
+            fit.transitions, start
+        );
+    }
+}
+
 fn fit_gantry(
     base: &Machine,
     obs: &ObservedKinematics,
@@ -840,6 +1039,38 @@ fn fit_gantry(
 ) {
     let g = &base.gantry;
     let base_d = g.max_decel_deg_per_s2.unwrap_or(g.max_accel_deg_per_s2);
+    let top_speed = obs.speed.map_or(0.0, |p| p.peak);
+    let meaningful = MOVING_FRACTION_OF_BASE_SPEED * g.max_speed_deg_per_s;
+    if top_speed < meaningful {
+        let why = format!(
+            "the gantry never moves faster than {top_speed:.4} deg/s in the logs, under {:.0} % of the base machine's speed limit {} deg/s: no limit is approached, the base value is kept",
+            100.0 * MOVING_FRACTION_OF_BASE_SPEED,
+            g.max_speed_deg_per_s
+        );
+        let n = usize::from(obs.speed.is_some());
+        for (field, unit, kept_value) in [
+            ("gantry.max_speed_deg_per_s", "deg/s", g.max_speed_deg_per_s),
+            (
+                "gantry.max_accel_deg_per_s2",
+                "deg/s^2",
+                g.max_accel_deg_per_s2,
+            ),
+            ("gantry.max_decel_deg_per_s2", "deg/s^2", base_d),
+            (
+                "gantry.max_jerk_deg_per_s3",
+                "deg/s^3",
+                g.max_jerk_deg_per_s3,
+            ),
+        ] {
+            values.push(kept(field, unit, Some(kept_value), n, &why));
+        }
+        let out = &mut machine.gantry;
+        out.max_speed_deg_per_s = g.max_speed_deg_per_s;
+        out.max_accel_deg_per_s2 = g.max_accel_deg_per_s2;
+        out.max_decel_deg_per_s2 = g.max_decel_deg_per_s2;
+        out.max_jerk_deg_per_s3 = g.max_jerk_deg_per_s3;
+        return;
+    }
     let v = gantry_value(
         "gantry.max_speed_deg_per_s",
         "deg/s",

@@ -129,6 +129,12 @@ pub struct Comparison {
     pub interrupted_layers: usize,
     /// Beam interruptions in all (segments beyond one per layer).
     pub interruptions: usize,
+    /// Beam edges put at a sample across a sampling gap instead of halfway
+    /// ([`crate::LoggedLayer::uncertain_edges`]): those layers' beam-on times are lower bounds.
+    pub uncertain_edges: usize,
+    /// Angle samples the reader rejected as encoder glitches and replaced
+    /// ([`DeliveryLog::glitches_rejected`]).
+    pub glitches_rejected: usize,
     /// Differences by class.
     pub classes: Vec<ClassStats>,
     /// The layers with the largest |difference_s|, largest first.
@@ -188,6 +194,8 @@ pub fn compare(
         simulated: simulated_split,
         interrupted_layers,
         interruptions: logged.iter().map(|l| l.segments - 1).sum(),
+        uncertain_edges: logged.iter().map(|l| l.uncertain_edges).sum(),
+        glitches_rejected: log.glitches_rejected,
         classes: classes(simulated, arcs, &layers),
         worst,
         motion_fits,

@@ -12,13 +12,16 @@
 #![warn(missing_docs)]
 
 mod calibrate;
+mod censored;
 mod columns;
 mod compare;
+mod controller;
 mod error;
 pub mod kinematics;
 mod matching;
 mod read;
 mod sample;
+mod transitions;
 mod virtual_log;
 mod write;
 
@@ -30,13 +33,19 @@ pub use columns::{ColumnMap, Field};
 pub use compare::{
     compare, ClassStats, Comparison, LayerComparison, MotionFit, TimeSplit, WORST_LAYERS,
 };
+pub use controller::{calibrate_controller, RESIDUAL_WARNING_PCT};
 pub use error::LogError;
 pub use matching::{
     angle_diff_deg, beam_segments, match_layers, BeamSegment, LoggedLayer, MatchError,
-    ANGLE_TOLERANCE_DEG, LOG_ENERGY_TOLERANCE_MEV,
+    ANGLE_TOLERANCE_DEG, LOG_ENERGY_TOLERANCE_MEV, UNIT_SLIP_BAND,
 };
-pub use read::{parse_log, read_log, MAX_LOG_BYTES};
-pub use sample::{DeliveryLog, LogSample};
+pub use read::{
+    parse_log, read_log, MAX_ANGLE_MAGNITUDE_DEG, MAX_LOG_BYTES, MAX_SPAN_S, MAX_TIME_S,
+};
+pub use sample::{
+    DeliveryLog, LogSample, GLITCH_FLOOR_DEG, GLITCH_MAD_FACTOR, GLITCH_NEIGHBOURS,
+    LONG_GAP_PERIODS,
+};
 pub use virtual_log::{
     check_options, virtual_log, VirtualLogError, VirtualLogOptions, MAX_LOG_SAMPLES,
 };

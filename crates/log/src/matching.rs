@@ -1,17 +1,25 @@
 //! A log's beam-on segments matched to a plan's layers.
 //!
 //! A segment is a run of beam-on samples; its edges are put halfway between the last sample of
-//! one state and the first of the other (unbiased for a beam switched at a random instant).
+//! one state and the first of the other (unbiased for a beam switched at a random instant),
+//! except across a sampling gap longer than [`LONG_GAP_PERIODS`] typical periods: halfway would
+//! add up to half the gap to the beam-on time (an idle sample a minute before the delivery would
+//! give its first layer 30 s), so the edge is put at the beam-on sample itself and counted as
+//! uncertain ([`BeamSegment::start_uncertain`], [`LoggedLayer::uncertain_edges`]).
 //! Consecutive segments of one energy form a run; the plan's consecutive layers of one energy
 //! form one too. The runs must agree in number and energy (with the log's energies); inside a
 //! run of `r` layers the `r - 1` longest beam-off gaps are the layer changes and any other gap is
 //! an interruption inside a layer. Without energies the whole log is one run.
+//!
+//! A log whose layers' beam-on times are a factor of about 1000 from the plan's
+//! ([`UNIT_SLIP_BAND`]) is refused: its clock is in milliseconds (or the plan's times are), and
+//! every time fitted or compared would be off by that factor.
 
 use arcsim_plan::ResolvedArc;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::DeliveryLog;
+use crate::{DeliveryLog, LONG_GAP_PERIODS};
 
 /// Energies closer than this (MeV) are the same energy in a log (logs round energies).
 pub const LOG_ENERGY_TOLERANCE_MEV: f64 = 0.1;
@@ -20,12 +28,18 @@ pub const LOG_ENERGY_TOLERANCE_MEV: f64 = 0.1;
 /// log is taken for another plan's.
 pub const ANGLE_TOLERANCE_DEG: f64 = 2.0;
 
+/// Median ratios of the logged to the plan's beam-on times that are a unit slip of 1000 (a
+/// factor of 3 either way, for a machine's beam model off by as much), and their inverses.
+pub const UNIT_SLIP_BAND: [f64; 2] = [1000.0 / 3.0, 3000.0];
+
 /// One beam-on stretch of a log.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct BeamSegment {
-    /// Beam-on, s (log time), halfway between the last beam-off sample and the first beam-on one.
+    /// Beam-on, s (log time), halfway between the last beam-off sample and the first beam-on one
+    /// (at the beam-on one across a sampling gap).
     pub start_s: f64,
-    /// Beam-off, s (log time).
+    /// Beam-off, s (log time), halfway between the last beam-on sample and the first beam-off
+    /// one (at the beam-on one across a sampling gap).
     pub end_s: f64,
     /// Gantry angle at the first beam-on sample, degrees.
     pub angle_start_deg: f64,
@@ -33,6 +47,11 @@ pub struct BeamSegment {
     pub angle_end_deg: f64,
     /// The energy the log gives for the segment (at its first sample that has one), MeV.
     pub energy_mev: Option<f64>,
+    /// Whether the beam-on follows a sampling gap longer than [`LONG_GAP_PERIODS`] typical
+    /// periods (the beam came on somewhere in the gap; `start_s` is the first beam-on sample).
+    pub start_uncertain: bool,
+    /// Whether the beam-off precedes such a gap (`end_s` is the last beam-on sample).
+    pub end_uncertain: bool,
 }
 
 /// One plan layer as the log shows it delivered.
@@ -52,6 +71,9 @@ pub struct LoggedLayer {
     pub angle_start_deg: f64,
     /// Gantry angle at its last beam-on sample, degrees.
     pub angle_end_deg: f64,
+    /// Edges of its segments put at a sample across a sampling gap, not halfway
+    /// ([`BeamSegment::start_uncertain`]): its beam-on time is a lower bound.
+    pub uncertain_edges: usize,
 }
 
 /// A log that does not fit the plan, located.
@@ -72,6 +94,7 @@ struct Planned {
     angle_deg: f64,
     window_deg: f64,
     energy_mev: f64,
+    irradiation_s: f64,
 }
 
 fn planned(arcs: &[ResolvedArc]) -> Vec<Planned> {
@@ -83,14 +106,25 @@ fn planned(arcs: &[ResolvedArc]) -> Vec<Planned> {
                 angle_deg: l.angle_deg,
                 window_deg: l.window_deg,
                 energy_mev: l.energy_mev,
+                irradiation_s: l.irradiation_s,
             })
         })
         .collect()
 }
 
-/// The log's beam-on segments in time order.
+/// The log's beam-on segments in time order (edges as the module documentation says).
 pub fn beam_segments(log: &DeliveryLog) -> Vec<BeamSegment> {
     let s = &log.samples;
+    let long_gap_s = LONG_GAP_PERIODS * log.typical_period_s();
+    // The edge between samples `a` (earlier) and `b`: halfway, or at the beam-on one `on`
+    // across a long gap (then uncertain).
+    let edge = |a: usize, b: usize, on: usize| {
+        if s[b].t_s - s[a].t_s > long_gap_s {
+            (s[on].t_s, true)
+        } else {
+            (0.5 * (s[a].t_s + s[b].t_s), false)
+        }
+    };
     let mut out = Vec::new();
     let mut i = 0;
     while i < s.len() {
@@ -103,13 +137,14 @@ pub fn beam_segments(log: &DeliveryLog) -> Vec<BeamSegment> {
             i += 1;
         }
         let last = i;
-        let start_s = match first {
-            0 => s[0].t_s,
-            k => 0.5 * (s[k - 1].t_s + s[k].t_s),
+        let (start_s, start_uncertain) = match first {
+            0 => (s[0].t_s, false),
+            k => edge(k - 1, k, k),
         };
-        let end_s = match s.get(last + 1) {
-            Some(next) => 0.5 * (s[last].t_s + next.t_s),
-            None => s[last].t_s,
+        let (end_s, end_uncertain) = if last + 1 < s.len() {
+            edge(last, last + 1, last)
+        } else {
+            (s[last].t_s, false)
         };
         out.push(BeamSegment {
             start_s,
@@ -117,6 +152,8 @@ pub fn beam_segments(log: &DeliveryLog) -> Vec<BeamSegment> {
             angle_start_deg: s[first].gantry_angle_deg,
             angle_end_deg: s[last].gantry_angle_deg,
             energy_mev: s[first..=last].iter().find_map(|x| x.energy_mev),
+            start_uncertain,
+            end_uncertain,
         });
         i += 1;
     }
@@ -206,8 +243,40 @@ pub fn match_layers(
             from = to;
         }
     }
+    check_time_unit(&out, &plan).map_err(fail)?;
     check_angles(&out, &plan).map_err(fail)?;
     Ok(out)
+}
+
+/// The median ratio of the logged to the planned beam-on times is not a unit slip
+/// ([`UNIT_SLIP_BAND`]); layers without a planned or a logged beam-on time are left out.
+fn check_time_unit(logged: &[LoggedLayer], plan: &[Planned]) -> Result<(), String> {
+    let mut ratios: Vec<f64> = logged
+        .iter()
+        .filter_map(|l| {
+            let planned_s = plan[l.index].irradiation_s;
+            (planned_s > 0.0 && l.beam_on_s > 0.0).then(|| l.beam_on_s / planned_s)
+        })
+        .collect();
+    if ratios.is_empty() {
+        return Ok(());
+    }
+    let mid = ratios.len() / 2;
+    let ratio = *ratios.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let [lo, hi] = UNIT_SLIP_BAND;
+    let n = ratios.len();
+    if (lo..=hi).contains(&ratio) {
+        return Err(format!(
+            "the layers' logged beam-on times are a median {ratio:.0} times the plan's ({n} layers): times in milliseconds? the t_s column is in seconds"
+        ));
+    }
+    if (1.0 / hi..=1.0 / lo).contains(&ratio) {
+        return Err(format!(
+            "the layers' logged beam-on times are a median 1/{:.0} of the plan's ({n} layers): times in kiloseconds, or the plan's irradiation times in milliseconds? the t_s column is in seconds",
+            1.0 / ratio
+        ));
+    }
+    Ok(())
 }
 
 /// Where a run of segments splits into `layers` layers: the end (exclusive) of each layer's
@@ -239,6 +308,10 @@ fn logged_layer(index: usize, parts: &[BeamSegment]) -> LoggedLayer {
         segments: parts.len(),
         angle_start_deg: first.angle_start_deg,
         angle_end_deg: last.angle_end_deg,
+        uncertain_edges: parts
+            .iter()
+            .map(|p| usize::from(p.start_uncertain) + usize::from(p.end_uncertain))
+            .sum(),
     }
 }
 

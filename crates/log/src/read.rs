@@ -12,6 +12,20 @@ use crate::{ColumnMap, DeliveryLog, Field, LogError, LogSample};
 /// a larger file is not a log of one plan (and would not fit in memory as samples).
 pub const MAX_LOG_BYTES: u64 = 256 << 20;
 
+/// Largest time magnitude read, s: 1e10 s is 317 years, so a clock counting seconds from any
+/// origin (even 1970: 1.7e9 s today) stays within it, and one counting milliseconds since 1970
+/// (1.7e12) or holding a corrupt value (1e300) does not.
+pub const MAX_TIME_S: f64 = 1e10;
+
+/// Longest log read, s (1e6 s is 11.6 days; a delivery lasts minutes, an hour at most): a longer
+/// span is a clock in another unit or a corrupt time.
+pub const MAX_SPAN_S: f64 = 1e6;
+
+/// Largest angle magnitude read, degrees: beyond any plan's angles (±1e4°) and any encoder's;
+/// it keeps the unwrapping's turn counts exact ([`crate::DeliveryLog::clean`]). A larger value
+/// is not an angle in degrees, not a glitch to mend.
+pub const MAX_ANGLE_MAGNITUDE_DEG: f64 = 1e9;
+
 /// Reads the log at `path`, its columns found through `map`. A file above [`MAX_LOG_BYTES`] is
 /// refused with its size before anything is read.
 pub fn read_log(path: &Path, map: &ColumnMap) -> Result<DeliveryLog, LogError> {
@@ -33,7 +47,8 @@ pub fn read_log(path: &Path, map: &ColumnMap) -> Result<DeliveryLog, LogError> {
     parse_log(BufReader::new(file), &name, map)
 }
 
-/// Reads a log from `reader`; `source` names it in errors.
+/// Reads a log from `reader`; `source` names it in errors. The log comes cleaned
+/// ([`DeliveryLog::clean`]: the angle trace unwrapped, encoder glitches replaced and counted).
 pub fn parse_log(
     reader: impl Read,
     source: &str,
@@ -67,8 +82,9 @@ pub fn parse_log(
             line,
         };
         let sample = row.sample()?;
-        if let Some(prev) = samples.last() {
+        if let (Some(first), Some(prev)) = (samples.first(), samples.last()) {
             check_order(prev.t_s, sample.t_s, &row)?;
+            check_span(first.t_s, sample.t_s, &row)?;
         }
         samples.push(sample);
     }
@@ -78,13 +94,17 @@ pub fn parse_log(
             "no samples (a header without rows); expected one row per sample",
         ));
     }
-    Ok(DeliveryLog {
+    let mut log = DeliveryLog {
         source: source.to_string(),
         samples,
         has_energy: columns[3].is_some(),
         has_spot: columns[4].is_some(),
         has_mu: columns[5].is_some(),
-    })
+        wraps_unwrapped: 0,
+        glitches_rejected: 0,
+    };
+    log.clean();
+    Ok(log)
 }
 
 /// The csv crate's error without its own position (the caller gives the line).
@@ -209,8 +229,20 @@ impl Row<'_> {
         };
         let (t, tc) = required(0, Field::Time)?;
         let t_s = self.number(t, tc, Field::Time)?;
+        if t_s.abs() > MAX_TIME_S {
+            return Err(self.error(
+                tc,
+                format!("time {t_s:e} s is beyond ±{MAX_TIME_S:e} s (317 years); expected seconds from any origin (a clock in milliseconds, or a corrupt value?)"),
+            ));
+        }
         let (a, ac) = required(1, Field::GantryAngle)?;
         let gantry_angle_deg = self.number(a, ac, Field::GantryAngle)?;
+        if gantry_angle_deg.abs() > MAX_ANGLE_MAGNITUDE_DEG {
+            return Err(self.error(
+                ac,
+                format!("angle {gantry_angle_deg:e} deg is beyond ±{MAX_ANGLE_MAGNITUDE_DEG:e} deg; expected a gantry angle in degrees"),
+            ));
+        }
         let (b, bc) = required(2, Field::BeamOn)?;
         let beam_on = match b {
             "1" | "true" => true,
@@ -259,9 +291,26 @@ impl Row<'_> {
     }
 }
 
+/// The time column's name as the log has it.
+fn time_column(row: &Row) -> String {
+    row.field(0).map_or("t_s", |(_, c)| c).to_string()
+}
+
+/// A log spans at most [`MAX_SPAN_S`].
+fn check_span(first: f64, t: f64, row: &Row) -> Result<(), LogError> {
+    let span_s = t - first;
+    if span_s > MAX_SPAN_S {
+        return Err(row.error(
+            &time_column(row),
+            format!("time {t} s is {span_s:e} s after the first row's {first} s; expected a log of at most {MAX_SPAN_S:e} s (11.6 days) in seconds (a clock in another unit, or a corrupt value?)"),
+        ));
+    }
+    Ok(())
+}
+
 /// Times must increase strictly from row to row.
 fn check_order(prev: f64, t: f64, row: &Row) -> Result<(), LogError> {
-    let column = row.field(0).map_or("t_s", |(_, c)| c).to_string();
+    let column = time_column(row);
     if t == prev {
         return Err(row.error(
             &column,

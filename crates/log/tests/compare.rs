@@ -250,6 +250,8 @@ fn the_observed_limits_of_a_known_motion_are_its_own() {
         has_energy: false,
         has_spot: false,
         has_mu: false,
+        wraps_unwrapped: 0,
+        glitches_rejected: 0,
     };
     let o = observe(&[trace(&log)]);
     let speed = o.speed.expect("speed");
@@ -315,6 +317,8 @@ fn the_jerk_is_read_from_the_acceleration_reversals() {
             has_energy: false,
             has_spot: false,
             has_mu: false,
+            wraps_unwrapped: 0,
+            glitches_rejected: 0,
         };
         let o = observe(&[trace(&log)]);
         let accel = o.accel.expect("accel");

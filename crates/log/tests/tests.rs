@@ -2,5 +2,7 @@
 
 mod calibration;
 mod compare;
+mod controller;
+mod faults;
 mod read_errors;
 mod virtual_logs;

@@ -9,6 +9,7 @@
 
 mod atom;
 mod beam;
+mod controller;
 mod error;
 pub mod generate;
 mod load;
@@ -25,6 +26,10 @@ pub use atom::{atom_case_plan, ATOM_PLACEHOLDER_MIN_ENERGY_MEV};
 pub use beam::{
     layer_beam_time, time_spots, BeamModel, LayerBeamTime, PerMuBeam, ScanDistance, ScanningBeam,
     SpotEvent, SpotTimingError, MAX_SPOT_DELIVERIES,
+};
+pub use controller::{
+    Controller, ControllerEvidence, Motion, Schedule, UnknownName, ASSUMED_CONTROLLER_SOURCE,
+    CONTROLLER_DECISION_RATIO,
 };
 pub use error::{fmt_num, PlanError, PlanIssue};
 pub use generate::{generate, to_json, PlanKind};

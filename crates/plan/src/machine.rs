@@ -53,6 +53,14 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
     if let Some(p) = machine.servo_period_s {
         m.range("servo_period_s", p, SERVO_PERIOD_RANGE_S, "s");
     }
+    if let Some(c) = &machine.controller {
+        if c.source.trim().is_empty() {
+            m.push(
+                "controller.source",
+                "empty; expected where the controller comes from (a publication, logs, or \"assumed: <why>\")".into(),
+            );
+        }
+    }
     if let Some(spread) = &machine.spread {
         for (name, x) in spread.fields() {
             m.check(&format!("spread.{name}"), x, false, "");

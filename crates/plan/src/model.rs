@@ -150,6 +150,19 @@ pub struct Machine {
     /// `simulate --monte-carlo`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spread: Option<crate::TimingSpread>,
+    /// How the gantry moves (motion model and schedule) and where that comes from; a machine
+    /// without one is simulated under [`crate::Controller::assumed`], and the output says so.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller: Option<crate::Controller>,
+}
+
+impl Machine {
+    /// The machine's controller, or the documented assumption when its file names none.
+    pub fn controller_or_assumed(&self) -> crate::Controller {
+        self.controller
+            .clone()
+            .unwrap_or_else(crate::Controller::assumed)
+    }
 }
 
 /// Kinematic limits of the gantry (magnitudes).

@@ -20,13 +20,13 @@ fn read(path: &std::path::Path, columns: Option<&str>) -> PyResult<arcsim_log::D
 }
 
 fn options(
-    schedule: &str,
+    schedule: Option<&str>,
     motion: Option<&str>,
     plan: &Plan,
     machine: &Machine,
 ) -> PyResult<Options> {
     let request = SimulateRequest {
-        schedule: crate::simulate::schedule_of(schedule)?,
+        schedule: crate::simulate::schedule_opt(schedule)?,
         motion: crate::simulate::motion_of(motion)?,
         arc_ends: ArcEnds::Rest,
         period_s: None,
@@ -98,14 +98,14 @@ impl Comparison {
 /// `columns`) with `plan` simulated on `machine` (default the built-in ATOM machine), as
 /// `arcsim compare` does. Raises LogError for a log that cannot be read or does not fit the plan.
 #[pyfunction]
-#[pyo3(signature = (plan, log, machine=None, motion=None, schedule="optimal", columns=None))]
+#[pyo3(signature = (plan, log, machine=None, motion=None, schedule=None, columns=None))]
 pub fn compare(
     py: Python<'_>,
     plan: &Bound<'_, Plan>,
     log: PathBuf,
     machine: Option<&Bound<'_, Machine>>,
     motion: Option<&str>,
-    schedule: &str,
+    schedule: Option<&str>,
     columns: Option<&str>,
 ) -> PyResult<Comparison> {
     let plan = plan.get();
@@ -131,13 +131,19 @@ pub fn compare(
         };
         let main = simulate_resolved(&arcs, &limits, &opts)
             .map_err(|e| SimulationError::new_err(e.to_string()))?;
-        let other = Options {
-            motion: opts.motion.other(),
-            servo_period_s: None,
-            ..opts.clone()
-        };
-        let alt = simulate_resolved(&arcs, &limits, &other).ok();
-        let others: Vec<&arcsim_sequencer::Delivery> = alt.iter().collect();
+        let alts: Vec<arcsim_sequencer::Delivery> = arcsim_sequencer::Motion::ALL
+            .into_iter()
+            .filter(|&m| m != opts.motion)
+            .filter_map(|motion| {
+                let other = Options {
+                    motion,
+                    servo_period_s: None,
+                    ..opts.clone()
+                };
+                simulate_resolved(&arcs, &limits, &other).ok()
+            })
+            .collect();
+        let others: Vec<&arcsim_sequencer::Delivery> = alts.iter().collect();
         arcsim_log::compare(&arcs, &main, &others, &log)
             .map_err(|e| LogError::new_err(e.to_string()))
     })?;
@@ -149,14 +155,14 @@ pub fn compare(
 /// `(fitted Machine, report dict)`: every value with its 95 % interval, what the logs do not
 /// determine, the spreads, the residual per log before and after.
 #[pyfunction]
-#[pyo3(signature = (machine, runs, elst="constant", motion=None, schedule="optimal", columns=None))]
+#[pyo3(signature = (machine, runs, elst="constant", motion=None, schedule=None, columns=None))]
 pub fn calibrate<'py>(
     py: Python<'py>,
     machine: &Bound<'py, Machine>,
     runs: Vec<(Bound<'py, Plan>, PathBuf)>,
     elst: &str,
     motion: Option<&str>,
-    schedule: &str,
+    schedule: Option<&str>,
     columns: Option<&str>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let base = machine.get();
@@ -174,7 +180,8 @@ pub fn calibrate<'py>(
             "runs: expected at least one (plan, log) pair",
         ));
     };
-    let opts = options(schedule, motion, first.get(), base)?;
+    let opts = options(schedule, None, first.get(), base)?;
+    let forced = crate::simulate::motion_of(motion)?;
     let logged = runs
         .iter()
         .map(|(plan, path)| {
@@ -187,7 +194,7 @@ pub fn calibrate<'py>(
         })
         .collect::<PyResult<Vec<_>>>()?;
     let cal = py
-        .detach(|| arcsim_log::calibrate(&base.machine, &logged, fit, &opts))
+        .detach(|| arcsim_log::calibrate_controller(&base.machine, &logged, fit, &opts, forced))
         .map_err(|e| match e {
             arcsim_log::CalibrateError::Match(m) => LogError::new_err(m.to_string()),
             other => SimulationError::new_err(other.to_string()),

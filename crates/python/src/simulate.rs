@@ -31,14 +31,16 @@ pub(crate) fn schedule_of(name: &str) -> PyResult<Schedule> {
 }
 
 pub(crate) fn motion_of(name: Option<&str>) -> PyResult<Option<Motion>> {
-    match name {
-        None => Ok(None),
-        Some("free") => Ok(Some(Motion::Free)),
-        Some("constant") => Ok(Some(Motion::Constant)),
-        Some(other) => Err(PyValueError::new_err(format!(
-            "motion: expected \"free\", \"constant\" or None, got {other:?}"
-        ))),
-    }
+    name.map(|n| {
+        n.parse::<Motion>()
+            .map_err(|e| PyValueError::new_err(format!("motion: {e}")))
+    })
+    .transpose()
+}
+
+/// A schedule name, or `None` for the machine controller's.
+pub(crate) fn schedule_opt(name: Option<&str>) -> PyResult<Option<Schedule>> {
+    name.map(schedule_of).transpose()
 }
 
 fn arc_ends_of(name: &str) -> PyResult<ArcEnds> {
@@ -62,6 +64,7 @@ pub struct Delivery {
     warnings: Vec<Warning>,
     notes: Vec<String>,
     strict: bool,
+    controller: arcsim_app::ControllerUsed,
 }
 
 impl Delivery {
@@ -346,6 +349,7 @@ impl Delivery {
             warnings: &self.warnings,
             notes: &self.notes,
             strict: self.strict,
+            controller: &self.controller,
         };
         ResultDocument::new(&self.plan, &from, &self.delivery)
             .to_json()
@@ -398,19 +402,19 @@ fn run(
 }
 
 /// Simulates `plan` on `machine` (default: the built-in ATOM machine) as `arcsim simulate` does:
-/// `schedule` "optimal" (default), "scan", "prescribed" or "step-and-shoot"; `motion` "free"
-/// (default for optimal and scan in continuous time), "constant" or None for the CLI's default;
+/// `schedule` "optimal", "scan", "prescribed", "step-and-shoot" or None (the machine
+/// controller's); `motion` "free", "constant" or None (the machine's controller, as the CLI);
 /// `period_s` a servo period overriding the machine's; `strict` refuses implausible values
 /// (likely unit slips) instead of warning. The GIL is released while it runs.
 #[pyfunction]
-#[pyo3(signature = (plan, machine=None, schedule="optimal", period_s=None, motion=None, arc_ends="rest", strict=false))]
+#[pyo3(signature = (plan, machine=None, schedule=None, period_s=None, motion=None, arc_ends="rest", strict=false))]
 // Each Python keyword argument of the signature above is one Rust parameter: pyo3 needs them all.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>,
     plan: &Bound<'_, Plan>,
     machine: Option<&Bound<'_, Machine>>,
-    schedule: &str,
+    schedule: Option<&str>,
     period_s: Option<&Bound<'_, PyAny>>,
     motion: Option<&str>,
     arc_ends: &str,
@@ -450,12 +454,12 @@ pub fn simulate(
         )?;
     }
     let request = SimulateRequest {
-        schedule: schedule_of(schedule)?,
+        schedule: schedule_opt(schedule)?,
         motion: motion_of(motion)?,
         arc_ends: arc_ends_of(arc_ends)?,
         period_s,
     };
-    let (opts, notes) = request.options(&plan.plan, &machine.machine);
+    let (opts, notes, controller) = request.resolve(&plan.plan, &machine.machine);
     let delivery = run(py, &plan.plan, &machine.machine, &opts)?;
     Ok(Delivery {
         delivery,
@@ -466,6 +470,7 @@ pub fn simulate(
         warnings,
         notes,
         strict,
+        controller,
     })
 }
 

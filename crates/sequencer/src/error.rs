@@ -6,6 +6,8 @@ use arcsim_planner::PlannerError;
 use crate::types::Schedule;
 use thiserror::Error;
 
+pub use arcsim_plan::UnknownName;
+
 /// Why a delivery cannot be sequenced.
 #[derive(Debug, Error)]
 pub enum SequenceError {
@@ -212,18 +214,6 @@ pub enum VerificationError {
         /// The last layer's end (s).
         layers_end_s: f64,
     },
-}
-
-/// A name that is none of a choice's names (schedule, motion, arc ends).
-#[derive(Debug, Error)]
-#[error("unknown {what} '{name}' (expected {expected})")]
-pub struct UnknownName {
-    /// What was named ("schedule", "motion", "arc ends").
-    pub what: &'static str,
-    /// The name given.
-    pub name: String,
-    /// The names it may be.
-    pub expected: &'static str,
 }
 
 /// What made one transition or layer infeasible.

@@ -3,6 +3,7 @@
 use std::collections::HashMap;
 
 use arcsim_plan::{BeamModel, ElstModel, Machine};
+use arcsim_sequencer::{ArcEnds, Motion, Schedule};
 
 use super::*;
 use crate::sweep_file::{Axes, AxisSpec, Scale, SweepFile};
@@ -118,7 +119,7 @@ pub(super) fn expand_runs(
             Ok(ScheduleGrid {
                 schedule: RunMode {
                     schedule: entry.schedule,
-                    motion: entry.motion,
+                    motion: entry_motion(entry, machine, file, &format!("schedules[{i}]"))?,
                     arc_ends: entry.arc_ends,
                 },
                 grid,
@@ -131,6 +132,29 @@ pub(super) fn expand_runs(
         check_range_distinct(range, field, file)?;
     }
     Ok(runs)
+}
+
+/// An entry's motion: its own, else the base machine's controller's (constant speed where the
+/// schedule is `prescribed` or `step-and-shoot`, as `simulate` does); free arc ends need free
+/// motion.
+fn entry_motion(
+    entry: &crate::sweep_file::ScheduleEntry,
+    machine: &Machine,
+    file: &str,
+    at: &str,
+) -> Result<Motion, EvalError> {
+    let motion = entry.motion.unwrap_or_else(|| match entry.schedule {
+        Schedule::Prescribed | Schedule::StepAndShoot => Motion::Constant,
+        _ => machine.controller_or_assumed().motion,
+    });
+    if motion == Motion::Constant && entry.arc_ends == ArcEnds::Free {
+        return Err(EvalError::sweep(
+            file,
+            format!("{at}.arc_ends"),
+            "\"free\" needs free motion (a constant-speed arc starts and ends at rest); the base machine's controller is constant speed per layer: give \"motion\": \"free\"".to_string(),
+        ));
+    }
+    Ok(motion)
 }
 
 /// Why `machine` cannot have `axis` swept: an ELST model without the single value, or a beam

@@ -1,0 +1,200 @@
+//! Which controller a machine follows, learnt from its logs: the calibration is fitted under
+//! every motion model, each fitted machine simulates every logged plan under its model, and the
+//! model whose layer beam-on times come out closest to the logged ones is chosen when its error
+//! is at least [`CONTROLLER_DECISION_RATIO`] times smaller than every other's. Otherwise the
+//! controller is "not determined" and the base machine's is kept, said so. Timings fitted under
+//! the wrong controller are wrong (a constant-speed machine's ELST read through free motion comes
+//! out 20 % long), so the choice comes before the timings, not after.
+
+use std::collections::BTreeMap;
+
+use arcsim_plan::{
+    resolve, Controller, ControllerEvidence, Machine, Motion, CONTROLLER_DECISION_RATIO,
+};
+use arcsim_sequencer::{simulate, Options};
+use rayon::prelude::*;
+
+use crate::calibrate::{calibrate, CalibrateError, Calibration, ElstFit, LoggedRun};
+use crate::compare::compare;
+
+/// A residual after the fit is worth a warning above this many percent (or above 3 × the logs'
+/// own timing noise, when that is larger).
+pub const RESIDUAL_WARNING_PCT: f64 = 0.5;
+
+/// Fits `base` to `runs` under the controller the logs show (or `forced`), and writes that
+/// controller with its evidence into the fitted machine. `options` give the schedule (and arc
+/// ends) of the simulations; their motion is replaced by each candidate's.
+pub fn calibrate_controller(
+    base: &Machine,
+    runs: &[LoggedRun],
+    elst_fit: ElstFit,
+    options: &Options,
+    forced: Option<Motion>,
+) -> Result<Calibration, CalibrateError> {
+    let logs: Vec<String> = runs.iter().map(|r| r.log.source.clone()).collect();
+    let candidates: Vec<Motion> = match forced {
+        Some(m) => vec![m],
+        None => Motion::ALL.to_vec(),
+    };
+    let fits = candidates
+        .par_iter()
+        .map(|&motion| {
+            let opts = Options {
+                motion,
+                ..options.clone()
+            };
+            let cal = calibrate(base, runs, elst_fit, &opts)?;
+            let rms = rms_beam_on_start(&cal.machine, runs, &opts)?;
+            Ok((motion, cal, rms))
+        })
+        .collect::<Result<Vec<_>, CalibrateError>>()?;
+    let rms_by_name: BTreeMap<String, f64> = fits
+        .iter()
+        .map(|(m, _, rms)| (m.name().to_string(), *rms))
+        .collect();
+    let base_controller = base.controller_or_assumed();
+    let best = fits
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
+        .map_or(0, |(i, _)| i);
+    let best_rms = fits[best].2;
+    let separated = fits
+        .iter()
+        .enumerate()
+        .all(|(i, f)| i == best || f.2 >= CONTROLLER_DECISION_RATIO * best_rms);
+    let (chosen, decision, source) = if forced.is_some() {
+        (
+            best,
+            "forced",
+            format!(
+                "forced by --motion in the calibration from {} log(s); rms beam-on timing error {:.3} s",
+                logs.len(),
+                best_rms
+            ),
+        )
+    } else if separated {
+        let second = fits
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != best)
+            .map(|(_, f)| f.2)
+            .fold(f64::INFINITY, f64::min);
+        (
+            best,
+            "chosen",
+            format!(
+                "fitted from {} delivery log(s): {} fits the layers' beam-on times {:.1} times better (rms {:.3} s against {:.3} s; the rule asks {}×)",
+                logs.len(),
+                fits[best].0.describe(),
+                second / best_rms.max(f64::MIN_POSITIVE),
+                best_rms,
+                second,
+                CONTROLLER_DECISION_RATIO
+            ),
+        )
+    } else {
+        let kept = fits
+            .iter()
+            .position(|f| f.0 == base_controller.motion)
+            .unwrap_or(best);
+        (
+            kept,
+            "not determined",
+            format!(
+                "not determined by {} delivery log(s) (the models' rms beam-on timing errors differ by less than {}×: {}); kept from the base machine: {}",
+                logs.len(),
+                CONTROLLER_DECISION_RATIO,
+                rms_by_name
+                    .iter()
+                    .map(|(k, v)| format!("{k} {v:.3} s"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                base_controller.source
+            ),
+        )
+    };
+    let mut fits = fits;
+    let (motion, mut cal, _) = fits.swap_remove(chosen);
+    let evidence = ControllerEvidence {
+        logs,
+        rms_beam_on_start_s: rms_by_name,
+        decision: decision.to_string(),
+    };
+    cal.machine.controller = Some(Controller {
+        motion,
+        schedule: options.schedule,
+        source,
+        evidence: Some(evidence.clone()),
+    });
+    cal.report.controller = Some(evidence);
+    residual_warnings(&mut cal, runs);
+    Ok(cal)
+}
+
+/// Pooled over every layer of every log: the rms of (logged − simulated) beam-on start, each
+/// log aligned on its first layer, for `machine` simulated with `options`.
+fn rms_beam_on_start(
+    machine: &Machine,
+    runs: &[LoggedRun],
+    options: &Options,
+) -> Result<f64, CalibrateError> {
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    let per_run = runs
+        .par_iter()
+        .map(|r| {
+            let arcs = resolve(&r.plan, machine).map_err(|source| CalibrateError::Plan {
+                plan: r.plan_name.clone(),
+                source,
+            })?;
+            let sim =
+                simulate(&r.plan, machine, &opts).map_err(|source| CalibrateError::Simulate {
+                    plan: r.plan_name.clone(),
+                    source,
+                })?;
+            let c = compare(&arcs, &sim, &[], &r.log)?;
+            let n = c.layers.len() as f64;
+            let rms = c.motion_fits.first().map_or(0.0, |f| f.rms_start_s);
+            Ok((rms * rms * n, n))
+        })
+        .collect::<Result<Vec<_>, CalibrateError>>()?;
+    let (ss, n) = per_run
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
+    Ok((ss / n.max(1.0)).sqrt())
+}
+
+/// A residual after the fit above max([`RESIDUAL_WARNING_PCT`], 3 × the log's own timing noise)
+/// is a warning with its likely cause.
+fn residual_warnings(cal: &mut Calibration, runs: &[LoggedRun]) {
+    let spread = cal.report.spread;
+    let sd = spread
+        .elst_up_sd_s
+        .max(spread.elst_down_sd_s)
+        .max(spread.elst_same_sd_s);
+    for (r, run) in cal.report.residuals.iter().zip(runs) {
+        let switches = run
+            .plan
+            .arcs
+            .iter()
+            .map(|a| {
+                a.control_points
+                    .iter()
+                    .map(|cp| cp.layers.len())
+                    .sum::<usize>()
+            })
+            .sum::<usize>()
+            .saturating_sub(1) as f64;
+        let noise_pct = 100.0 * sd * switches.sqrt() / r.logged_total_s.max(f64::MIN_POSITIVE);
+        let limit = RESIDUAL_WARNING_PCT.max(3.0 * noise_pct);
+        if r.fitted_error_pct.abs() > limit {
+            cal.report.warnings.push(format!(
+                "{}: the fitted machine is {:+.2} % off this log (above {:.2} %, the larger of {} % and 3 × the timing noise of its switches); likely causes: a log of another machine or controller than the others, interruptions, or a timing the model does not have (bursts, spills, a gantry limit the logs do not show)",
+                r.log, r.fitted_error_pct, limit, RESIDUAL_WARNING_PCT
+            ));
+        }
+    }
+}

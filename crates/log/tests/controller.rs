@@ -1,0 +1,293 @@
+//! Calibration learns a machine's controller from its logs. Machines hidden here, one per
+//! controller: free motion, constant speed per layer (optimal schedule), and a constant-speed
+//! machine whose gantry is a servo loop written in this file (a second-order lag with overshoot
+//! tracking the planned constant-speed trajectory), so the logs do not come from the sequencer's
+//! own motion. Each fit uses 3 plans, 10 ms samples, 0.01° noise, 3 % ELST jitter; the base is
+//! the ATOM machine (constant speed per layer); a held-out plan is predicted by the fitted
+//! machine under the controller it wrote, with no option given.
+
+use std::path::PathBuf;
+
+use arcsim_log::{
+    calibrate_controller, parse_log, to_csv, virtual_log, Calibration, ColumnMap, DeliveryLog,
+    ElstFit, LogSample, LoggedRun, VirtualLogOptions,
+};
+use arcsim_plan::{
+    generate, load_plan, parse_machine, resolve, ArcPlan, BeamModel, ElstModel, Machine, Motion,
+    PlanKind, TimingSpread,
+};
+use arcsim_sequencer::{
+    machine_limits, simulate, simulate_resolved, spot_timeline, Options, Schedule,
+};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn bundled(name: &str) -> ArcPlan {
+    load_plan(repo().join(format!("plans/{name}.json"))).expect("plan")
+}
+
+/// A constant-speed machine unlike the bundled ones: V 3.5 °/s (not reached on these plans),
+/// A 0.4, J 0.6, ELST 4.0 s up and 0.7 s down, 0.0045 s/MU.
+const HIDDEN_CONSTANT: &str = r#"{
+  "format": "arcsim-machine/1", "name": "hidden-constant",
+  "gantry": {"max_speed_deg_per_s": 3.5, "max_accel_deg_per_s2": 0.4, "max_jerk_deg_per_s3": 0.6},
+  "beam": {"s_per_mu": 0.0045, "spot_switch_time_s": 0.002, "min_spot_time_s": 0.0},
+  "elst": {"kind": "constant", "up_s": 4.0, "down_s": 0.7, "same_s": 0.0},
+  "default_window_deg": 1.0
+}"#;
+
+/// How the hidden machine's gantry really moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Truth {
+    Free,
+    Constant,
+    /// Constant speed per layer as planned, followed by a servo loop with lag and overshoot.
+    Servo,
+}
+
+impl Truth {
+    fn motion(self) -> Motion {
+        match self {
+            Truth::Free => Motion::Free,
+            Truth::Constant | Truth::Servo => Motion::Constant,
+        }
+    }
+}
+
+fn hidden(truth: Truth) -> Machine {
+    match truth {
+        Truth::Free => parse_machine(arcsim_test_support::HIDDEN_MACHINE_JSON, "hidden"),
+        Truth::Constant | Truth::Servo => parse_machine(HIDDEN_CONSTANT, "hidden-constant"),
+    }
+    .expect("hidden machine")
+}
+
+/// A second-order servo (natural frequency 12 rad/s, damping 0.5: about 16 % overshoot, 0.1 s
+/// lag) tracking `reference`, integrated with the log's own period. Written here, independent of
+/// the sequencer's moves.
+fn servo(samples: &mut [LogSample]) {
+    let (wn, zeta) = (12.0_f64, 0.5_f64);
+    let Some(first) = samples.first() else { return };
+    let (mut x, mut v) = (first.gantry_angle_deg, 0.0);
+    let mut prev_t = first.t_s;
+    for s in samples.iter_mut() {
+        let dt = s.t_s - prev_t;
+        prev_t = s.t_s;
+        // Sub-steps keep the explicit integration stable and accurate.
+        let n = (dt / 1e-3).ceil().max(1.0) as usize;
+        let h = dt / n as f64;
+        for _ in 0..n {
+            let a = wn * wn * (s.gantry_angle_deg - x) - 2.0 * zeta * wn * v;
+            v += h * a;
+            x += h * v;
+        }
+        s.gantry_angle_deg = x;
+    }
+}
+
+/// A log of `plan` delivered by the hidden machine of `truth`: each switch's ELST drawn at 3 %
+/// (seeded), sampled every 10 ms, 0.01° of angle noise, written and read back as a file.
+fn log_of(plan: &ArcPlan, truth: Truth, seed: u64, name: &str) -> DeliveryLog {
+    let machine = hidden(truth);
+    let arcs = resolve(plan, &machine).expect("resolves");
+    let ElstModel::Constant { up_s, down_s, .. } = machine.elst else {
+        unreachable!("hidden machines have a constant ELST")
+    };
+    let jitter = TimingSpread {
+        elst_up_sd_s: 0.03 * up_s,
+        elst_down_sd_s: 0.03 * down_s,
+        elst_same_sd_s: 0.0,
+        beam_time_sd_fraction: 0.0,
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut normal = move || {
+        let (u1, u2): (f64, f64) = (1.0 - rng.random::<f64>(), rng.random::<f64>());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    };
+    let drawn = jitter.draw(&arcs, &mut normal);
+    let limits = machine_limits(&machine).expect("limits");
+    let opts = Options {
+        motion: truth.motion(),
+        build_timeline: true,
+        ..Options::new(Schedule::Optimal)
+    };
+    let d = simulate_resolved(&drawn, &limits, &opts).expect("simulated");
+    let spots = spot_timeline(plan, &machine, &d).expect("spots");
+    let clean = VirtualLogOptions {
+        period_s: 0.01,
+        angle_noise_deg: 0.0,
+        seed,
+    };
+    let mut samples = virtual_log(&d, &spots, &clean).expect("log");
+    if truth == Truth::Servo {
+        servo(&mut samples);
+    }
+    for s in &mut samples {
+        s.gantry_angle_deg += 0.01 * normal();
+    }
+    parse_log(to_csv(&samples).as_bytes(), name, &ColumnMap::default()).expect("reads back")
+}
+
+fn runs(truth: Truth, seed: u64) -> Vec<LoggedRun> {
+    ["lung", "prostate", "two-arc"]
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let plan = bundled(name);
+            let log = log_of(&plan, truth, seed * 10 + k as u64, &format!("{name}.log"));
+            LoggedRun {
+                plan_name: name.to_string(),
+                plan,
+                log,
+            }
+        })
+        .collect()
+}
+
+fn atom() -> Machine {
+    arcsim_plan::load_machine(repo().join("scenarios/machine-atom.json")).expect("atom")
+}
+
+fn fit(truth: Truth, seed: u64) -> Calibration {
+    let opts = Options::new(Schedule::Optimal);
+    calibrate_controller(&atom(), &runs(truth, seed), ElstFit::Constant, &opts, None)
+        .expect("calibrated")
+}
+
+fn within(x: f64, truth: f64, tol: f64, what: &str) {
+    assert!(
+        (x / truth - 1.0).abs() <= tol,
+        "{what}: fitted {x}, hidden {truth} (tolerance {} %)",
+        100.0 * tol
+    );
+}
+
+/// What issue 44 asks of every seed: the controller right, ELST and s/MU within 2 %, a held-out
+/// plan within 1 % of its log under the controller the fitted machine names.
+fn check(truth: Truth, seed: u64) {
+    let cal = fit(truth, seed);
+    for v in &cal.report.values {
+        eprintln!("{} = {} {:?} ({})", v.field, v.value, v.interval, v.note);
+    }
+    let controller = cal
+        .machine
+        .controller
+        .clone()
+        .expect("a controller written");
+    let evidence = controller.evidence.clone().expect("its evidence");
+    assert_eq!(
+        (controller.motion, evidence.decision.as_str()),
+        (truth.motion(), "chosen"),
+        "seed {seed}, {truth:?}: {}",
+        controller.source
+    );
+    let hidden = hidden(truth);
+    let (
+        ElstModel::Constant { up_s, down_s, .. },
+        ElstModel::Constant {
+            up_s: u, down_s: d, ..
+        },
+    ) = (&cal.machine.elst, &hidden.elst)
+    else {
+        panic!("constant ELST expected")
+    };
+    within(*up_s, *u, 0.02, "ELST up");
+    within(*down_s, *d, 0.02, "ELST down");
+    let (BeamModel::PerMu(b), BeamModel::PerMu(t)) = (&cal.machine.beam, &hidden.beam) else {
+        panic!("per_mu expected")
+    };
+    within(b.s_per_mu, t.s_per_mu, 0.02, "s per MU");
+    // V is never below what the logs show of it.
+    let v = cal
+        .report
+        .values
+        .iter()
+        .find(|v| v.field == "gantry.max_speed_deg_per_s")
+        .expect("V");
+    if let Some(peak) = cal.report.observed.speed.as_ref() {
+        assert!(
+            v.value >= 0.98 * peak.peak,
+            "V {} below the logged peak {}",
+            v.value,
+            peak.peak
+        );
+    }
+    // The fitted machine alone (its controller, no option) predicts a plan it never saw.
+    let held_out = generate(PlanKind::Lung, 7);
+    let logged = log_of(&held_out, truth, seed + 1000, "held-out.log");
+    let layers = arcsim_log::match_layers(
+        &logged,
+        &resolve(&held_out, &cal.machine).expect("resolves"),
+    )
+    .expect("matches");
+    let logged_total = layers[layers.len() - 1].end_s - layers[0].start_s;
+    let opts = Options {
+        motion: controller.motion,
+        ..Options::new(controller.schedule)
+    };
+    let predicted = simulate(&held_out, &cal.machine, &opts)
+        .expect("simulated")
+        .total_s;
+    within(predicted, logged_total, 0.01, "held-out total");
+}
+
+#[test]
+fn calibration_learns_a_constant_speed_controller() {
+    for seed in 0..5 {
+        check(Truth::Constant, seed);
+    }
+}
+
+#[test]
+fn calibration_learns_a_free_motion_controller() {
+    for seed in 0..5 {
+        check(Truth::Free, seed);
+    }
+}
+
+#[test]
+fn calibration_learns_a_servo_loop_as_constant_speed() {
+    for seed in 0..5 {
+        check(Truth::Servo, seed);
+    }
+}
+
+/// `--motion` forces the model: the fit is made under it and says so.
+#[test]
+fn a_forced_motion_is_written_as_forced() {
+    let opts = Options::new(Schedule::Optimal);
+    let cal = calibrate_controller(
+        &atom(),
+        &runs(Truth::Constant, 3),
+        ElstFit::Constant,
+        &opts,
+        Some(Motion::Free),
+    )
+    .expect("calibrated");
+    let c = cal.machine.controller.expect("controller");
+    assert_eq!(c.motion, Motion::Free);
+    assert_eq!(c.evidence.expect("evidence").decision, "forced");
+    // Fitted under the wrong model, the residuals say so.
+    assert!(
+        !cal.report.warnings.is_empty(),
+        "{:?}",
+        cal.report.residuals
+    );
+}
+
+/// The long run issue 44 asks for: 20 seeds per machine (CI runs the first 5 of each above). `cargo test -p arcsim-log --release
+/// -- --ignored controller_twenty_seeds --nocapture`.
+#[test]
+#[ignore = "about 20 minutes: run by hand, figures in the closing note"]
+fn controller_twenty_seeds() {
+    for truth in [Truth::Constant, Truth::Free, Truth::Servo] {
+        for seed in 0..20 {
+            check(truth, seed);
+            eprintln!("{truth:?} seed {seed}: ok");
+        }
+    }
+}

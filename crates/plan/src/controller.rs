@@ -1,0 +1,192 @@
+//! How a machine's gantry moves: its controller. A property of the machine (its file says which,
+//! with a source), because the same limits give different delivery times under different
+//! controllers, and a calibration fitted under the wrong one is wrong everywhere.
+//!
+//! A controller is a [`Motion`] (the law of motion during and between layers) and a [`Schedule`]
+//! (how the constant layer speeds are chosen; free motion starts from them). Adding a controller
+//! is a new [`Motion`] variant and its solver in the sequencer; every command lists, parses and
+//! reports controllers through [`Motion::ALL`], [`Motion::name`] and [`Motion::describe`].
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// A name that is none of a choice's names (schedule, motion, arc ends).
+#[derive(Debug, Error)]
+#[error("unknown {what} '{name}' (expected {expected})")]
+pub struct UnknownName {
+    /// What was named ("schedule", "motion", "arc ends").
+    pub what: &'static str,
+    /// The name given.
+    pub name: String,
+    /// The names it may be.
+    pub expected: &'static str,
+}
+
+/// How layer speeds are chosen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Schedule {
+    /// The plan's required speeds, checked; infeasible ones are reported and corrected minimally.
+    Prescribed,
+    /// Bidirectional scan: window/V caps, then backward and forward passes until feasible, then
+    /// lower speeds where a transition would stop and dwell to last its ELST, then a local search
+    /// over single speeds and neighbour pairs.
+    Scan,
+    /// The least total delivery time found over the layer speeds (dynamic programming over
+    /// refined speed grids; a local search, never worse than `Scan`).
+    #[default]
+    Optimal,
+    /// The gantry stops at every layer (the classic baseline).
+    StepAndShoot,
+}
+
+impl Schedule {
+    /// Every schedule, in the order the CLI lists them.
+    pub const ALL: [Schedule; 4] = [
+        Schedule::Prescribed,
+        Schedule::Scan,
+        Schedule::Optimal,
+        Schedule::StepAndShoot,
+    ];
+
+    /// The name the CLI and the files use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Schedule::Prescribed => "prescribed",
+            Schedule::Scan => "scan",
+            Schedule::Optimal => "optimal",
+            Schedule::StepAndShoot => "step-and-shoot",
+        }
+    }
+}
+
+impl std::str::FromStr for Schedule {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        Schedule::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| UnknownName {
+                what: "schedule",
+                name: s.to_string(),
+                expected: "prescribed, scan, optimal or step-and-shoot",
+            })
+    }
+}
+
+/// How the gantry moves while a layer is irradiated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Motion {
+    /// ATOM's rule: one constant speed per layer, its sweep centred on the layer's angle, zero
+    /// acceleration at every beam-on and beam-off.
+    #[default]
+    Constant,
+    /// The machine's own limits only: the gantry may speed up or slow down while the beam is on,
+    /// anywhere inside the layer's window.
+    Free,
+}
+
+impl Motion {
+    /// Every motion model, in the order the CLI lists them.
+    pub const ALL: [Motion; 2] = [Motion::Constant, Motion::Free];
+
+    /// The other model: what a comparison with a log also simulates, to say which fits.
+    pub fn other(self) -> Motion {
+        match self {
+            Motion::Free => Motion::Constant,
+            Motion::Constant => Motion::Free,
+        }
+    }
+
+    /// The name the CLI and the files use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Motion::Constant => "constant",
+            Motion::Free => "free",
+        }
+    }
+
+    /// What the model is, in a few words, for summaries.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Motion::Constant => "constant speed per layer",
+            Motion::Free => "free motion (speed may change during beam-on)",
+        }
+    }
+}
+
+impl std::str::FromStr for Motion {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        Motion::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| UnknownName {
+                what: "motion",
+                name: s.to_string(),
+                expected: "constant or free",
+            })
+    }
+}
+
+/// A machine's controller as its file states it: the motion model, the schedule of the constant
+/// layer speeds, and where that knowledge comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Controller {
+    /// How the gantry moves during and between layers.
+    pub motion: Motion,
+    /// How the constant layer speeds are chosen (free motion starts from them).
+    #[serde(default)]
+    pub schedule: Schedule,
+    /// Where this comes from: a publication, a calibration from logs, or `assumed: <why>`.
+    pub source: String,
+    /// How a calibration decided it from logs (written by `arcsim calibrate`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub evidence: Option<ControllerEvidence>,
+}
+
+/// What logs showed of a machine's controller: each model simulated, its timing error against
+/// the logged layers, and the decision with its rule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerEvidence {
+    /// The logs the decision was made from.
+    pub logs: Vec<String>,
+    /// Per motion model, the rms of (logged − simulated) layer beam-on start times, s, over every
+    /// layer of every log (each log's offset removed).
+    pub rms_beam_on_start_s: BTreeMap<String, f64>,
+    /// `chosen` (the best model's error is at least [`CONTROLLER_DECISION_RATIO`] times smaller
+    /// than every other's), `not determined` (the base's kept) or `forced` (`--motion`).
+    pub decision: String,
+}
+
+/// How many times smaller a model's timing error must be than every other's to be chosen from
+/// logs (issue 44's rule: a factor 3 separates the models well above timing noise).
+pub const CONTROLLER_DECISION_RATIO: f64 = 3.0;
+
+/// The source written for a machine file that names no controller.
+pub const ASSUMED_CONTROLLER_SOURCE: &str = "assumed: the machine file names no controller; arcsim assumes ATOM's published model (one constant speed per layer, Wase et al., Phys. Med. Biol. 2024) with the optimal schedule";
+
+impl Controller {
+    /// The controller of a machine file that names none ([`ASSUMED_CONTROLLER_SOURCE`]).
+    pub fn assumed() -> Controller {
+        Controller {
+            motion: Motion::Constant,
+            schedule: Schedule::Optimal,
+            source: ASSUMED_CONTROLLER_SOURCE.into(),
+            evidence: None,
+        }
+    }
+
+    /// Whether the source says the controller is an assumption.
+    pub fn is_assumed(&self) -> bool {
+        self.source
+            .trim_start()
+            .to_ascii_lowercase()
+            .starts_with("assumed")
+    }
+}
