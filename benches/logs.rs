@@ -2,13 +2,16 @@
 //! fits) on a 180-layer plan's 10 ms log, with and without the two simulations the command runs,
 //! and `calibrate` (the fits, bootstrap intervals and the residual simulations) on that log.
 //! The log is the plan's free-motion delivery on the tests' hidden machine with 0.01 deg angle noise.
+//! And at scale: a 4 kHz per-spot record of a 274 s arc (1.1M rows) read and compared, and
+//! calibrated, under the ATOM machine's own controller (issue 44's goal: ≤ 3 s on 2 cores).
 //! `cargo bench --bench logs`
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use arcsim_log::{
-    calibrate, compare, virtual_log, DeliveryLog, ElstFit, LoggedRun, VirtualLogOptions,
+    calibrate, compare, parse_log, to_csv, virtual_log, ColumnMap, DeliveryLog, ElstFit, LoggedRun,
+    VirtualLogOptions,
 };
 use arcsim_plan::{load_machine, load_plan, parse_machine, resolve};
 use arcsim_sequencer::{
@@ -96,5 +99,65 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+/// Issue 44's scale: a per-spot record at 4 kHz of a 274 s arc (the bundled prostate on the
+/// ATOM machine under its own controller, constant speed per layer): 1.1M rows, read from its
+/// CSV bytes and compared (the simulation included), and calibrated under that controller.
+fn bench_4khz(c: &mut Criterion) {
+    let root = arcsim_suite::repo_root();
+    let plan = load_plan(root.join("plans/prostate.json")).expect("plan");
+    let atom = load_machine(root.join("scenarios/machine-atom.json")).expect("atom");
+    let constant = Options::new(Schedule::Optimal);
+    let arcs = resolve(&plan, &atom).expect("resolves");
+    let limits = machine_limits(&atom).expect("limits");
+    let delivered = simulate_resolved(&arcs, &limits, &constant).expect("simulated");
+    let spots = spot_timeline(&plan, &atom, &delivered).expect("spots");
+    let opts = VirtualLogOptions {
+        period_s: 0.00025,
+        angle_noise_deg: 0.01,
+        seed: 1,
+    };
+    let csv = to_csv(&virtual_log(&delivered, &spots, &opts).expect("log"));
+    let map = ColumnMap::default();
+    let log = parse_log(csv.as_bytes(), "prostate-4khz.csv", &map).expect("reads");
+    let mut group = c.benchmark_group("logs at 4 kHz");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(30));
+    let rows = log.samples.len();
+    group.bench_function(
+        format!("read and compare prostate ({rows} rows), the simulation included"),
+        |b| {
+            b.iter(|| {
+                let log = parse_log(black_box(csv.as_bytes()), "p.csv", &map).expect("reads");
+                let sim = simulate_resolved(&arcs, &limits, &constant).expect("simulated");
+                black_box(
+                    compare(&arcs, &sim, &[], &log)
+                        .expect("compare")
+                        .difference_s,
+                )
+            })
+        },
+    );
+    let runs = [LoggedRun {
+        plan_name: "prostate".into(),
+        plan: plan.clone(),
+        log,
+    }];
+    group.bench_function(
+        format!("calibrate from the ATOM machine under its controller ({rows} rows)"),
+        |b| {
+            b.iter(|| {
+                black_box(
+                    calibrate(&atom, &runs, ElstFit::Constant, &constant)
+                        .expect("calibrate")
+                        .report
+                        .values
+                        .len(),
+                )
+            })
+        },
+    );
+    group.finish();
+}
+
+criterion_group!(benches, bench, bench_4khz);
 criterion_main!(benches);

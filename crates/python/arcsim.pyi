@@ -175,9 +175,10 @@ class Delivery:
         writes the arcsim-log/1 CSV. Raises ValueError for a bad period or noise."""
     def monte_carlo(self, draws: int, seed: int = 0) -> Dict[str, Any]:
         """Percentiles of the total over `draws` deliveries with the machine's timing spreads
-        (`spread`, measured by `calibrate`) drawn per switch and per layer, as `simulate
-        --monte-carlo`: p5_s, p50_s, p95_s, mean_s, sd_s, totals_s. Raises SimulationError when
-        the machine has no spreads."""
+        (per switch and layer) and fitted values' uncertainty (once per delivery), both measured
+        by `calibrate`, as `simulate --monte-carlo`: p5_s, p50_s, p95_s, mean_s, sd_s, totals_s,
+        and with both sources spreads_only_sd_s, parameters_only_sd_s, dominant. Raises
+        SimulationError when the machine has neither."""
     def to_json(self) -> str:
         """The result document, equal to `arcsim simulate --json` for the same inputs."""
 
@@ -205,36 +206,39 @@ def compare(
     log: _Path,
     machine: Optional[Machine] = None,
     motion: Optional[str] = None,
-    schedule: str = "optimal",
+    schedule: Optional[str] = None,
     columns: Optional[str] = None,
 ) -> Comparison:
-    """`arcsim compare`: the log matched to the plan's layers and set beside its simulation.
-    Raises LogError for a log that cannot be read or does not fit the plan."""
+    """`arcsim compare`: the log matched to the plan's layers and set beside its simulation
+    under the machine's controller (motion/schedule override it). Raises LogError for a log
+    that cannot be read or does not fit the plan (its MU column included)."""
 
 def calibrate(
     machine: Machine,
     runs: Sequence[Tuple[Plan, _Path]],
     elst: str = "constant",
     motion: Optional[str] = None,
-    schedule: str = "optimal",
+    schedule: Optional[str] = None,
     columns: Optional[str] = None,
 ) -> Tuple[Machine, Dict[str, Any]]:
     """`arcsim calibrate`: a machine fitted to (plan, log) pairs, starting from `machine`;
-    elst "constant" or "poly". Returns the fitted machine and the report (values with 95 %
-    intervals, what the logs do not determine, spreads, residuals before and after)."""
+    elst "constant" or "poly". The controller is learnt from the logs (motion forces it).
+    Returns the fitted machine (with its controller, spreads and uncertainty) and the report
+    (values with 95 % intervals, what the logs do not determine, the controller's evidence,
+    warnings, residuals before and after)."""
 
 def simulate(
     plan: Plan,
     machine: Optional[Machine] = None,
-    schedule: str = "optimal",
+    schedule: Optional[str] = None,
     period_s: Optional[float] = None,
     motion: Optional[str] = None,
     arc_ends: str = "rest",
     strict: bool = False,
 ) -> Delivery:
-    """`arcsim simulate`: schedule "optimal", "scan", "prescribed" or "step-and-shoot"; motion
-    "free", "constant" or None (the command's default); period_s a servo period. Raises
-    PlanError, SimulationError."""
+    """`arcsim simulate`: schedule "optimal", "scan", "prescribed", "step-and-shoot" or None
+    (the machine's controller's); motion "free", "constant" or None (the machine's
+    controller); period_s a servo period. Raises PlanError, SimulationError."""
 
 def schedule_arrays(
     irradiation_times_s: _Floats,

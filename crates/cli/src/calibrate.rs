@@ -209,6 +209,13 @@ pub fn summary(r: &CalibrationReport, base: &str) -> String {
             x.fitted_error_pct
         );
     }
+    if r.glitches_rejected > 0 {
+        let _ = writeln!(
+            s,
+            "log cleaning: {} glitched angle sample(s) rejected and interpolated",
+            r.glitches_rejected
+        );
+    }
     for w in &r.warnings {
         let _ = writeln!(s, "warning: {w}");
     }

@@ -92,7 +92,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
         CliError::failed(format!("{}: {e}", input_name(&args.plan)))
     };
     // Match first: a log of another plan is refused before any simulation.
-    arcsim_log::match_layers(&log, &arcs).map_err(|e| CliError::failed(e.to_string()))?;
+    let logged =
+        arcsim_log::match_layers(&log, &arcs).map_err(|e| CliError::failed(e.to_string()))?;
+    arcsim_log::check_mu(&log, &plan, &arcs, &logged)
+        .map_err(|e| CliError::failed(e.to_string()))?;
     let others: Vec<Options> = Motion::ALL
         .into_iter()
         .filter(|&m| m != opts.motion)
@@ -201,6 +204,13 @@ pub fn summary(c: &Comparison, plan: &str, machine: &str) -> String {
         c.interrupted_layers,
         c.interruptions
     );
+    if c.glitches_rejected > 0 || c.uncertain_edges > 0 {
+        let _ = writeln!(
+            s,
+            "log cleaning: {} glitched angle sample(s) rejected and interpolated; {} beam edge(s) after a sampling gap of more than 5 log periods, put at their sample (those layers' beam-on times are lower bounds)",
+            c.glitches_rejected, c.uncertain_edges
+        );
+    }
     let _ = writeln!(
         s,
         "                       logged (s)  simulated (s)  difference (s)"

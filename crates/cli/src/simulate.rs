@@ -712,10 +712,10 @@ fn check_monte_carlo(args: &Args, machine: &arcsim_plan::Machine) -> Result<(), 
             arcsim_evaluator::MAX_DRAWS
         )));
     }
-    if machine.spread.is_none() {
+    if machine.spread.is_none() && !machine.uncertainty.is_some_and(|u| u.any()) {
         return Err(CliError::failed(format!(
             "--monte-carlo: the machine {} has no timing spreads (`spread`: elst_up_sd_s, \
-             elst_down_sd_s, beam_time_sd_fraction); `arcsim calibrate` measures them in delivery logs",
+             elst_down_sd_s, beam_time_sd_fraction) and no fitted values' `uncertainty`; `arcsim calibrate` measures both in delivery logs",
             crate::input::machine_name(args.machine.as_deref())
         )));
     }
@@ -729,29 +729,16 @@ fn monte_carlo(
     draws: usize,
     seed: u64,
     plan_path: &Path,
-) -> Result<arcsim_evaluator::MonteCarlo, CliError> {
-    let fail =
-        |e: String| CliError::failed(format!("{}: {e}", crate::input::input_name(plan_path)));
-    let arcs = arcsim_plan::resolve(plan, machine).map_err(|e| fail(e.to_string()))?;
-    let limits = machine_limits(machine).map_err(|e| fail(e.to_string()))?;
-    let opts = arcsim_sequencer::Options {
-        servo_period_s: opts.servo_period_s.or(machine.servo_period_s),
-        ..opts.clone()
-    };
-    let spread = machine.spread.unwrap_or(arcsim_plan::TimingSpread {
-        elst_up_sd_s: 0.0,
-        elst_down_sd_s: 0.0,
-        elst_same_sd_s: 0.0,
-        beam_time_sd_fraction: 0.0,
-    });
-    arcsim_evaluator::monte_carlo(&arcs, &limits, &opts, &spread, draws, seed)
-        .map_err(|e| fail(e.to_string()))
+) -> Result<arcsim_evaluator::MachineMonteCarlo, CliError> {
+    arcsim_evaluator::machine_monte_carlo(plan, machine, opts, draws, seed)
+        .map_err(|e| CliError::failed(format!("{}: {e}", crate::input::input_name(plan_path))))
 }
 
-fn monte_carlo_lines(mc: &arcsim_evaluator::MonteCarlo) -> String {
+fn monte_carlo_lines(m: &arcsim_evaluator::MachineMonteCarlo) -> String {
+    let mc = &m.both;
     let sp = &mc.spread;
-    format!(
-        "Monte Carlo, {} draws (seed {}; sd of ELST up {:.4} s, down {:.4} s, same {:.4} s, beam-on {:.2} %):\n  \
+    let mut s = format!(
+        "Monte Carlo, {} draws (seed {}; sd of ELST up {:.4} s, down {:.4} s, same {:.4} s, beam-on {:.2} %{}):\n  \
          total P5 {:.2} s, P50 {:.2} s, P95 {:.2} s (mean {:.2} s, sd {:.2} s)\n",
         mc.draws,
         mc.seed,
@@ -759,19 +746,31 @@ fn monte_carlo_lines(mc: &arcsim_evaluator::MonteCarlo) -> String {
         sp.elst_down_sd_s,
         sp.elst_same_sd_s,
         100.0 * sp.beam_time_sd_fraction,
+        if m.uncertainty.is_some() {
+            "; and the fitted values' uncertainty, one draw per delivery"
+        } else {
+            ""
+        },
         mc.p5_s,
         mc.p50_s,
         mc.p95_s,
         mc.mean_s,
         mc.sd_s
-    )
+    );
+    if let (Some(a), Some(b)) = (m.spreads_only_sd_s, m.parameters_only_sd_s) {
+        s.push_str(&format!(
+            "  sd from the timing spreads alone {a:.2} s, from the fitted values' uncertainty alone {b:.2} s: the {} dominate\n",
+            if m.dominant == "parameters" { "fitted values" } else { "timing spreads" }
+        ));
+    }
+    s
 }
 
 /// What `--json` adds to the delivery, when asked for.
 struct Extras<'a> {
     spots: Option<&'a [SpotRow]>,
     certificate: Option<&'a Certificate>,
-    monte_carlo: Option<&'a arcsim_evaluator::MonteCarlo>,
+    monte_carlo: Option<&'a arcsim_evaluator::MachineMonteCarlo>,
 }
 
 /// The `--json` result document.

@@ -3,6 +3,7 @@
 mod answers;
 mod build_reuse;
 mod cli;
+mod controller_figures;
 mod csv_tables;
 mod docs_examples;
 mod free_motion_oracle;

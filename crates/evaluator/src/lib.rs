@@ -37,7 +37,7 @@ pub use csv::{
 };
 pub use error::EvalError;
 pub use mode::RunMode;
-pub use monte_carlo::{monte_carlo, MonteCarlo, MAX_DRAWS};
+pub use monte_carlo::{machine_monte_carlo, monte_carlo, MachineMonteCarlo, MonteCarlo, MAX_DRAWS};
 pub use run::{Evaluator, Outcome, Row, Status};
 pub use shard::{IndexList, Shard, ShardIndices};
 pub use summary::{

@@ -955,7 +955,13 @@ fn csv_writes_the_limit_used_in_every_column() {
     );
 
     // A polynomial ELST model has no single upward time: that column only is empty.
-    let text = GOOD.replace("machine-atom.json", "machine-fast.json");
+    // The fast machine's controller is free motion: constant speed asked for, as the row shows.
+    let text = GOOD
+        .replace("machine-atom.json", "machine-fast.json")
+        .replace(
+            "\"schedules\": [\"scan\"]",
+            "\"schedules\": [{\"schedule\": \"scan\", \"motion\": \"constant\"}]",
+        );
     let ev = Evaluator::new(from_text(&text).expect("sweep")).expect("prepare");
     let rows = ev.run_collect(&[0, 1]);
     let table = csv(&rows);
@@ -1023,4 +1029,28 @@ fn elst_tables_are_not_swept_but_run() {
     assert!(line.contains(",scan,0.5,0.5,5,,,1,"), "{line}");
     let back = ev.rows_from_csv("pairs.csv", &table).expect("read back");
     assert_eq!(csv(&back), table);
+}
+
+/// A schedule given by name runs under the base machine's controller (issue 44): the fast
+/// machine's is free motion, the ATOM machine's constant speed per layer; free arc ends on a
+/// constant-speed machine without `"motion": "free"` are refused, naming the entry.
+#[test]
+fn a_named_schedule_takes_the_machine_s_controller() {
+    let fast = GOOD.replace("machine-atom.json", "machine-fast.json");
+    let ev = Evaluator::new(from_text(&fast).expect("sweep")).expect("prepare");
+    let rows = ev.run_collect(&[0]);
+    assert_eq!(rows[0].schedule.motion, arcsim_sequencer::Motion::Free);
+    assert_eq!(rows[0].schedule.name(), "scan+free");
+    let ev = Evaluator::new(from_text(GOOD).expect("sweep")).expect("prepare");
+    let rows = ev.run_collect(&[0]);
+    assert_eq!(rows[0].schedule.name(), "scan");
+    let ends = GOOD.replace(
+        "\"schedules\": [\"scan\"]",
+        "\"schedules\": [{\"schedule\": \"scan\", \"arc_ends\": \"free\"}]",
+    );
+    let err = error_of(&ends);
+    assert!(
+        err.contains("schedules[0].arc_ends") && err.contains("\"motion\": \"free\""),
+        "{err}"
+    );
 }

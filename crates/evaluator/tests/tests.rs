@@ -3,5 +3,6 @@
 mod beam_axes;
 mod csv_schema;
 mod lazy_memory;
+mod monte_carlo;
 mod sweep;
 mod util;

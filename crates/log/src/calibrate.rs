@@ -316,6 +316,7 @@ pub fn calibrate(
                 source,
             })?;
             let layers = match_layers(&r.log, &arcs)?;
+            crate::mu_check::check_mu(&r.log, &r.plan, &arcs, &layers)?;
             Ok(Matched {
                 arcs,
                 layers,
@@ -370,17 +371,9 @@ pub fn calibrate(
     if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
         refine_jerk(&mut machine, runs, &matched, options, &mut values);
     }
-    let mut elst_sd = elst.sd;
+    let elst_sd = elst.sd;
     if options.motion == arcsim_sequencer::Motion::Constant {
-        let moves = move_times(&machine, runs, options)?;
-        censored_elst(
-            &mut machine,
-            &matched,
-            &moves,
-            resolution_sd,
-            &mut values,
-            &mut elst_sd,
-        );
+        elst_by_model(&mut machine, runs, &matched, options, &mut values);
     }
     let spread = TimingSpread {
         elst_up_sd_s: elst_sd[0],
@@ -389,6 +382,8 @@ pub fn calibrate(
         beam_time_sd_fraction: beam.sd_fraction,
     };
     machine.spread = Some(spread);
+    let uncertainty = uncertainty_of(&values);
+    machine.uncertainty = uncertainty.any().then_some(uncertainty);
     describe(&mut machine, base, runs, &values);
     let residuals = residuals(base, &machine, runs, &matched, options)?;
     Ok(Calibration {
@@ -456,119 +451,97 @@ fn lasting_switches(
         .collect()
 }
 
-/// Per run, by delivery-order layer index: the minimum time of the move into that layer without
-/// its ELST, simulated on `machine` with constant speed per layer (`None` for a first layer).
-fn move_times(
-    machine: &Machine,
-    runs: &[LoggedRun],
-    options: &Options,
-) -> Result<Vec<Vec<Option<f64>>>, CalibrateError> {
-    let opts = Options {
-        build_timeline: false,
-        ..options.clone()
+/// The fitted values' standard deviations from their 95 % intervals (half-width / 1.96), for
+/// the values the logs determined; 0 for the rest.
+fn uncertainty_of(values: &[FittedValue]) -> arcsim_plan::FitUncertainty {
+    let sd = |field: &str| {
+        values
+            .iter()
+            .find(|v| v.field == field && v.determined)
+            .and_then(|v| v.interval)
+            .map_or(0.0, |[lo, hi]| ((hi - lo) / (2.0 * 1.96)).max(0.0))
     };
-    runs.par_iter()
-        .map(|r| {
-            let d =
-                simulate(&r.plan, machine, &opts).map_err(|source| CalibrateError::Simulate {
-                    plan: r.plan_name.clone(),
-                    source,
-                })?;
-            let mut out = vec![None; d.layers.len()];
-            for t in &d.transitions {
-                if let Some(x) = out.get_mut(t.to_layer) {
-                    *x = Some(t.min_time_s);
-                }
-            }
-            Ok(out)
-        })
-        .collect()
+    arcsim_plan::FitUncertainty {
+        elst_up_s_sd: sd("elst.up_s"),
+        elst_down_s_sd: sd("elst.down_s"),
+        elst_same_s_sd: sd("elst.same_s"),
+        s_per_mu_sd: sd("beam.s_per_mu"),
+        spot_switch_time_s_sd: sd("beam.spot_switch_time_s"),
+        max_speed_deg_per_s_sd: sd("gantry.max_speed_deg_per_s"),
+        max_accel_deg_per_s2_sd: sd("gantry.max_accel_deg_per_s2"),
+        max_jerk_deg_per_s3_sd: sd("gantry.max_jerk_deg_per_s3"),
+    }
 }
 
-/// Under constant speed per layer, each single-valued ELST by a censored fit
-/// ([`crate::censored`]) of every gap of its kind against its move's minimum time: the gaps the
-/// gantry lengthened count as "no longer than the move" instead of being dropped or taken as
-/// ELST. Where fewer than 3 gaps outlast their moves the ELST is not seen: the base value is
-/// kept, lowered to the shortest move the gaps show (the ELST is at most that).
-fn censored_elst(
+/// The ELST slot of kind `k` (0 up, 1 down, 2 same) of a constant (or, for down and same, a
+/// polynomial) ELST model.
+fn elst_slot(elst: &mut ElstModel, k: usize) -> Option<&mut f64> {
+    match (elst, k) {
+        (ElstModel::Constant { up_s, .. }, 0) => Some(up_s),
+        (ElstModel::Constant { down_s, .. }, 1) | (ElstModel::Polynomial { down_s, .. }, 1) => {
+            Some(down_s)
+        }
+        (ElstModel::Constant { same_s, .. }, 2) | (ElstModel::Polynomial { same_s, .. }, 2) => {
+            Some(same_s)
+        }
+        _ => None,
+    }
+}
+
+/// Under constant speed per layer, each single-valued ELST by the model
+/// ([`crate::transitions::fit_by_gaps`]): the ELST whose simulated gaps of its kind last as the
+/// logged ones, the schedule re-simulated at each candidate. The schedule stretches most moves to
+/// their switch's ELST, so few gaps show the ELST alone and a median of those few, or a
+/// censored fit with moves simulated at one ELST, reads it several percent off; the gaps
+/// themselves, stretched moves included, follow the ELST.
+fn elst_by_model(
     machine: &mut Machine,
+    runs: &[LoggedRun],
     matched: &[Matched],
-    moves: &[Vec<Option<f64>>],
-    res_sd: f64,
+    options: &Options,
     values: &mut [FittedValue],
-    sd: &mut [f64; 3],
 ) {
-    let pairs: Vec<(&'static str, f64, f64)> = matched
-        .iter()
-        .zip(moves)
-        .flat_map(|(m, mv)| {
-            gaps(m).into_iter().filter_map(|g| {
-                mv.get(g.to_layer)
-                    .copied()
-                    .flatten()
-                    .map(|t| (g.class, g.duration_s, t))
-            })
-        })
-        .collect();
+    let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
     for (field, class, k) in [
         ("elst.up_s", "upward switch", 0),
         ("elst.down_s", "downward switch", 1),
         ("elst.same_s", "same energy", 2),
     ] {
-        let slot: Option<&mut f64> =
-            match (&mut machine.elst, k) {
-                (ElstModel::Constant { up_s, .. }, 0) => Some(up_s),
-                (ElstModel::Constant { down_s, .. }, 1)
-                | (ElstModel::Polynomial { down_s, .. }, 1) => Some(down_s),
-                (ElstModel::Constant { same_s, .. }, 2)
-                | (ElstModel::Polynomial { same_s, .. }, 2) => Some(same_s),
-                _ => None,
-            };
-        let (Some(slot), Some(row)) = (slot, values.iter_mut().find(|v| v.field == field)) else {
+        let Some(start) = elst_slot(&mut machine.elst, k).map(|x| *x) else {
             continue;
         };
-        // A gap far above both its simulated move and the first estimate is a move slower than
-        // the simulation's (other layer speeds): neither the ELST seen nor a censored one.
-        let (centre, width) = (*slot, (5.0 * sd[k].max(res_sd)).max(0.15 * *slot));
-        let cut = 2.0 * res_sd;
-        let obs: Vec<(f64, f64)> = pairs
-            .iter()
-            .filter(|p| p.0 == class)
-            .map(|p| (p.1, p.2))
-            .filter(|&(gap, mv)| gap <= mv + cut || (gap - centre).abs() <= width)
-            .collect();
-        if obs.is_empty() {
+        // A same-energy ELST of 0 (ATOM's) has no logarithm to search: those switches are the
+        // gantry's alone and the value stays as the first fits left it.
+        if start <= 1e-6 {
             continue;
         }
-        match crate::censored::fit(&obs, res_sd) {
-            Some(f) => {
-                *slot = f.mean;
-                sd[k] = f.sd;
-                row.value = f.mean;
-                row.interval = Some(crate::censored::interval(&obs, &f, res_sd));
-                row.observations = obs.len();
-                row.determined = true;
-                row.note = format!(
-                    "maximum likelihood of a normal ELST seen through max(ELST, move): {} gaps outlast their move (the ELST seen), {} are the move's time (the ELST no longer); moves from the planner on this fit",
-                    f.seen, f.censored
-                );
+        let set = move |m: &mut Machine, e: f64| {
+            if let Some(x) = elst_slot(&mut m.elst, k) {
+                *x = e;
             }
-            None => {
-                let shortest = obs.iter().map(|o| o.1).fold(f64::INFINITY, f64::min);
-                let kept_value = row.base.unwrap_or(*slot).min(shortest);
-                *slot = kept_value;
-                row.value = kept_value;
-                row.interval = None;
-                row.observations = obs.len();
-                row.determined = false;
-                row.note = format!(
-                    "not determined: the gantry lengthened all but {} of the {} switches, so the logs show only that the ELST is at most {:.4} s (the shortest move): the base value is kept, lowered to that bound",
-                    obs.iter().filter(|(g, m)| *g > m + 2.0 * res_sd).count(),
-                    obs.len(),
-                    shortest
-                );
-            }
-        }
+        };
+        let Some(fit) = crate::transitions::fit_by_gaps(
+            machine,
+            &set,
+            (start, 1.5, (0.0, arcsim_plan::MAX_SWITCH_TIME_S)),
+            (runs, &logged),
+            crate::transitions::Switches::Kind(class),
+            options,
+        ) else {
+            continue;
+        };
+        let Some(row) = values.iter_mut().find(|v| v.field == field) else {
+            continue;
+        };
+        set(machine, fit.value);
+        row.value = fit.value;
+        row.interval = Some(fit.interval);
+        row.observations = fit.transitions;
+        row.determined = true;
+        row.note = format!(
+            "by the model: the ELST whose simulated gaps ({class}; constant speed per layer, the schedule re-simulated at each candidate) last as the {} logged ones (golden section over its logarithm from {start:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval from the misfit's curvature",
+            fit.transitions
+        );
     }
 }
 
@@ -1012,7 +985,15 @@ fn refine_jerk(
 ) {
     let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
     let start = machine.gantry.max_jerk_deg_per_s3;
-    let Some(fit) = crate::transitions::fit_jerk(machine, start, runs, &logged, options) else {
+    let set = |m: &mut Machine, j: f64| m.gantry.max_jerk_deg_per_s3 = j;
+    let Some(fit) = crate::transitions::fit_by_gaps(
+        machine,
+        &set,
+        (start, 4.0, arcsim_plan::JERK_RANGE_DEG_PER_S3),
+        (runs, &logged),
+        crate::transitions::Switches::All,
+        options,
+    ) else {
         return;
     };
     machine.gantry.max_jerk_deg_per_s3 = fit.value;

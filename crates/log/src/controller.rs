@@ -129,8 +129,87 @@ pub fn calibrate_controller(
     });
     cal.report.controller = Some(evidence);
     residual_warnings(&mut cal, runs);
+    heterogeneity_warning(&mut cal);
+    extrapolation_warning(&mut cal, runs);
     Ok(cal)
 }
+
+/// Residuals of opposite signs, each beyond [`RESIDUAL_WARNING_PCT`], are logs no one machine
+/// explains (issue 44: logs of two machines pooled gave +8.7 % and −13.7 % without a word); the
+/// jitter such logs put into the spreads would hide them from the per-log warning.
+fn heterogeneity_warning(cal: &mut Calibration) {
+    let r = &cal.report.residuals;
+    let hi = r
+        .iter()
+        .max_by(|a, b| a.fitted_error_pct.total_cmp(&b.fitted_error_pct));
+    let lo = r
+        .iter()
+        .min_by(|a, b| a.fitted_error_pct.total_cmp(&b.fitted_error_pct));
+    if let (Some(hi), Some(lo)) = (hi, lo) {
+        if hi.fitted_error_pct > RESIDUAL_WARNING_PCT && lo.fitted_error_pct < -RESIDUAL_WARNING_PCT
+        {
+            let text = format!(
+                "the logs disagree: the fitted machine is {:+.2} % off {} but {:+.2} % off {}; logs of different machines or controllers pooled? Calibrate each machine from its own logs",
+                hi.fitted_error_pct, hi.log, lo.fitted_error_pct, lo.log
+            );
+            cal.report.warnings.push(text);
+        }
+    }
+}
+
+/// An upward ELST fitted as a line in the energy step holds over the steps the logs show; the
+/// warning gives that range and what the line says beyond it.
+fn extrapolation_warning(cal: &mut Calibration, runs: &[LoggedRun]) {
+    let arcsim_plan::ElstModel::Polynomial { up_coeffs_s, .. } = &cal.machine.elst else {
+        return;
+    };
+    let steps: Vec<f64> = runs
+        .iter()
+        .flat_map(|r| {
+            r.plan.arcs.iter().flat_map(|a| {
+                let e: Vec<f64> = a
+                    .control_points
+                    .iter()
+                    .flat_map(|cp| cp.layers.iter().map(|l| l.energy_mev))
+                    .collect();
+                e.windows(2)
+                    .map(|w| w[1] - w[0])
+                    .filter(|d| *d > arcsim_plan::SAME_ENERGY_TOLERANCE_MEV)
+                    .collect::<Vec<_>>()
+            })
+        })
+        .collect();
+    let (lo, hi) = steps
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), &d| (a.min(d), b.max(d)));
+    if steps.is_empty() {
+        return;
+    }
+    let at = |de: f64| up_coeffs_s.iter().rev().fold(0.0, |acc, c| acc * de + c);
+    let probe = (2.0 * hi).max(50.0);
+    let text = format!(
+        "elst.up_coeffs_s is a line fitted to upward steps of {lo:.2}–{hi:.2} MeV ({} switches); a plan with larger steps is an extrapolation (the line gives {:.3} s at {hi:.1} MeV and {:.3} s at {probe:.0} MeV)",
+        steps.len(),
+        at(hi),
+        at(probe)
+    );
+    // Steps of tens of MeV span what arcs switch; a line from small steps only is a guess
+    // beyond them: a warning then, a note otherwise.
+    if hi < EXTRAPOLATION_WARNING_BELOW_MEV {
+        cal.report.warnings.push(text);
+    } else if let Some(v) = cal
+        .report
+        .values
+        .iter_mut()
+        .find(|v| v.field.starts_with("elst.up_coeffs_s"))
+    {
+        v.note = format!("{}; {text}", v.note);
+    }
+}
+
+/// An upward ELST line fitted only to steps below this (MeV) is a warning: arcs switch up by
+/// tens of MeV.
+pub const EXTRAPOLATION_WARNING_BELOW_MEV: f64 = 20.0;
 
 /// Pooled over every layer of every log: the rms of (logged − simulated) beam-on start, each
 /// log aligned on its first layer, for `machine` simulated with `options`.

@@ -12,13 +12,13 @@
 #![warn(missing_docs)]
 
 mod calibrate;
-mod censored;
 mod columns;
 mod compare;
 mod controller;
 mod error;
 pub mod kinematics;
 mod matching;
+mod mu_check;
 mod read;
 mod sample;
 mod transitions;
@@ -39,6 +39,7 @@ pub use matching::{
     angle_diff_deg, beam_segments, match_layers, BeamSegment, LoggedLayer, MatchError,
     ANGLE_TOLERANCE_DEG, LOG_ENERGY_TOLERANCE_MEV, UNIT_SLIP_BAND,
 };
+pub use mu_check::{check_mu, LAYER_MU_TOLERANCE, MU_RATIO_TOLERANCE};
 pub use read::{
     parse_log, read_log, MAX_ANGLE_MAGNITUDE_DEG, MAX_LOG_BYTES, MAX_SPAN_S, MAX_TIME_S,
 };

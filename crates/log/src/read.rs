@@ -47,6 +47,33 @@ pub fn read_log(path: &Path, map: &ColumnMap) -> Result<DeliveryLog, LogError> {
     parse_log(BufReader::new(file), &name, map)
 }
 
+/// A reader that fails once more than [`MAX_LOG_BYTES`] have come through it: the size limit for
+/// a FIFO, standard input or any stream whose size is not known before it is read.
+struct Capped<R> {
+    inner: R,
+    left: u64,
+}
+
+impl<R: Read> Read for Capped<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.left == 0 {
+            let mut one = [0u8; 1];
+            return match self.inner.read(&mut one)? {
+                0 => Ok(0),
+                _ => Err(std::io::Error::other(format!(
+                    "more than {MAX_LOG_BYTES} bytes (256 MiB); expected a log of at most that (a 10 ms log of an hour of delivery is about 20 MB)"
+                ))),
+            };
+        }
+        let n = buf
+            .len()
+            .min(usize::try_from(self.left).unwrap_or(usize::MAX));
+        let got = self.inner.read(&mut buf[..n])?;
+        self.left -= got as u64;
+        Ok(got)
+    }
+}
+
 /// Reads a log from `reader`; `source` names it in errors. The log comes cleaned
 /// ([`DeliveryLog::clean`]: the angle trace unwrapped, encoder glitches replaced and counted).
 pub fn parse_log(
@@ -54,10 +81,14 @@ pub fn parse_log(
     source: &str,
     map: &ColumnMap,
 ) -> Result<DeliveryLog, LogError> {
+    let capped = Capped {
+        inner: reader,
+        left: MAX_LOG_BYTES,
+    };
     let mut rd = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .flexible(false)
-        .from_reader(reader);
+        .from_reader(capped);
     let header = rd
         .headers()
         .map_err(|e| LogError::at(source, 1, None, e.to_string()))?

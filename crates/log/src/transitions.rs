@@ -1,41 +1,52 @@
-//! The jerk limit from the transitions themselves, by the model: the J whose simulated moves
-//! between layers last as long as the logged beam-off gaps. Under a constant-speed controller
-//! every move starts and ends at zero acceleration and the beam-on dwells sit between the
-//! acceleration's turns, so the trace's reversals (the free-motion estimate) read the dwell as a
-//! slow jerk; the planner's own moves do not share that blind spot.
+//! Machine values from the transitions themselves, by the model: the value whose simulated
+//! beam-off gaps last as long as the logged ones. Under a constant-speed controller every move
+//! starts and ends at zero acceleration and the beam-on dwells sit between the acceleration's
+//! turns, so the trace's reversals (the free-motion estimate) read the dwell as a slow jerk; and
+//! its schedule stretches most moves to their switch's ELST, so few gaps show the ELST alone.
+//! The planner's own moves and schedule, simulated at each candidate value, share neither blind
+//! spot: the jerk limit from every gap, each ELST from the gaps of its kind.
 
 use arcsim_plan::Machine;
 use arcsim_sequencer::{simulate, Options};
 use rayon::prelude::*;
 
 use crate::calibrate::LoggedRun;
+use crate::compare::switch_class;
 use crate::matching::LoggedLayer;
 
 /// A gap differing from its simulation by more than this counts as this much (s): a gating
 /// pause or an interruption must not pull the fit.
 const ROBUST_CAP_S: f64 = 0.3;
 
-/// Golden-section steps over ln J (a factor 16 narrowed to 1e-4 relative).
+/// Golden-section steps over the logarithm (a factor 16 narrowed to 1e-4 relative).
 const STEPS: usize = 30;
 
-/// The fitted jerk: its value, 95 % interval and the transitions behind it.
-pub(crate) struct JerkFit {
+/// A value fitted by the model: its value, 95 % interval and the transitions behind it.
+pub(crate) struct GapFit {
     pub value: f64,
     pub interval: [f64; 2],
     pub transitions: usize,
 }
 
-/// Robust sum of squares of (logged − simulated) beam-off gaps over every transition of every
-/// run, with `machine`'s jerk set to `jerk`; `None` if a simulation fails.
+/// Which switches a fit compares: all, or one kind by the energy step.
+#[derive(Clone, Copy, PartialEq)]
+pub(crate) enum Switches {
+    All,
+    Kind(&'static str),
+}
+
+/// Robust sum of squares of (logged − simulated) beam-off gaps over the transitions of `which`
+/// of every run, `machine` changed by `set(value)`; `None` if a simulation fails.
 fn misfit(
     machine: &Machine,
-    jerk: f64,
-    runs: &[LoggedRun],
-    logged: &[&[LoggedLayer]],
+    set: &dyn Fn(&mut Machine, f64),
+    value: f64,
+    (runs, logged): (&[LoggedRun], &[&[LoggedLayer]]),
+    which: Switches,
     opts: &Options,
 ) -> Option<(f64, usize)> {
     let mut m = machine.clone();
-    m.gantry.max_jerk_deg_per_s3 = jerk;
+    set(&mut m, value);
     let parts = runs
         .par_iter()
         .zip(logged)
@@ -50,6 +61,11 @@ fn misfit(
                 if a.arc != b.arc {
                     continue;
                 }
+                if let Switches::Kind(kind) = which {
+                    if switch_class(a.energy_mev, b.energy_mev) != kind {
+                        continue;
+                    }
+                }
                 let gap_logged = pair[1].start_s - pair[0].end_s;
                 let gap_sim = b.t_start_s - a.t_end_s;
                 let r = (gap_logged - gap_sim).abs().min(ROBUST_CAP_S);
@@ -62,24 +78,34 @@ fn misfit(
     Some(parts.iter().fold((0.0, 0), |(a, b), (x, y)| (a + x, b + y)))
 }
 
-/// The J in [`start`/4, 4 `start`] that makes the simulated transitions last as logged (golden
-/// section over ln J), with a 95 % interval from the misfit's curvature; `None` when there are
-/// fewer than 3 transitions or the misfit does not depend on J (no transition is J-limited).
-pub(crate) fn fit_jerk(
+/// The value in [`start` / `span`, `span` × `start`] (clamped to `range`) that makes the
+/// simulated gaps of `which` last as logged (golden section over its logarithm), with a 95 %
+/// interval from the misfit's curvature; `None` with fewer than 3 such gaps or when the misfit
+/// does not depend on the value (no gap of `which` is bound by it).
+pub(crate) fn fit_by_gaps(
     machine: &Machine,
-    start: f64,
-    runs: &[LoggedRun],
-    logged: &[&[LoggedLayer]],
+    set: &dyn Fn(&mut Machine, f64),
+    (start, span, range): (f64, f64, (f64, f64)),
+    data: (&[LoggedRun], &[&[LoggedLayer]]),
+    which: Switches,
     options: &Options,
-) -> Option<JerkFit> {
+) -> Option<GapFit> {
     let opts = Options {
         build_timeline: false,
         ..options.clone()
     };
-    let (lo_j, hi_j) = arcsim_plan::JERK_RANGE_DEG_PER_S3;
-    let f = |x: f64| misfit(machine, x.exp().clamp(lo_j, hi_j), runs, logged, &opts);
+    let f = |x: f64| {
+        misfit(
+            machine,
+            set,
+            x.exp().clamp(range.0, range.1),
+            data,
+            which,
+            &opts,
+        )
+    };
     let phi = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut a, mut b) = ((start / 4.0).ln(), (start * 4.0).ln());
+    let (mut a, mut b) = ((start / span).ln(), (start * span).ln());
     let mut c = b - phi * (b - a);
     let mut d = a + phi * (b - a);
     let (mut fc, mut fd) = (f(c)?.0, f(d)?.0);
@@ -105,12 +131,12 @@ pub(crate) fn fit_jerk(
     if curvature <= 0.0 || (fp - f0).abs() + (fm - f0).abs() < 1e-12 {
         return None;
     }
-    // f ≈ f0 + curvature/2 (ln J − x)², residual variance f0 / (n − 1): one standard deviation
-    // of ln J where f has risen by that variance (twice, for the 1/2).
+    // f ≈ f0 + curvature/2 (ln x − x0)², residual variance f0 / (n − 1): one standard deviation
+    // of ln x where f has risen by that variance (twice, for the 1/2).
     let var = (f0 / (n as f64 - 1.0)).max(1e-12);
     let sd = (2.0 * var / curvature).sqrt();
-    Some(JerkFit {
-        value: x.exp(),
+    Some(GapFit {
+        value: x.exp().clamp(range.0, range.1),
         interval: [(x - 1.96 * sd).exp(), (x + 1.96 * sd).exp()],
         transitions: n,
     })

@@ -129,6 +129,11 @@ fn log_of(plan: &ArcPlan, truth: Truth, seed: u64, name: &str) -> DeliveryLog {
     for s in &mut samples {
         s.gantry_angle_deg += 0.01 * normal();
     }
+    // Every other log has an encoder glitch: one sample 5° off.
+    if seed % 2 == 1 {
+        let k = samples.len() / 3;
+        samples[k].gantry_angle_deg += 5.0;
+    }
     parse_log(to_csv(&samples).as_bytes(), name, &ColumnMap::default()).expect("reads back")
 }
 
@@ -201,6 +206,27 @@ fn check(truth: Truth, seed: u64) {
         panic!("per_mu expected")
     };
     within(b.s_per_mu, t.s_per_mu, 0.02, "s per MU");
+    // A and J where the logs reach them (the servo loop's are its own, not the machine's).
+    if truth != Truth::Servo {
+        let value = |field: &str| {
+            cal.report
+                .values
+                .iter()
+                .find(|v| v.field == field)
+                .expect(field)
+                .clone()
+        };
+        let (a, j) = (
+            value("gantry.max_accel_deg_per_s2"),
+            value("gantry.max_jerk_deg_per_s3"),
+        );
+        if a.determined {
+            within(a.value, hidden.gantry.max_accel_deg_per_s2, 0.05, "A");
+        }
+        if j.determined {
+            within(j.value, hidden.gantry.max_jerk_deg_per_s3, 0.10, "J");
+        }
+    }
     // V is never below what the logs show of it.
     let v = cal
         .report
@@ -290,4 +316,100 @@ fn controller_twenty_seeds() {
             eprintln!("{truth:?} seed {seed}: ok");
         }
     }
+}
+
+/// Issue 44, finding 10: logs of two different machines pooled for one fit leave residuals no
+/// single machine explains, and the report says so instead of exiting quietly.
+#[test]
+fn logs_of_two_machines_pooled_are_flagged() {
+    let mut runs = runs(Truth::Constant, 4);
+    // The third log comes from a machine whose upward switches take 5.5 s, not 4.0 s.
+    let mut other = hidden(Truth::Constant);
+    other.elst = ElstModel::Constant {
+        up_s: 5.5,
+        down_s: 1.2,
+        same_s: 0.0,
+    };
+    let text = serde_json::to_string(&other).expect("json");
+    let plan = bundled("two-arc");
+    let machine = parse_machine(&text, "other").expect("machine");
+    let arcs = resolve(&plan, &machine).expect("resolves");
+    let limits = machine_limits(&machine).expect("limits");
+    let d = simulate_resolved(&arcs, &limits, &Options::new(Schedule::Optimal)).expect("sim");
+    let spots = spot_timeline(&plan, &machine, &d).expect("spots");
+    let samples = virtual_log(
+        &d,
+        &spots,
+        &VirtualLogOptions {
+            period_s: 0.01,
+            angle_noise_deg: 0.01,
+            seed: 9,
+        },
+    )
+    .expect("log");
+    runs[2].log = parse_log(
+        to_csv(&samples).as_bytes(),
+        "other.log",
+        &ColumnMap::default(),
+    )
+    .expect("reads");
+    let cal = calibrate_controller(
+        &atom(),
+        &runs,
+        ElstFit::Constant,
+        &Options::new(Schedule::Optimal),
+        None,
+    )
+    .expect("calibrated");
+    assert!(
+        cal.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("the logs disagree")),
+        "{:?} {:?}",
+        cal.report.warnings,
+        cal.report.residuals
+    );
+}
+
+/// Issue 44, finding 4: an upward ELST line fitted only to small energy steps warns that larger
+/// steps are an extrapolation, with what the line gives there.
+#[test]
+fn an_elst_line_from_small_steps_warns_of_extrapolation() {
+    // Lung with every energy set to alternate by 0.5 MeV: each upward step is 0.5 MeV.
+    let mut plan = bundled("lung");
+    for (k, layer) in plan
+        .arcs
+        .iter_mut()
+        .flat_map(|a| {
+            a.control_points
+                .iter_mut()
+                .flat_map(|cp| cp.layers.iter_mut())
+        })
+        .enumerate()
+    {
+        layer.energy_mev = 150.0 + if k % 2 == 1 { 0.5 } else { 0.0 };
+    }
+    let log = log_of(&plan, Truth::Constant, 5, "small-steps.log");
+    let runs = [LoggedRun {
+        plan_name: "small steps".into(),
+        plan,
+        log,
+    }];
+    let cal = calibrate_controller(
+        &atom(),
+        &runs,
+        ElstFit::Polynomial,
+        &Options::new(Schedule::Optimal),
+        Some(Motion::Constant),
+    )
+    .expect("calibrated");
+    assert!(
+        cal.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("upward steps of 0.50–0.50 MeV") && w.contains("extrapolation")),
+        "{:?}",
+        cal.report.warnings
+    );
 }

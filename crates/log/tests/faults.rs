@@ -320,3 +320,82 @@ fn a_gantry_that_never_moves_determines_no_gantry_limit() {
         );
     }
 }
+
+/// Issue 44, finding 11: the size limit holds for a stream of unknown size (a FIFO, standard
+/// input), not only for a file whose size is known before it is read.
+#[test]
+fn an_endless_stream_is_refused_at_the_size_limit() {
+    let header = b"t_s,gantry_angle_deg,beam_on\n".as_slice();
+    let rows = std::io::repeat(b' ');
+    let err = arcsim_log::parse_log(
+        std::io::Read::chain(header, rows),
+        "endless",
+        &ColumnMap::default(),
+    )
+    .expect_err("refused");
+    assert!(
+        err.to_string().contains("more than 268435456 bytes"),
+        "{err}"
+    );
+}
+
+/// Issue 44, finding 7: the log's MU column is checked against the plan. A log of the bundled
+/// lung plan matches the plan; the same plan with its layers' spots (and so their MU) reversed
+/// keeps every energy and angle, so only the MU tell, and a log whose MU column is in another
+/// unit is named as such; calibrate refuses both before any fit.
+#[test]
+fn the_mu_column_is_checked_against_the_plan() {
+    let plan = bundled("lung");
+    let l = logged(&plan, 0.01);
+    let log = read(&l.samples).expect("reads");
+    let layers = match_layers(&log, &l.arcs).expect("matches");
+    arcsim_log::check_mu(&log, &plan, &l.arcs, &layers).expect("the plan's own log");
+    // The layers' spots reversed across the plan: energies and angles as before.
+    let mut reversed = plan.clone();
+    let mut spots: Vec<_> = reversed
+        .arcs
+        .iter()
+        .flat_map(|a| a.control_points.iter().flat_map(|cp| cp.layers.iter()))
+        .map(|layer| layer.spots.clone())
+        .collect();
+    spots.reverse();
+    let mut it = spots.into_iter();
+    for layer in reversed.arcs.iter_mut().flat_map(|a| {
+        a.control_points
+            .iter_mut()
+            .flat_map(|cp| cp.layers.iter_mut())
+    }) {
+        layer.spots = it.next().expect("as many");
+    }
+    let arcs = resolve(&reversed, &hidden()).expect("resolves");
+    let layers = match_layers(&log, &arcs).expect("energies and angles still match");
+    let err = arcsim_log::check_mu(&log, &reversed, &arcs, &layers).expect_err("refused");
+    assert!(
+        err.to_string().contains("differs from the plan's MU") && err.to_string().contains("layer"),
+        "{err}"
+    );
+    let runs = [LoggedRun {
+        plan_name: "reversed".into(),
+        plan: reversed,
+        log: log.clone(),
+    }];
+    let opts = Options::new(arcsim_sequencer::Schedule::Optimal);
+    let err = calibrate(&hidden(), &runs, ElstFit::Constant, &opts).expect_err("refused");
+    assert!(
+        err.to_string().contains("differs from the plan's MU"),
+        "{err}"
+    );
+    // MU in another unit: three times the plan's everywhere.
+    let tripled: Vec<LogSample> = l
+        .samples
+        .iter()
+        .map(|s| LogSample {
+            mu: s.mu.map(|m| 3.0 * m),
+            ..*s
+        })
+        .collect();
+    let log = read(&tripled).expect("reads");
+    let layers = match_layers(&log, &l.arcs).expect("matches");
+    let err = arcsim_log::check_mu(&log, &plan, &l.arcs, &layers).expect_err("refused");
+    assert!(err.to_string().contains("another unit"), "{err}");
+}

@@ -329,7 +329,7 @@ fn spot_mu(spots: &Spots) -> impl Iterator<Item = f64> + '_ {
 }
 
 /// The MU of all of a layer's spots.
-pub(crate) fn layer_mu(spots: &Spots) -> f64 {
+pub fn layer_mu(spots: &Spots) -> f64 {
     spot_mu(spots).sum()
 }
 

@@ -24,8 +24,8 @@ mod zero;
 
 pub use atom::{atom_case_plan, ATOM_PLACEHOLDER_MIN_ENERGY_MEV};
 pub use beam::{
-    layer_beam_time, time_spots, BeamModel, LayerBeamTime, PerMuBeam, ScanDistance, ScanningBeam,
-    SpotEvent, SpotTimingError, MAX_SPOT_DELIVERIES,
+    layer_beam_time, layer_mu, time_spots, BeamModel, LayerBeamTime, PerMuBeam, ScanDistance,
+    ScanningBeam, SpotEvent, SpotTimingError, MAX_SPOT_DELIVERIES,
 };
 pub use controller::{
     Controller, ControllerEvidence, Motion, Schedule, UnknownName, ASSUMED_CONTROLLER_SOURCE,
@@ -46,7 +46,7 @@ pub use model::{
 pub use plausible::{machine_warnings, plan_warnings, Warning};
 pub use resolve::resolve;
 pub use spill::{BeamSequence, ContinueSpillIf, LayerBeam, SpillModel, SpotAcrossSpills};
-pub use spread::TimingSpread;
+pub use spread::{FitUncertainty, TimingSpread};
 pub use validate::{
     validate_plan, ENERGY_RANGE_MEV, MAX_ANGLE_DEG, MAX_LAYER_TIME_S, MAX_PAINTINGS,
     MAX_SPEED_DEG_PER_S, MAX_SPOTS_PER_LAYER, MAX_SPOT_MU, MAX_SPOT_POSITION_MM,

@@ -61,6 +61,12 @@ pub fn validate_machine(machine: &Machine, source: &str) -> Vec<PlanIssue> {
             );
         }
     }
+    if let Some(u) = &machine.uncertainty {
+        for (name, x) in u.fields() {
+            m.check(&format!("uncertainty.{name}"), x, false, "");
+            m.at_most(&format!("uncertainty.{name}"), x, MAX_SWITCH_TIME_S, "");
+        }
+    }
     if let Some(spread) = &machine.spread {
         for (name, x) in spread.fields() {
             m.check(&format!("spread.{name}"), x, false, "");

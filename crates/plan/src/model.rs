@@ -150,6 +150,10 @@ pub struct Machine {
     /// `simulate --monte-carlo`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spread: Option<crate::TimingSpread>,
+    /// How well a calibration knows its fitted values (their standard deviations, from the 95 %
+    /// intervals); `simulate --monte-carlo` draws them with the spreads.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<crate::FitUncertainty>,
     /// How the gantry moves (motion model and schedule) and where that comes from; a machine
     /// without one is simulated under [`crate::Controller::assumed`], and the output says so.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -64,3 +64,114 @@ impl TimingSpread {
         out
     }
 }
+
+/// How well a calibration knows each fitted value: the standard deviation of the value itself
+/// (from its 95 % interval), not of one switch. A draw moves the whole delivery at once (every
+/// up switch by the same error of `elst.up_s`), which is why it is kept apart from
+/// [`TimingSpread`]. Zero (or absent) for a value the logs did not determine.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FitUncertainty {
+    /// Of `elst.up_s` (constant ELST model), s.
+    pub elst_up_s_sd: f64,
+    /// Of `elst.down_s`, s.
+    pub elst_down_s_sd: f64,
+    /// Of `elst.same_s`, s.
+    pub elst_same_s_sd: f64,
+    /// Of `beam.s_per_mu` (`per_mu` beam model), s/MU.
+    pub s_per_mu_sd: f64,
+    /// Of `beam.spot_switch_time_s` (`per_mu` beam model), s.
+    pub spot_switch_time_s_sd: f64,
+    /// Of `gantry.max_speed_deg_per_s`, deg/s.
+    pub max_speed_deg_per_s_sd: f64,
+    /// Of `gantry.max_accel_deg_per_s2` (and the deceleration, drawn together), deg/s².
+    pub max_accel_deg_per_s2_sd: f64,
+    /// Of `gantry.max_jerk_deg_per_s3`, deg/s³.
+    pub max_jerk_deg_per_s3_sd: f64,
+}
+
+impl FitUncertainty {
+    /// Each value with its machine-file name.
+    pub fn fields(&self) -> [(&'static str, f64); 8] {
+        [
+            ("elst_up_s_sd", self.elst_up_s_sd),
+            ("elst_down_s_sd", self.elst_down_s_sd),
+            ("elst_same_s_sd", self.elst_same_s_sd),
+            ("s_per_mu_sd", self.s_per_mu_sd),
+            ("spot_switch_time_s_sd", self.spot_switch_time_s_sd),
+            ("max_speed_deg_per_s_sd", self.max_speed_deg_per_s_sd),
+            ("max_accel_deg_per_s2_sd", self.max_accel_deg_per_s2_sd),
+            ("max_jerk_deg_per_s3_sd", self.max_jerk_deg_per_s3_sd),
+        ]
+    }
+
+    /// `machine` with every uncertain value drawn once, `value + sd × normal()`: times kept
+    /// ≥ 0, limits kept inside the ranges a machine file accepts.
+    pub fn draw(
+        &self,
+        machine: &crate::Machine,
+        normal: &mut dyn FnMut() -> f64,
+    ) -> crate::Machine {
+        use crate::{BeamModel, ElstModel};
+        let mut m = machine.clone();
+        let mut time = |x: &mut f64, sd: f64| {
+            let z = normal();
+            if sd > 0.0 {
+                *x = (*x + sd * z).max(0.0);
+            }
+        };
+        match &mut m.elst {
+            ElstModel::Constant {
+                up_s,
+                down_s,
+                same_s,
+            } => {
+                time(up_s, self.elst_up_s_sd);
+                time(down_s, self.elst_down_s_sd);
+                time(same_s, self.elst_same_s_sd);
+            }
+            ElstModel::Polynomial { down_s, same_s, .. } => {
+                time(down_s, self.elst_down_s_sd);
+                time(same_s, self.elst_same_s_sd);
+            }
+            _ => {}
+        }
+        if let BeamModel::PerMu(b) = &mut m.beam {
+            time(&mut b.s_per_mu, self.s_per_mu_sd);
+            time(&mut b.spot_switch_time_s, self.spot_switch_time_s_sd);
+        }
+        let mut limit = |x: &mut f64, sd: f64, (lo, hi): (f64, f64)| {
+            let z = normal();
+            if sd > 0.0 {
+                *x = (*x + sd * z).clamp(lo, hi);
+            }
+        };
+        let g = &mut m.gantry;
+        limit(
+            &mut g.max_speed_deg_per_s,
+            self.max_speed_deg_per_s_sd,
+            crate::SPEED_RANGE_DEG_PER_S,
+        );
+        let before = g.max_accel_deg_per_s2;
+        limit(
+            &mut g.max_accel_deg_per_s2,
+            self.max_accel_deg_per_s2_sd,
+            crate::ACCEL_RANGE_DEG_PER_S2,
+        );
+        if let Some(d) = &mut g.max_decel_deg_per_s2 {
+            let (lo, hi) = crate::ACCEL_RANGE_DEG_PER_S2;
+            *d = (*d + g.max_accel_deg_per_s2 - before).clamp(lo, hi);
+        }
+        limit(
+            &mut g.max_jerk_deg_per_s3,
+            self.max_jerk_deg_per_s3_sd,
+            crate::JERK_RANGE_DEG_PER_S3,
+        );
+        m
+    }
+
+    /// Whether any value is uncertain.
+    pub fn any(&self) -> bool {
+        self.fields().iter().any(|(_, x)| *x > 0.0)
+    }
+}

@@ -122,7 +122,10 @@ pub fn compare(
     let comparison = py.detach(|| -> Result<_, PyErr> {
         let arcs = arcsim_plan::resolve(&plan.plan, &machine.machine)
             .map_err(|e| crate::PlanError::new_err(e.to_string()))?;
-        arcsim_log::match_layers(&log, &arcs).map_err(|e| LogError::new_err(e.to_string()))?;
+        let logged =
+            arcsim_log::match_layers(&log, &arcs).map_err(|e| LogError::new_err(e.to_string()))?;
+        arcsim_log::check_mu(&log, &plan.plan, &arcs, &logged)
+            .map_err(|e| LogError::new_err(e.to_string()))?;
         let limits = machine_limits(&machine.machine)
             .map_err(|e| SimulationError::new_err(e.to_string()))?;
         let opts = Options {

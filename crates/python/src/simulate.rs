@@ -107,9 +107,11 @@ impl Delivery {
     }
 
     /// Percentiles of the total over `draws` deliveries with the machine's timing spreads
-    /// (`spread`, measured by `calibrate`) drawn per switch and per layer, as `simulate
-    /// --monte-carlo` gives them: dict `p5_s`, `p50_s`, `p95_s`, `mean_s`, `sd_s`, `totals_s`.
-    /// Raises SimulationError when the machine has no spreads. The GIL is released.
+    /// (`spread`, per switch and per layer) and its fitted values' `uncertainty` (one draw per
+    /// delivery) drawn, both measured by `calibrate`, as `simulate --monte-carlo` gives them:
+    /// dict `p5_s`, `p50_s`, `p95_s`, `mean_s`, `sd_s`, `totals_s`, and with both sources
+    /// `spreads_only_sd_s`, `parameters_only_sd_s` and `dominant`. Raises SimulationError when
+    /// the machine has neither. The GIL is released.
     #[pyo3(signature = (draws, seed=0))]
     fn monte_carlo<'py>(
         &self,
@@ -117,12 +119,12 @@ impl Delivery {
         draws: usize,
         seed: u64,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let Some(spread) = self.machine.spread else {
+        if self.machine.spread.is_none() && !self.machine.uncertainty.is_some_and(|u| u.any()) {
             return Err(SimulationError::new_err(format!(
-                "monte_carlo: the machine {} has no timing spreads (`spread`); calibrate() measures them in delivery logs",
+                "monte_carlo: the machine {} has no timing spreads (`spread`) and no fitted values' `uncertainty`; calibrate() measures them in delivery logs",
                 self.machine_source.file
             )));
-        };
+        }
         if draws == 0 || draws > arcsim_evaluator::MAX_DRAWS {
             return Err(PyValueError::new_err(format!(
                 "draws: expected 1 to {}, got {draws}",
@@ -139,10 +141,7 @@ impl Delivery {
         };
         let mc = py
             .detach(|| {
-                let arcs =
-                    arcsim_plan::resolve(&self.plan, &self.machine).map_err(|e| e.to_string())?;
-                let limits = machine_limits(&self.machine).map_err(|e| e.to_string())?;
-                arcsim_evaluator::monte_carlo(&arcs, &limits, &opts, &spread, draws, seed)
+                arcsim_evaluator::machine_monte_carlo(&self.plan, &self.machine, &opts, draws, seed)
                     .map_err(|e| e.to_string())
             })
             .map_err(SimulationError::new_err)?;
