@@ -168,7 +168,8 @@ pub struct Cluster {
     pub count: usize,
 }
 
-fn median(v: &mut [f64]) -> f64 {
+/// The median (the mean of the middle two for an even count); sorts `v`.
+pub(crate) fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
     if n % 2 == 1 {
@@ -308,22 +309,7 @@ pub fn calibrate(
     if runs.is_empty() {
         return Err(CalibrateError::NoRuns);
     }
-    let matched = runs
-        .iter()
-        .map(|r| {
-            let arcs = resolve(&r.plan, base).map_err(|source| CalibrateError::Plan {
-                plan: r.plan_name.clone(),
-                source,
-            })?;
-            let layers = match_layers(&r.log, &arcs)?;
-            crate::mu_check::check_mu(&r.log, &r.plan, &arcs, &layers)?;
-            Ok(Matched {
-                arcs,
-                layers,
-                period_s: typical_period(&r.log),
-            })
-        })
-        .collect::<Result<Vec<_>, CalibrateError>>()?;
+    let matched = match_runs(base, runs)?;
     let period = matched.iter().map(|m| m.period_s).fold(0.0, f64::max);
     // Each edge is within half a period: a gap or a beam-on time is off by up to one period,
     // variance period²/6.
@@ -399,6 +385,25 @@ pub fn calibrate(
             warnings: Vec::new(),
         },
     })
+}
+
+/// Each run's log matched to its plan's layers on `base` (its MU column checked too).
+fn match_runs(base: &Machine, runs: &[LoggedRun]) -> Result<Vec<Matched>, CalibrateError> {
+    runs.iter()
+        .map(|r| {
+            let arcs = resolve(&r.plan, base).map_err(|source| CalibrateError::Plan {
+                plan: r.plan_name.clone(),
+                source,
+            })?;
+            let layers = match_layers(&r.log, &arcs)?;
+            crate::mu_check::check_mu(&r.log, &r.plan, &arcs, &layers)?;
+            Ok(Matched {
+                arcs,
+                layers,
+                period_s: typical_period(&r.log),
+            })
+        })
+        .collect()
 }
 
 /// The fitted ELST model and the spreads (up, down, same).
@@ -797,15 +802,7 @@ fn beam_rows(runs: &[LoggedRun], matched: &[Matched]) -> Vec<(f64, f64, f64)> {
     let (mu_unit, move_unit) = (unit(1.0, 0.0), unit(0.0, 1.0));
     let mut rows = Vec::new();
     for (r, m) in runs.iter().zip(matched) {
-        let flat: Vec<(usize, usize, usize)> = m
-            .arcs
-            .iter()
-            .flat_map(|a| {
-                a.layers
-                    .iter()
-                    .map(move |l| (a.arc_index, l.control_point, l.layer))
-            })
-            .collect();
+        let flat = crate::mu_check::delivery_order(&m.arcs);
         for l in &m.layers {
             let (a, cp, k) = flat[l.index];
             let Some(layer) = r
@@ -974,7 +971,7 @@ fn moving(base: &Machine, obs: &ObservedKinematics) -> bool {
         >= MOVING_FRACTION_OF_BASE_SPEED * base.gantry.max_speed_deg_per_s
 }
 
-/// Under a constant-speed controller, J by the model ([`crate::transitions::fit_jerk`]): the
+/// Under a constant-speed controller, J by the model ([`crate::transitions::fit_by_gaps`]): the
 /// reversals of the trace read the beam-on dwells between a move's turns as a slow jerk.
 fn refine_jerk(
     machine: &mut Machine,

@@ -52,68 +52,14 @@ pub fn calibrate_controller(
         .iter()
         .map(|(m, _, rms)| (m.name().to_string(), *rms))
         .collect();
-    let base_controller = base.controller_or_assumed();
-    let best = fits
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
-        .map_or(0, |(i, _)| i);
-    let best_rms = fits[best].2;
-    let separated = fits
-        .iter()
-        .enumerate()
-        .all(|(i, f)| i == best || f.2 >= CONTROLLER_DECISION_RATIO * best_rms);
-    let (chosen, decision, source) = if forced.is_some() {
-        (
-            best,
-            "forced",
-            format!(
-                "forced by --motion in the calibration from {} log(s); rms beam-on timing error {:.3} s",
-                logs.len(),
-                best_rms
-            ),
-        )
-    } else if separated {
-        let second = fits
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| *i != best)
-            .map(|(_, f)| f.2)
-            .fold(f64::INFINITY, f64::min);
-        (
-            best,
-            "chosen",
-            format!(
-                "fitted from {} delivery log(s): {} fits the layers' beam-on times {:.1} times better (rms {:.3} s against {:.3} s; the rule asks {}×)",
-                logs.len(),
-                fits[best].0.describe(),
-                second / best_rms.max(f64::MIN_POSITIVE),
-                best_rms,
-                second,
-                CONTROLLER_DECISION_RATIO
-            ),
-        )
-    } else {
-        let kept = fits
-            .iter()
-            .position(|f| f.0 == base_controller.motion)
-            .unwrap_or(best);
-        (
-            kept,
-            "not determined",
-            format!(
-                "not determined by {} delivery log(s) (the models' rms beam-on timing errors differ by less than {}×: {}); kept from the base machine: {}",
-                logs.len(),
-                CONTROLLER_DECISION_RATIO,
-                rms_by_name
-                    .iter()
-                    .map(|(k, v)| format!("{k} {v:.3} s"))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                base_controller.source
-            ),
-        )
-    };
+    let rms: Vec<(Motion, f64)> = fits.iter().map(|(m, _, r)| (*m, *r)).collect();
+    let (chosen, decision, source) = decide(
+        &rms,
+        &rms_by_name,
+        &base.controller_or_assumed(),
+        forced.is_some(),
+        logs.len(),
+    );
     let mut fits = fits;
     let (motion, mut cal, _) = fits.swap_remove(chosen);
     let evidence = ControllerEvidence {
@@ -132,6 +78,80 @@ pub fn calibrate_controller(
     heterogeneity_warning(&mut cal);
     extrapolation_warning(&mut cal, runs);
     Ok(cal)
+}
+
+/// The controller the logs show: (index into `rms`, decision, source sentence). `rms` holds each
+/// candidate model's pooled beam-on timing error; one is chosen when it is at least
+/// [`CONTROLLER_DECISION_RATIO`] times smaller than every other's, else the base machine's is
+/// kept as "not determined"; `forced` takes the one candidate.
+fn decide(
+    rms: &[(Motion, f64)],
+    rms_by_name: &BTreeMap<String, f64>,
+    base_controller: &Controller,
+    forced: bool,
+    logs: usize,
+) -> (usize, &'static str, String) {
+    let best = rms
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
+        .map_or(0, |(i, _)| i);
+    let best_rms = rms[best].1;
+    let separated = rms
+        .iter()
+        .enumerate()
+        .all(|(i, f)| i == best || f.1 >= CONTROLLER_DECISION_RATIO * best_rms);
+    if forced {
+        (
+            best,
+            "forced",
+            format!(
+                "forced by --motion in the calibration from {} log(s); rms beam-on timing error {:.3} s",
+                logs,
+                best_rms
+            ),
+        )
+    } else if separated {
+        let second = rms
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != best)
+            .map(|(_, f)| f.1)
+            .fold(f64::INFINITY, f64::min);
+        (
+            best,
+            "chosen",
+            format!(
+                "fitted from {} delivery log(s): {} fits the layers' beam-on times {:.1} times better (rms {:.3} s against {:.3} s; the rule asks {}×)",
+                logs,
+                rms[best].0.describe(),
+                second / best_rms.max(f64::MIN_POSITIVE),
+                best_rms,
+                second,
+                CONTROLLER_DECISION_RATIO
+            ),
+        )
+    } else {
+        let kept = rms
+            .iter()
+            .position(|f| f.0 == base_controller.motion)
+            .unwrap_or(best);
+        (
+            kept,
+            "not determined",
+            format!(
+                "not determined by {} delivery log(s) (the models' rms beam-on timing errors differ by less than {}×: {}); kept from the base machine: {}",
+                logs,
+                CONTROLLER_DECISION_RATIO,
+                rms_by_name
+                    .iter()
+                    .map(|(k, v)| format!("{k} {v:.3} s"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                base_controller.source
+            ),
+        )
+    }
 }
 
 /// Residuals of opposite signs, each beyond [`RESIDUAL_WARNING_PCT`], are logs no one machine
@@ -275,5 +295,35 @@ fn residual_warnings(cal: &mut Calibration, runs: &[LoggedRun]) {
                 r.log, r.fitted_error_pct, limit, RESIDUAL_WARNING_PCT
             ));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn by_name(rms: &[(Motion, f64)]) -> BTreeMap<String, f64> {
+        rms.iter()
+            .map(|(m, r)| (m.name().to_string(), *r))
+            .collect()
+    }
+
+    #[test]
+    fn a_model_is_chosen_only_three_times_better_else_the_base_is_kept() {
+        let base = Controller::assumed();
+        let close = [(Motion::Constant, 2.0), (Motion::Free, 1.0)];
+        let (i, decision, source) = decide(&close, &by_name(&close), &base, false, 3);
+        assert_eq!((close[i].0, decision), (Motion::Constant, "not determined"));
+        assert!(
+            source.contains("free 1.000 s") && source.contains("assumed"),
+            "{source}"
+        );
+        let apart = [(Motion::Constant, 3.1), (Motion::Free, 1.0)];
+        let (i, decision, source) = decide(&apart, &by_name(&apart), &base, false, 3);
+        assert_eq!((apart[i].0, decision), (Motion::Free, "chosen"));
+        assert!(source.contains("3.1 times better"), "{source}");
+        let one = [(Motion::Free, 5.0)];
+        let (i, decision, _) = decide(&one, &by_name(&one), &base, true, 1);
+        assert_eq!((one[i].0, decision), (Motion::Free, "forced"));
     }
 }

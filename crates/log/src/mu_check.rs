@@ -14,6 +14,17 @@ pub const MU_RATIO_TOLERANCE: f64 = 0.05;
 /// A layer's logged MU may differ from its plan's (after the median ratio) by this much.
 pub const LAYER_MU_TOLERANCE: f64 = 0.2;
 
+/// `(arc, control point, layer)` of each layer of `arcs`, in delivery order.
+pub(crate) fn delivery_order(arcs: &[ResolvedArc]) -> Vec<(usize, usize, usize)> {
+    arcs.iter()
+        .flat_map(|a| {
+            a.layers
+                .iter()
+                .map(move |l| (a.arc_index, l.control_point, l.layer))
+        })
+        .collect()
+}
+
 /// Checks the log's `mu` column (when it has one) against the plan's layers matched in
 /// `logged`: the MU delivered from a layer's beam-on to the next layer's, per layer. Errors name
 /// the first layer that differs.
@@ -26,14 +37,7 @@ pub fn check_mu(
     if !log.has_mu {
         return Ok(());
     }
-    let delivery_order: Vec<(usize, usize, usize)> = arcs
-        .iter()
-        .flat_map(|a| {
-            a.layers
-                .iter()
-                .map(move |l| (a.arc_index, l.control_point, l.layer))
-        })
-        .collect();
+    let delivery_order = delivery_order(arcs);
     let fail = |message: String| MatchError {
         file: log.source.clone(),
         message,

@@ -170,16 +170,6 @@ fn median_step_s(times: &[f64]) -> f64 {
     *steps.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Which samples of the (unwrapped) trace `angles` at `times` are glitches: the Hampel filter of
 /// the module documentation, windows not crossing a step longer than `long_gap_s`.
 fn glitches(times: &[f64], angles: &[f64], long_gap_s: f64) -> Vec<bool> {
@@ -222,14 +212,14 @@ fn glitches(times: &[f64], angles: &[f64], long_gap_s: f64) -> Vec<bool> {
                 slopes.push((angles[b] - angles[a]) / (times[b] - times[a]));
             }
         }
-        let slope = median(&mut slopes);
+        let slope = crate::calibrate::median(&mut slopes);
         window.clear();
         window.extend((from..to).map(|j| angles[j] - slope * (times[j] - times[i])));
         scratch.clone_from(&window);
-        let centre = median(&mut scratch);
+        let centre = crate::calibrate::median(&mut scratch);
         scratch.clear();
         scratch.extend(window.iter().map(|y| (y - centre).abs()));
-        let mad = median(&mut scratch);
+        let mad = crate::calibrate::median(&mut scratch);
         let limit = (GLITCH_MAD_FACTOR * 1.4826 * mad).max(GLITCH_FLOOR_DEG);
         out[i] = (angles[i] - centre).abs() > limit;
     }
