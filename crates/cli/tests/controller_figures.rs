@@ -104,7 +104,7 @@ fn the_readme_s_log_example_gives_its_figures() {
         stdout.contains("controller: free motion")
             && stdout.contains("12.2 times better")
             && stdout.contains("fitted 91.99 s (+1.70 %)")
-            && stdout.contains("warning: lung-log.csv: the fitted machine is +1.70 % off"),
+            && stdout.contains("the fitted machine is +1.70 % off this log"),
         "{stdout}"
     );
     let readme = doc("README.md");
