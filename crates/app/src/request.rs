@@ -26,10 +26,10 @@ pub struct SimulateRequest {
 /// output says beside its number.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ControllerUsed {
-    /// Motion model name (`constant`, `free`).
-    pub motion: &'static str,
-    /// Speed schedule name.
-    pub schedule: &'static str,
+    /// Motion model (written by its name: `constant`, `free`).
+    pub motion: Motion,
+    /// Speed schedule (written by its name).
+    pub schedule: Schedule,
     /// Where the motion came from: `option` (`--motion`), `machine` (its file's controller),
     /// `assumed` (the file names none), or `rule` (forced by a servo period or the schedule).
     pub motion_from: &'static str,
@@ -40,18 +40,17 @@ pub struct ControllerUsed {
 impl ControllerUsed {
     /// One line for text summaries, e.g. `controller: constant speed per layer, optimal schedule (machine: Wase …)`.
     pub fn line(&self) -> String {
-        let motion = self
-            .motion
-            .parse::<Motion>()
-            .map(Motion::describe)
-            .unwrap_or(self.motion);
+        let motion = self.motion.describe();
         let from = match self.motion_from {
             "option" => "from --motion".to_string(),
             "rule" => "forced by the servo period or the schedule".to_string(),
             "machine" => format!("machine file: {}", short_source(&self.source)),
             _ => short_source(&self.source).to_string(),
         };
-        format!("controller: {motion}, {} schedule ({from})", self.schedule)
+        format!(
+            "controller: {motion}, {} schedule ({from})",
+            self.schedule.name()
+        )
     }
 }
 
@@ -127,8 +126,8 @@ impl SimulateRequest {
             ..Options::new(schedule)
         };
         let used = ControllerUsed {
-            motion: motion.name(),
-            schedule: schedule.name(),
+            motion,
+            schedule,
             motion_from,
             source: controller.source,
         };

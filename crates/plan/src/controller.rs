@@ -93,14 +93,6 @@ impl Motion {
     /// Every motion model, in the order the CLI lists them.
     pub const ALL: [Motion; 2] = [Motion::Constant, Motion::Free];
 
-    /// The other model: what a comparison with a log also simulates, to say which fits.
-    pub fn other(self) -> Motion {
-        match self {
-            Motion::Free => Motion::Constant,
-            Motion::Constant => Motion::Free,
-        }
-    }
-
     /// The name the CLI and the files use.
     pub fn name(self) -> &'static str {
         match self {
