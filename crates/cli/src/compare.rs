@@ -199,10 +199,11 @@ pub fn summary(c: &Comparison, plan: &str, machine: &str) -> String {
     );
     let _ = writeln!(
         s,
-        "{} layers matched; {} delivered in more than one beam-on segment ({} interruptions)",
+        "{} layers matched; {} interrupted ({} interruptions); {} machine pauses inside layers (bursts, spills: beam-on time)",
         c.layers.len(),
         c.interrupted_layers,
-        c.interruptions
+        c.interruptions,
+        c.machine_pauses
     );
     if c.glitches_rejected > 0 || c.uncertain_edges > 0 {
         let _ = writeln!(

@@ -59,7 +59,7 @@ fn compare_sets_a_log_beside_its_simulation() {
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stderr}");
     for line in [
-        "88 layers matched; 0 delivered in more than one beam-on segment",
+        "88 layers matched; 0 interrupted (0 interruptions); 0 machine pauses",
         "the log fits free motion better",
         "downward switch",
         "gantry observed (local polynomial fits over 2 s",

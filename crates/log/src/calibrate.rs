@@ -286,6 +286,7 @@ fn gaps(m: &Matched) -> Vec<Gap> {
         .collect();
     m.layers
         .windows(2)
+        .filter(|w| !w[0].ends_early)
         .filter_map(|w| {
             let (a, b) = (flat[w[0].index], flat[w[1].index]);
             (a.0 == b.0).then(|| Gap {
@@ -395,7 +396,8 @@ fn match_runs(base: &Machine, runs: &[LoggedRun]) -> Result<Vec<Matched>, Calibr
                 plan: r.plan_name.clone(),
                 source,
             })?;
-            let layers = match_layers(&r.log, &arcs)?;
+            let mut layers = match_layers(&r.log, &arcs)?;
+            mark_early_ends(base, &arcs, &mut layers);
             crate::mu_check::check_mu(&r.log, &r.plan, &arcs, &layers)?;
             Ok(Matched {
                 arcs,
@@ -404,6 +406,20 @@ fn match_runs(base: &Machine, runs: &[LoggedRun]) -> Result<Vec<Matched>, Calibr
             })
         })
         .collect()
+}
+
+/// Marks the layers whose log shows fewer pauses between bursts than the base machine's
+/// simulation has ([`LoggedLayer::ends_early`]).
+fn mark_early_ends(base: &Machine, arcs: &[ResolvedArc], layers: &mut [LoggedLayer]) {
+    let Some(burst) = base.beam.burst_switching_time_s().filter(|b| *b > 0.0) else {
+        return;
+    };
+    let flat: Vec<&arcsim_plan::ResolvedLayer> = arcs.iter().flat_map(|a| &a.layers).collect();
+    for l in layers {
+        if let Some(p) = flat.get(l.index) {
+            l.ends_early = (l.pauses as f64) < (p.burst_switching_s / burst).round();
+        }
+    }
 }
 
 /// The fitted ELST model and the spreads (up, down, same).
@@ -853,17 +869,7 @@ fn fit_beam(
     values: &mut Vec<FittedValue>,
 ) -> BeamResult {
     let BeamModel::PerMu(b) = &base.beam else {
-        values.push(kept(
-            "beam",
-            "",
-            None,
-            0,
-            "only a per_mu beam model is fitted: the base machine's scanning model is kept",
-        ));
-        return BeamResult {
-            model: None,
-            sd_fraction: 0.0,
-        };
+        return fit_scanning_beam(base, matched, res_sd, values);
     };
     let rows = beam_rows(runs, matched);
     let all: Vec<usize> = (0..rows.len()).collect();
@@ -927,6 +933,152 @@ fn fit_beam(
             spot_switch_time_s: w,
             min_spot_time_s: b.min_spot_time_s,
         })),
+        sd_fraction: (var - res_rel).max(0.0).sqrt(),
+    }
+}
+
+/// Per uninterrupted logged layer with spots whose pauses between bursts are all in the log:
+/// `(spot irradiation at the base's times per MU,
+/// its scanning, the pauses between bursts the simulation has, the logged beam-on with those
+/// pauses)`; and every logged pause between bursts, s.
+#[allow(clippy::type_complexity)]
+fn scanning_rows(matched: &[Matched], burst_s: f64) -> (Vec<[f64; 4]>, Vec<f64>) {
+    let mut rows = Vec::new();
+    let mut pauses = Vec::new();
+    for m in matched {
+        let flat: Vec<&arcsim_plan::ResolvedLayer> =
+            m.arcs.iter().flat_map(|a| &a.layers).collect();
+        for l in &m.layers {
+            let Some(p) = flat.get(l.index) else { continue };
+            let bursts = if burst_s > 0.0 {
+                (p.burst_switching_s / burst_s).round()
+            } else {
+                0.0
+            };
+            // A burst shorter than a log period may not be sampled (a last pass over a few
+            // split spots): the layer then shows fewer pauses, and its beam-on lacks them.
+            let bursts = bursts.min(l.pauses as f64);
+            if !l.ends_early
+                && l.interruptions == 0
+                && p.spot_irradiation_s > 0.0
+                && p.spill_waiting_s == 0.0
+            {
+                rows.push([p.spot_irradiation_s, p.scanning_s, bursts, l.beam_on_s]);
+            }
+            if p.burst_switching_s > 0.0 {
+                pauses.extend_from_slice(&l.pause_gaps_s);
+            }
+        }
+    }
+    (rows, pauses)
+}
+
+/// A `scanning` beam: for a beam in bursts the burst switching time first (the median of the
+/// logged pauses between bursts: a burst too short to be sampled merges two pauses, which a
+/// mean would count), then its times per MU scaled by one factor: least squares of each
+/// uninterrupted layer's logged beam-on, less its bursts' pauses (as many as the simulation
+/// has, at the fitted time) and its scanning, on its spot irradiation at the base's times. The
+/// rest of the model (scanning speeds, spills) is the base's.
+fn fit_scanning_beam(
+    base: &Machine,
+    matched: &[Matched],
+    res_sd: f64,
+    values: &mut Vec<FittedValue>,
+) -> BeamResult {
+    let base_burst = base.beam.burst_switching_time_s().unwrap_or(0.0);
+    let (rows, pauses) = scanning_rows(matched, base_burst);
+    let mut model = base.beam.clone();
+    let mut burst = base_burst;
+    if base_burst > 0.0 {
+        if pauses.len() >= 3 {
+            burst = median(&mut pauses.clone());
+            values.push(FittedValue {
+                field: "beam.burst_switching_time_s".into(),
+                unit: "s".into(),
+                base: Some(base_burst),
+                value: burst,
+                // Each pause is read to within a period: the bootstrap of identical readings
+                // is widened by that resolution over the pauses' number.
+                interval: bootstrap(pauses.len(), 25, &|idx| {
+                    let mut v: Vec<f64> = idx.iter().map(|&i| pauses[i]).collect();
+                    Some(median(&mut v))
+                })
+                .map(|[lo, hi]| {
+                    let r = 1.96 * res_sd / (pauses.len() as f64).sqrt();
+                    [lo - r, hi + r]
+                }),
+                observations: pauses.len(),
+                determined: true,
+                note: format!(
+                    "median of the {} logged pauses between bursts (the machine's pauses inside layers)",
+                    pauses.len()
+                ),
+            });
+            model = model.with_burst_switching_time(burst).unwrap_or(model);
+        } else {
+            values.push(kept(
+                "beam.burst_switching_time_s",
+                "s",
+                Some(base_burst),
+                pauses.len(),
+                "fewer than 3 pauses between bursts in the logs: the base value is kept",
+            ));
+        }
+    }
+    let factor = |idx: &[usize]| {
+        let (mut sxy, mut sxx) = (0.0, 0.0);
+        for &i in idx {
+            let [x, w, n, y] = rows[i];
+            sxy += x * (y - w - n * burst);
+            sxx += x * x;
+        }
+        (sxx > 0.0).then(|| sxy / sxx).filter(|c| *c > 0.0)
+    };
+    let all: Vec<usize> = (0..rows.len()).collect();
+    let Some(c) = (rows.len() >= 3).then(|| factor(&all)).flatten() else {
+        values.push(kept(
+            "beam.s_per_mu_scale",
+            "",
+            Some(1.0),
+            rows.len(),
+            "fewer than 3 uninterrupted logged layers with spots (and no spill waits): the base's times per MU are kept",
+        ));
+        return BeamResult {
+            model: (base_burst > 0.0).then_some(model),
+            sd_fraction: 0.0,
+        };
+    };
+    values.push(FittedValue {
+        field: "beam.s_per_mu_scale".into(),
+        unit: "".into(),
+        base: Some(1.0),
+        value: c,
+        interval: bootstrap(rows.len(), 24, &|idx| factor(idx)),
+        observations: rows.len(),
+        determined: true,
+        note: format!(
+            "the factor on every time per MU of the base's table: least squares of the {} uninterrupted logged layers with every pause between bursts logged: their beam-on (less their scanning and those pauses) on their spot irradiation",
+            rows.len()
+        ),
+    });
+    model = model.with_dose_rate_scale(1.0 / c);
+    let predicted = |r: &[f64; 4]| c * r[0] + r[1] + r[2] * burst;
+    let rel: Vec<f64> = rows
+        .iter()
+        .map(|r| r[3] / predicted(r) - 1.0)
+        .filter(|x| x.is_finite())
+        .collect();
+    let res_rel: f64 = rows
+        .iter()
+        .map(|r| (res_sd / predicted(r)).powi(2))
+        .filter(|x| x.is_finite())
+        .sum::<f64>()
+        / rows.len() as f64;
+    let n = rel.len().max(2) as f64;
+    let m = rel.iter().sum::<f64>() / n;
+    let var = rel.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
+    BeamResult {
+        model: Some(model),
         sd_fraction: (var - res_rel).max(0.0).sqrt(),
     }
 }

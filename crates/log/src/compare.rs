@@ -82,7 +82,7 @@ pub struct LayerComparison {
     pub simulated_angle_start_deg: f64,
     /// Simulated gantry angle at beam-off, degrees.
     pub simulated_angle_end_deg: f64,
-    /// Logged beam-on time (its segments), s.
+    /// Logged beam-on time (its segments and the machine's pauses between them), s.
     pub logged_beam_on_s: f64,
     /// Simulated beam-on time, s.
     pub simulated_beam_on_s: f64,
@@ -90,8 +90,10 @@ pub struct LayerComparison {
     pub logged_transition_in_s: f64,
     /// Simulated transition into it, s.
     pub simulated_transition_in_s: f64,
-    /// How many beam-on segments the log has for it (1: uninterrupted).
+    /// How many beam-on segments the log has for it (1: no pause, no interruption).
     pub segments: usize,
+    /// Of the gaps between them, the interruptions (the rest are the machine's pauses).
+    pub interruptions: usize,
     /// Logged minus simulated (transition in + beam on), s: what this layer adds to the
     /// difference of the totals.
     pub difference_s: f64,
@@ -125,10 +127,14 @@ pub struct Comparison {
     pub logged: TimeSplit,
     /// The simulation's time split.
     pub simulated: TimeSplit,
-    /// Layers delivered in more than one beam-on segment.
+    /// Layers with an interruption (a beam-off gap inside the layer that is not one of the
+    /// machine's own pauses).
     pub interrupted_layers: usize,
-    /// Beam interruptions in all (segments beyond one per layer).
+    /// Beam interruptions in all ([`crate::LoggedLayer::interruptions`]).
     pub interruptions: usize,
+    /// Gaps inside layers that are the machine's own pauses (burst switching, spill waits;
+    /// [`crate::LoggedLayer::pauses`]): beam-on time, as in the simulation.
+    pub machine_pauses: usize,
     /// Beam edges put at a sample across a sampling gap instead of halfway
     /// ([`crate::LoggedLayer::uncertain_edges`]): those layers' beam-on times are lower bounds.
     pub uncertain_edges: usize,
@@ -183,7 +189,7 @@ pub fn compare(
         .min_by(|a, b| a.rms_start_s.total_cmp(&b.rms_start_s))
         .map(|m| m.motion.clone())
         .unwrap_or_default();
-    let interrupted_layers = logged.iter().filter(|l| l.segments > 1).count();
+    let interrupted_layers = logged.iter().filter(|l| l.interruptions > 0).count();
     Ok(Comparison {
         log: log.source.clone(),
         motion: simulated.motion.name().to_string(),
@@ -193,7 +199,8 @@ pub fn compare(
         logged: logged_split,
         simulated: simulated_split,
         interrupted_layers,
-        interruptions: logged.iter().map(|l| l.segments - 1).sum(),
+        interruptions: logged.iter().map(|l| l.interruptions).sum(),
+        machine_pauses: logged.iter().map(|l| l.pauses).sum(),
         uncertain_edges: logged.iter().map(|l| l.uncertain_edges).sum(),
         glitches_rejected: log.glitches_rejected,
         classes: classes(simulated, arcs, &layers),
@@ -241,6 +248,7 @@ fn layer_rows(sim: &Delivery, logged: &[LoggedLayer], shift: f64) -> Vec<LayerCo
                 logged_transition_in_s: log_in,
                 simulated_transition_in_s: sim_in,
                 segments: l.segments,
+                interruptions: l.interruptions,
                 difference_s: (log_in + le - ls) - (sim_in + s.t_end_s - s.t_start_s),
             }
         })

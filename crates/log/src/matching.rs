@@ -7,9 +7,18 @@
 //! give its first layer 30 s), so the edge is put at the beam-on sample itself and counted as
 //! uncertain ([`BeamSegment::start_uncertain`], [`LoggedLayer::uncertain_edges`]).
 //! Consecutive segments of one energy form a run; the plan's consecutive layers of one energy
-//! form one too. The runs must agree in number and energy (with the log's energies); inside a
-//! run of `r` layers the `r - 1` longest beam-off gaps are the layer changes and any other gap is
-//! an interruption inside a layer. Without energies the whole log is one run.
+//! form one too. The runs must agree in number and energy (with the log's energies). Inside a
+//! run of `r` layers the segments are split into `r` consecutive groups by time
+//! ([`layer_cuts`]): each group's beam-on time against its layer's planned one (after one common
+//! scale, the run's logged over planned beam-on), the angles against the layers' windows, and,
+//! between equally good splits, the longer gaps. So a gating pause inside a layer, however long,
+//! stays inside it. Without energies the whole log is one run.
+//!
+//! Inside a layer with pauses of its own (burst switching, waits for a spill:
+//! [`arcsim_plan::ResolvedLayer`]'s `burst_switching_s` and `spill_waiting_s`), the shortest
+//! beam-off gaps that last alike and together no longer than twice those are the machine's pauses
+//! ([`LoggedLayer::pauses`]) and count as beam-on, as in the simulation; the other gaps are
+//! interruptions.
 //!
 //! A log whose layers' beam-on times are a factor of about 1000 from the plan's
 //! ([`UNIT_SLIP_BAND`]) is refused: its clock is in milliseconds (or the plan's times are), and
@@ -63,10 +72,27 @@ pub struct LoggedLayer {
     pub start_s: f64,
     /// Beam-off of its last segment, s (log time).
     pub end_s: f64,
-    /// Beam-on time: the sum of its segments, s.
+    /// Beam-on time as the simulation counts it, s: the sum of its segments and of the machine's
+    /// own pauses between them (bursts, spills), without its interruptions.
     pub beam_on_s: f64,
-    /// How many beam-on segments it was delivered in (1: no interruption).
+    /// How many beam-on segments it was delivered in (1: no pause, no interruption).
     pub segments: usize,
+    /// Of the gaps between its segments, how many are the machine's own pauses (burst
+    /// switching, a wait for a spill; see the module documentation).
+    pub pauses: usize,
+    /// Their time, s (part of `beam_on_s`).
+    pub pauses_s: f64,
+    /// Each of them, s, shortest first.
+    #[serde(skip)]
+    pub pause_gaps_s: Vec<f64>,
+    /// Whether its end is early: fewer pauses between bursts logged than the machine has, a last
+    /// burst too short to be sampled (set by calibration, which knows the bursts; `false` here).
+    /// The gap after it is then long by a pause and more, so gap fits leave it out.
+    pub ends_early: bool,
+    /// The other gaps between its segments: interruptions (gating, a beam hold).
+    pub interruptions: usize,
+    /// Their beam-off time, s.
+    pub interruptions_s: f64,
     /// Gantry angle at its first beam-on sample, degrees.
     pub angle_start_deg: f64,
     /// Gantry angle at its last beam-on sample, degrees.
@@ -94,7 +120,10 @@ struct Planned {
     angle_deg: f64,
     window_deg: f64,
     energy_mev: f64,
-    irradiation_s: f64,
+    /// Planned beam-on time without the machine's pauses, s.
+    on_s: f64,
+    /// The machine's pauses inside the layer (burst switching, spill waits), s.
+    pause_s: f64,
 }
 
 fn planned(arcs: &[ResolvedArc]) -> Vec<Planned> {
@@ -106,7 +135,8 @@ fn planned(arcs: &[ResolvedArc]) -> Vec<Planned> {
                 angle_deg: l.angle_deg,
                 window_deg: l.window_deg,
                 energy_mev: l.energy_mev,
-                irradiation_s: l.irradiation_s,
+                on_s: (l.irradiation_s - l.burst_switching_s - l.spill_waiting_s).max(0.0),
+                pause_s: l.burst_switching_s + l.spill_waiting_s,
             })
         })
         .collect()
@@ -232,14 +262,17 @@ pub fn match_layers(
             )));
         }
     }
+    let period_s = log.typical_period_s();
     let mut out = Vec::with_capacity(plan.len());
     for (s, p) in seg_runs.iter().zip(&plan_runs) {
-        let run = &segs[s.0..s.0 + s.1];
-        let cuts = layer_cuts(run, p.1);
+        let run = merge_short_gaps(&segs[s.0..s.0 + s.1]);
+        let run = run.as_slice();
+        let layers = &plan[p.0..p.0 + p.1];
+        let cuts = layer_cuts(run, layers, period_s);
         let mut from = 0;
         for (j, &to) in cuts.iter().enumerate() {
             let parts = &run[from..to];
-            out.push(logged_layer(p.0 + j, parts));
+            out.push(logged_layer(p.0 + j, parts, layers[j].pause_s, period_s));
             from = to;
         }
     }
@@ -254,7 +287,7 @@ fn check_time_unit(logged: &[LoggedLayer], plan: &[Planned]) -> Result<(), Strin
     let mut ratios: Vec<f64> = logged
         .iter()
         .filter_map(|l| {
-            let planned_s = plan[l.index].irradiation_s;
+            let planned_s = plan[l.index].on_s + plan[l.index].pause_s;
             (planned_s > 0.0 && l.beam_on_s > 0.0).then(|| l.beam_on_s / planned_s)
         })
         .collect();
@@ -279,9 +312,146 @@ fn check_time_unit(logged: &[LoggedLayer], plan: &[Planned]) -> Result<(), Strin
     Ok(())
 }
 
-/// Where a run of segments splits into `layers` layers: the end (exclusive) of each layer's
-/// segments, cutting at the `layers - 1` longest gaps.
-fn layer_cuts(run: &[BeamSegment], layers: usize) -> Vec<usize> {
+/// Beam-off gaps shorter than this (s) are moves between spots, never a layer change (no
+/// machine switches energy, or even layer within a spill, this fast): a per-spot record's
+/// segments are merged across them before matching, their time counted as beam-on (scanning,
+/// as the model counts it).
+pub const MIN_LAYER_CHANGE_S: f64 = 0.02;
+
+/// `run` with the segments across gaps shorter than [`MIN_LAYER_CHANGE_S`] merged.
+fn merge_short_gaps(run: &[BeamSegment]) -> Vec<BeamSegment> {
+    let mut out: Vec<BeamSegment> = Vec::with_capacity(run.len());
+    for sg in run {
+        match out.last_mut() {
+            Some(last) if sg.start_s - last.end_s < MIN_LAYER_CHANGE_S => {
+                last.end_s = sg.end_s;
+                last.angle_end_deg = sg.angle_end_deg;
+                last.end_uncertain = sg.end_uncertain;
+            }
+            _ => out.push(*sg),
+        }
+    }
+    out
+}
+
+/// Weight of a cut's gap (per unit of `ln(1 + gap / period)`) against the squared log-ratio of
+/// a layer's logged to planned beam-on: enough to choose the longer gap between splits whose
+/// times fit alike, too little to cut at a long pause where the times say otherwise.
+const GAP_WEIGHT: f64 = 0.02;
+
+/// Cost of a segment irradiated outside its layer's window (plus [`ANGLE_TOLERANCE_DEG`]):
+/// larger than any time misfit, so windows decide wherever they differ.
+const OUTSIDE_WINDOW_COST: f64 = 100.0;
+
+/// A group may last at most this many times its layer's planned beam-on (after the run's
+/// scale) plus a few periods: it bounds the search, and a layer that much longer than the
+/// plan is beyond what the time can tell (the longest gaps decide then).
+const MAX_GROUP_RATIO: f64 = 4.0;
+
+/// Most layer × segment end points [`layer_cuts`] searches (a run of 1000 layers in 10,000
+/// segments): each visits the segments its layer's time allows.
+const MAX_SEARCH: usize = 10_000_000;
+
+/// Where a run of segments splits into the run's `layers`: the end (exclusive) of each layer's
+/// segments, by the least total misfit (module documentation) over all splits into consecutive
+/// groups, found by dynamic programming.
+fn layer_cuts(run: &[BeamSegment], layers: &[Planned], period_s: f64) -> Vec<usize> {
+    let (m, r) = (run.len(), layers.len());
+    if r <= 1 || m == r {
+        return if r <= 1 { vec![m] } else { (1..=m).collect() };
+    }
+    // The search visits up to r × m end points; beyond this a run is split at its longest gaps.
+    if r.saturating_mul(m) > MAX_SEARCH {
+        return longest_gap_cuts(run, r);
+    }
+    let floor = 2.0 * period_s.max(1e-6);
+    let mut prefix = vec![0.0; m + 1];
+    for (i, sg) in run.iter().enumerate() {
+        prefix[i + 1] = prefix[i] + (sg.end_s - sg.start_s).max(0.0);
+    }
+    let planned: f64 = layers.iter().map(|p| p.on_s).sum();
+    let scale = if planned > 0.0 && prefix[m] > 0.0 {
+        prefix[m] / planned
+    } else {
+        1.0
+    };
+    let outside = |i: usize, p: &Planned| {
+        let reach = p.window_deg / 2.0 + ANGLE_TOLERANCE_DEG;
+        let seg = run[i];
+        [seg.angle_start_deg, seg.angle_end_deg]
+            .iter()
+            .filter(|&&a| angle_diff_deg(a, p.angle_deg).abs() > reach)
+            .count() as f64
+    };
+    // Outside-window counts per layer as prefix sums over the segments.
+    let outside_prefix: Vec<Vec<f64>> = layers
+        .iter()
+        .map(|p| {
+            let mut v = vec![0.0; m + 1];
+            for i in 0..m {
+                v[i + 1] = v[i] + outside(i, p);
+            }
+            v
+        })
+        .collect();
+    let gap_bonus = |j: usize| {
+        let g = (run[j].start_s - run[j - 1].end_s).max(0.0);
+        GAP_WEIGHT * (1.0 + g / period_s.max(1e-6)).ln()
+    };
+    // best[l][i]: least cost of segments 0..=i as layers 0..=l, layer l ending at i; from[l][i]
+    // the first segment of layer l there.
+    let mut best = vec![vec![f64::INFINITY; m]; r];
+    let mut from = vec![vec![0usize; m]; r];
+    for (l, p) in layers.iter().enumerate() {
+        let expected = scale * p.on_s;
+        let limit = MAX_GROUP_RATIO * expected + 2.0 * floor;
+        // Layer l ends at i in [l, m - r + l]; it starts at j in [l, i].
+        for i in l..=(m - r + l) {
+            let mut j = i;
+            loop {
+                let on = prefix[i + 1] - prefix[j];
+                if on > limit && j < i {
+                    break;
+                }
+                let before = if l == 0 {
+                    (j == 0).then_some(0.0)
+                } else {
+                    Some(best[l - 1][j - 1]).filter(|b| b.is_finite())
+                };
+                if let Some(before) = before {
+                    let fit = ((on + floor) / (expected + floor)).ln().powi(2);
+                    let angles =
+                        OUTSIDE_WINDOW_COST * (outside_prefix[l][i + 1] - outside_prefix[l][j]);
+                    let cut = if l == 0 { 0.0 } else { gap_bonus(j) };
+                    let cost = before + fit + angles - cut;
+                    if cost < best[l][i] {
+                        best[l][i] = cost;
+                        from[l][i] = j;
+                    }
+                }
+                if j == l {
+                    break;
+                }
+                j -= 1;
+            }
+        }
+    }
+    if !best[r - 1][m - 1].is_finite() {
+        return longest_gap_cuts(run, r);
+    }
+    let mut cuts = vec![m; r];
+    let mut i = m - 1;
+    for l in (1..r).rev() {
+        let j = from[l][i];
+        cuts[l - 1] = j;
+        i = j - 1;
+    }
+    cuts
+}
+
+/// The cuts at the `layers - 1` longest gaps (when no split keeps every layer within
+/// [`MAX_GROUP_RATIO`] of its planned time, or the run is beyond [`MAX_SEARCH`]).
+fn longest_gap_cuts(run: &[BeamSegment], layers: usize) -> Vec<usize> {
     let mut gaps: Vec<(f64, usize)> = run
         .windows(2)
         .enumerate()
@@ -298,20 +468,58 @@ fn layer_cuts(run: &[BeamSegment], layers: usize) -> Vec<usize> {
     cuts
 }
 
-fn logged_layer(index: usize, parts: &[BeamSegment]) -> LoggedLayer {
+/// Of a layer's gaps (ascending), how many of the shortest are the machine's own pauses, and
+/// their time: each at most 3 times the median of the shorter half plus two periods (pauses of
+/// one kind last alike; a gating pause stands out), together at most twice the layer's planned
+/// pauses plus two periods a gap (so a base machine's pause time off by a factor of up to 2 still
+/// finds them, for calibration to fit).
+fn machine_pauses(gaps: &[f64], pause_s: f64, period_s: f64) -> (usize, f64) {
+    if pause_s <= 0.0 || gaps.is_empty() {
+        return (0, 0.0);
+    }
+    let shorter = &gaps[..gaps.len().div_ceil(2)];
+    let typical = shorter[shorter.len() / 2];
+    let cap = 3.0 * typical + 2.0 * period_s;
+    let budget = 2.0 * pause_s + 2.0 * period_s * gaps.len() as f64;
+    let (mut n, mut total) = (0, 0.0);
+    for &g in gaps {
+        if g > cap || total + g > budget {
+            break;
+        }
+        n += 1;
+        total += g;
+    }
+    (n, total)
+}
+
+/// A layer from its segments; `pause_s` is the machine's own pauses the plan gives it.
+fn logged_layer(index: usize, parts: &[BeamSegment], pause_s: f64, period_s: f64) -> LoggedLayer {
     let (first, last) = (parts[0], parts[parts.len() - 1]);
+    let mut gaps: Vec<f64> = parts
+        .windows(2)
+        .map(|w| (w[1].start_s - w[0].end_s).max(0.0))
+        .collect();
+    gaps.sort_by(f64::total_cmp);
+    let (pauses, paused_s) = machine_pauses(&gaps, pause_s, period_s);
+    let interruptions_s: f64 = gaps[pauses..].iter().sum();
     LoggedLayer {
         index,
         start_s: first.start_s,
         end_s: last.end_s,
-        beam_on_s: parts.iter().map(|p| p.end_s - p.start_s).sum(),
+        beam_on_s: parts.iter().map(|p| p.end_s - p.start_s).sum::<f64>() + paused_s,
         segments: parts.len(),
+        pauses,
+        pauses_s: paused_s,
+        pause_gaps_s: gaps[..pauses].to_vec(),
+        interruptions: gaps.len() - pauses,
+        interruptions_s,
         angle_start_deg: first.angle_start_deg,
         angle_end_deg: last.angle_end_deg,
         uncertain_edges: parts
             .iter()
             .map(|p| usize::from(p.start_uncertain) + usize::from(p.end_uncertain))
             .sum(),
+        ends_early: false,
     }
 }
 

@@ -58,7 +58,7 @@ fn misfit(
                 let (Some(a), Some(b)) = (d.layers.get(k), d.layers.get(k + 1)) else {
                     continue;
                 };
-                if a.arc != b.arc {
+                if a.arc != b.arc || pair[0].ends_early {
                     continue;
                 }
                 if let Switches::Kind(kind) = which {

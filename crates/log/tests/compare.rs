@@ -148,6 +148,105 @@ fn an_interrupted_layer_is_one_layer_in_two_segments() {
     }
 }
 
+/// The log with a gating pause of `pause_s` inserted at `at_s` (the middle of a layer): beam
+/// and gantry hold, the later samples come `pause_s` later.
+fn with_gating_pause(samples: &[LogSample], at_s: f64, pause_s: f64) -> Vec<LogSample> {
+    let mut out = Vec::with_capacity(samples.len() + (pause_s / PERIOD) as usize);
+    let mut inserted = false;
+    for s in samples {
+        if !inserted && s.t_s >= at_s {
+            inserted = true;
+            let held = out.last().copied().unwrap_or(*s);
+            let n = (pause_s / PERIOD).round() as usize;
+            for k in 0..n {
+                out.push(LogSample {
+                    t_s: s.t_s + k as f64 * PERIOD,
+                    beam_on: false,
+                    energy_mev: None,
+                    spot: None,
+                    mu: None,
+                    ..held
+                });
+            }
+        }
+        let mut moved = *s;
+        if inserted {
+            moved.t_s += pause_s;
+        }
+        out.push(moved);
+    }
+    out
+}
+
+#[test]
+fn a_gating_pause_longer_than_every_switch_stays_inside_its_layer() {
+    // A 5 s gating pause is longer than every energy switch but the upward ones: a split at the
+    // longest gaps would take it for a layer change and shift every later layer by one.
+    let machine = atom();
+    for name in ["lung", "prostate"] {
+        let p = plan(name);
+        let (d, log) = logged(&p, &machine);
+        let arcs = resolve(&p, &machine).expect("resolves");
+        for k in [3, d.layers.len() / 2] {
+            let layer = &d.layers[k];
+            let mid = 0.5 * (layer.t_start_s + layer.t_end_s);
+            let paused = with_gating_pause(&log.samples, mid, 5.0);
+            for energy in [false, true] {
+                let c = compare(&arcs, &d, &[], &reparse(&paused, energy))
+                    .unwrap_or_else(|e| panic!("{name} layer {k} energy {energy}: {e}"));
+                let what = format!("{name}, pause in layer {k}, energy column {energy}");
+                assert_eq!((c.interruptions, c.interrupted_layers), (1, 1), "{what}");
+                assert_eq!(c.layers[k].interruptions, 1, "{what}");
+                for r in &c.layers {
+                    let on = (r.logged_beam_on_s - r.simulated_beam_on_s).abs();
+                    assert!(
+                        on <= 2.0 * PERIOD + 1e-9,
+                        "{what}: layer {} beam-on {} s logged, {} s simulated",
+                        r.index,
+                        r.logged_beam_on_s,
+                        r.simulated_beam_on_s
+                    );
+                }
+                assert!(
+                    (c.logged.interruptions_s - 5.0).abs() < 2.0 * PERIOD,
+                    "{what}: {} s of interruptions",
+                    c.logged.interruptions_s
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn burst_pauses_are_the_machines_own_not_interruptions() {
+    // A synchrocyclotron's layers come in bursts 150 ms apart: its perfect log, compared with
+    // its own simulation, has no interruption and the simulation's beam-on times.
+    let machine =
+        load_machine(repo().join("scenarios/machine-proteusone-like.json")).expect("machine");
+    let p = plan("lung");
+    let (d, log) = logged(&p, &machine);
+    let arcs = resolve(&p, &machine).expect("resolves");
+    let bursts: f64 = arcs
+        .iter()
+        .flat_map(|a| &a.layers)
+        .map(|l| l.burst_switching_s)
+        .sum();
+    assert!(bursts > 1.0, "the plan has burst pauses: {bursts} s");
+    for energy in [true, false] {
+        let c = compare(&arcs, &d, &[], &reparse(&log.samples, energy)).expect("compares");
+        assert_eq!(c.interruptions, 0, "energy column {energy}");
+        let expected = (bursts / 0.15).round() as usize;
+        assert_eq!(c.machine_pauses, expected, "energy column {energy}");
+        assert!(c.logged.interruptions_s < 1e-9, "{:?}", c.logged);
+        assert!(
+            (c.logged.beam_on_s - c.simulated.beam_on_s).abs() < PERIOD * c.layers.len() as f64,
+            "{:?} vs {:?}",
+            c.logged,
+            c.simulated
+        );
+    }
+}
+
 #[test]
 fn a_log_of_another_plan_is_refused_where_it_first_differs() {
     let machine = atom();
