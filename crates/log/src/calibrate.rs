@@ -278,20 +278,26 @@ fn typical_period(log: &DeliveryLog) -> f64 {
     }
 }
 
-fn gaps(m: &Matched) -> Vec<Gap> {
-    let flat: Vec<(usize, f64)> = m
+/// The beam-off gaps between a run's consecutive layers of one arc that are energy switches of
+/// `base`'s ELST model: a layer changed inside a spill (multi-energy extraction: the spill
+/// model's in-spill switching time) or with the plan's own switching time is not, and neither
+/// is the gap after a layer that ends early ([`LoggedLayer::ends_early`]).
+fn gaps(m: &Matched, base: &Machine) -> Vec<Gap> {
+    let flat: Vec<(usize, &arcsim_plan::ResolvedLayer)> = m
         .arcs
         .iter()
-        .flat_map(|a| a.layers.iter().map(move |l| (a.arc_index, l.energy_mev)))
+        .flat_map(|a| a.layers.iter().map(move |l| (a.arc_index, l)))
         .collect();
     m.layers
         .windows(2)
         .filter(|w| !w[0].ends_early)
         .filter_map(|w| {
-            let (a, b) = (flat[w[0].index], flat[w[1].index]);
-            (a.0 == b.0).then(|| Gap {
-                class: switch_class(a.1, b.1),
-                step_mev: b.1 - a.1,
+            let ((arc_a, a), (arc_b, b)) = (flat[w[0].index], flat[w[1].index]);
+            let elst = base.elst.switch_time_s(a.energy_mev, b.energy_mev);
+            let by_elst = (b.switch_in_s - elst).abs() <= 1e-9 * elst.max(1.0);
+            (arc_a == arc_b && by_elst).then(|| Gap {
+                class: switch_class(a.energy_mev, b.energy_mev),
+                step_mev: b.energy_mev - a.energy_mev,
                 duration_s: w[1].start_s - w[0].end_s,
                 to_layer: w[1].index,
             })
@@ -315,7 +321,7 @@ pub fn calibrate(
     // Each edge is within half a period: a gap or a beam-on time is off by up to one period,
     // variance period²/6.
     let resolution_sd = period / 6f64.sqrt();
-    let all_gaps: Vec<Gap> = matched.iter().flat_map(gaps).collect();
+    let all_gaps: Vec<Gap> = matched.iter().flat_map(|m| gaps(m, base)).collect();
     let mut values = Vec::new();
     let mut machine = base.clone();
     let first = fit_elst(base, &all_gaps, None, elst_fit, resolution_sd, &mut values);
@@ -328,6 +334,9 @@ pub fn calibrate(
     let observed = observe(&traces);
     fit_gantry(base, &observed, &mut machine, &mut values);
     if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
+        question_speed_plateau(base, &mut machine, runs, options, &observed, &mut values);
+    }
+    if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
         refine_jerk(&mut machine, runs, &matched, options, &mut values);
     }
     // Second pass: the switches a simulation on the first fit times at their ELST carry the
@@ -337,7 +346,7 @@ pub fn calibrate(
         .iter()
         .zip(&lasting)
         .flat_map(|(m, lasts)| {
-            gaps(m)
+            gaps(m, base)
                 .into_iter()
                 .filter(|g| lasts.get(g.to_layer).copied().unwrap_or(false))
         })
@@ -362,6 +371,14 @@ pub fn calibrate(
     if options.motion == arcsim_sequencer::Motion::Constant {
         elst_by_model(&mut machine, runs, &matched, options, &mut values);
     }
+    bound_unseen_elst(
+        &mut machine,
+        runs,
+        &matched,
+        &all_gaps,
+        options,
+        &mut values,
+    );
     let spread = TimingSpread {
         elst_up_sd_s: elst_sd[0],
         elst_down_sd_s: elst_sd[1],
@@ -563,6 +580,64 @@ fn elst_by_model(
             "by the model: the ELST whose simulated gaps ({class}; constant speed per layer, the schedule re-simulated at each candidate) last as the {} logged ones (golden section over its logarithm from {start:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval from the misfit's curvature",
             fit.transitions
         );
+    }
+}
+
+/// Each single-valued ELST that no logged gap shows: with it at 0 the simulated gaps of its kind
+/// fit the logged ones as well as at its fitted value (within the larger of 20 ms and a tenth),
+/// so the gantry's moves alone explain them. It is then not determined, and at most the
+/// shortest such gap (a switch never lasts less than its ELST): the base value kept, or lowered
+/// to that bound.
+fn bound_unseen_elst(
+    machine: &mut Machine,
+    runs: &[LoggedRun],
+    matched: &[Matched],
+    all_gaps: &[Gap],
+    options: &Options,
+    values: &mut [FittedValue],
+) {
+    let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
+    for (field, class, k) in [
+        ("elst.up_s", "upward switch", 0),
+        ("elst.down_s", "downward switch", 1),
+        ("elst.same_s", "same energy", 2),
+    ] {
+        let Some(fitted) = elst_slot(&mut machine.elst, k).map(|x| *x) else {
+            continue;
+        };
+        let Some(row) = values.iter_mut().find(|v| v.field == field && v.determined) else {
+            continue;
+        };
+        if fitted <= 1e-6 {
+            continue;
+        }
+        let set = move |m: &mut Machine, e: f64| {
+            if let Some(x) = elst_slot(&mut m.elst, k) {
+                *x = e;
+            }
+        };
+        let which = crate::transitions::Switches::Kind(class);
+        let rms =
+            |e: f64| crate::transitions::gap_rms(machine, &set, e, (runs, &logged), which, options);
+        let (Some((at_fit, n)), Some((at_zero, _))) = (rms(fitted), rms(0.0)) else {
+            continue;
+        };
+        if n < 3 || at_zero > at_fit + (0.1 * at_fit).max(0.02) {
+            continue;
+        }
+        let shortest = durations_of(all_gaps, class)
+            .into_iter()
+            .fold(f64::INFINITY, f64::min);
+        let base = row.base.unwrap_or(fitted);
+        let value = base.min(shortest);
+        row.note = format!(
+            "not determined: no {class} gap shows it (simulated with it at 0 the {n} gaps fit as well: rms {at_zero:.3} s against {at_fit:.3} s at {fitted:.4} s; the gantry's moves alone explain them); it is at most {shortest:.4} s, the shortest such gap: the base value {base} {}",
+            if value < base { "lowered to that bound" } else { "kept" }
+        );
+        row.value = value;
+        row.interval = None;
+        row.determined = false;
+        set(machine, value);
     }
 }
 
@@ -1121,6 +1196,65 @@ const MOVING_FRACTION_OF_BASE_SPEED: f64 = 0.2;
 fn moving(base: &Machine, obs: &ObservedKinematics) -> bool {
     obs.speed.map_or(0.0, |p| p.peak)
         >= MOVING_FRACTION_OF_BASE_SPEED * base.gantry.max_speed_deg_per_s
+}
+
+/// A fitted V that changes the plans' simulated totals by less than this fraction, when raised
+/// tenfold from the logged peak speed, does not bind in those plans.
+const V_BINDS_FRACTION: f64 = 1e-3;
+
+/// Under a constant-speed controller a speed plateau in the logs is a layer's constant speed
+/// (its window and beam-on set it), not V, unless V is what held it there. The logged plans are
+/// simulated with V at the logged peak speed and at ten times it: when the totals differ by less
+/// than [`V_BINDS_FRACTION`], V does not bind in these logs and is not determined (the base value
+/// kept, never below the logged peak).
+fn question_speed_plateau(
+    base: &Machine,
+    machine: &mut Machine,
+    runs: &[LoggedRun],
+    options: &Options,
+    observed: &ObservedKinematics,
+    values: &mut [FittedValue],
+) {
+    let Some(row) = values
+        .iter_mut()
+        .find(|v| v.field == "gantry.max_speed_deg_per_s" && v.determined)
+    else {
+        return;
+    };
+    let plateau = row.value;
+    let logged_peak = observed.speed.map_or(plateau, |s| s.peak.max(plateau));
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    let total_at = |v: f64| -> Option<f64> {
+        let mut m = machine.clone();
+        m.gantry.max_speed_deg_per_s = v;
+        runs.par_iter()
+            .map(|r| simulate(&r.plan, &m, &opts).ok().map(|d| d.total_s))
+            .sum()
+    };
+    let (Some(at_peak), Some(unbound)) = (total_at(logged_peak), total_at(10.0 * logged_peak))
+    else {
+        return;
+    };
+    let saved = (at_peak - unbound) / at_peak.max(f64::MIN_POSITIVE);
+    if saved >= V_BINDS_FRACTION {
+        row.note.push_str(&format!(
+            "; V binds: the plans (constant speed per layer) take {:.2} % less time with V ten times the logged peak",
+            100.0 * saved
+        ));
+        return;
+    }
+    let value = base.gantry.max_speed_deg_per_s.max(logged_peak);
+    row.note = format!(
+        "not determined: under constant speed per layer the plateau {plateau:.4} deg/s is a layer's speed, not V (the plans simulated with V at the logged peak {logged_peak:.4} and at ten times it last alike: {:+.3} %); the base value is kept, never below the logged peak",
+        -100.0 * saved
+    );
+    row.value = value;
+    row.interval = None;
+    row.determined = false;
+    machine.gantry.max_speed_deg_per_s = value;
 }
 
 /// Under a constant-speed controller, J by the model ([`crate::transitions::fit_by_gaps`]): the

@@ -78,6 +78,24 @@ fn misfit(
     Some(parts.iter().fold((0.0, 0), |(a, b), (x, y)| (a + x, b + y)))
 }
 
+/// The robust rms (s) of (logged − simulated) beam-off gaps of `which` with `machine` changed by
+/// `set(value)`, and how many gaps; `None` if a simulation fails.
+pub(crate) fn gap_rms(
+    machine: &Machine,
+    set: &dyn Fn(&mut Machine, f64),
+    value: f64,
+    data: (&[LoggedRun], &[&[LoggedLayer]]),
+    which: Switches,
+    options: &Options,
+) -> Option<(f64, usize)> {
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    let (ss, n) = misfit(machine, set, value, data, which, &opts)?;
+    Some(((ss / n.max(1) as f64).sqrt(), n))
+}
+
 /// The value in [`start` / `span`, `span` × `start`] (clamped to `range`) that makes the
 /// simulated gaps of `which` last as logged (golden section over its logarithm), with a 95 %
 /// interval from the misfit's curvature; `None` with fewer than 3 such gaps or when the misfit

@@ -298,6 +298,16 @@ fn check(truth: Truth, seed: u64) {
             peak.peak
         );
     }
+    // A speed read as V is V: under constant speed per layer a layer's plateau is not
+    // (these plans never reach the hidden V of the constant-speed machines).
+    if v.determined {
+        within(
+            v.value,
+            hidden.gantry.max_speed_deg_per_s,
+            0.05,
+            "V (determined)",
+        );
+    }
     // The fitted machine alone (its controller, no option) predicts a plan it never saw.
     let held_out = generate(PlanKind::Lung, 7);
     let logged = log_of(&held_out, truth, seed + 1000, "held-out.log");
