@@ -337,7 +337,8 @@ pub fn calibrate(
         question_speed_plateau(base, &mut machine, runs, options, &observed, &mut values);
     }
     if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
-        refine_jerk(&mut machine, runs, &matched, options, &mut values);
+        // A seed for the second ELST pass: 0.1 % is enough.
+        refine_jerk(&mut machine, (runs, &matched), options, 2e-3, &mut values);
     }
     // Second pass: the switches a simulation on the first fit times at their ELST carry the
     // ELST alone (no gap the gantry lengthened pulls it up).
@@ -365,7 +366,13 @@ pub fn calibrate(
     values.splice(0..0, elst_values);
     // Again on the final ELST: the first pass's lowest clusters shift the moves' share of the gaps.
     if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
-        refine_jerk(&mut machine, runs, &matched, options, &mut values);
+        refine_jerk(
+            &mut machine,
+            (runs, &matched),
+            options,
+            crate::transitions::LOG_TOLERANCE,
+            &mut values,
+        );
     }
     let elst_sd = elst.sd;
     if options.motion == arcsim_sequencer::Motion::Constant {
@@ -540,46 +547,56 @@ fn elst_by_model(
     values: &mut [FittedValue],
 ) {
     let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
-    for (field, class, k) in [
+    let kinds = [
         ("elst.up_s", "upward switch", 0),
         ("elst.down_s", "downward switch", 1),
         ("elst.same_s", "same energy", 2),
-    ] {
-        let Some(start) = elst_slot(&mut machine.elst, k).map(|x| *x) else {
-            continue;
-        };
-        // A same-energy ELST of 0 (ATOM's) has no logarithm to search: those switches are the
-        // gantry's alone and the value stays as the first fits left it.
-        if start <= 1e-6 {
-            continue;
-        }
-        let set = move |m: &mut Machine, e: f64| {
+    ];
+    let set_kind = |k: usize| {
+        move |m: &mut Machine, e: f64| {
             if let Some(x) = elst_slot(&mut m.elst, k) {
                 *x = e;
             }
-        };
-        let Some(fit) = crate::transitions::fit_by_gaps(
-            machine,
-            &set,
-            (start, 1.5, (0.0, arcsim_plan::MAX_SWITCH_TIME_S)),
-            (runs, &logged),
-            crate::transitions::Switches::Kind(class),
-            options,
-        ) else {
-            continue;
-        };
+        }
+    };
+    // The kinds are fitted side by side from the same machine (each its own switches), in
+    // parallel: with one log the simulations inside a fit cannot be.
+    let fitting: &Machine = machine;
+    let fits: Vec<_> = kinds
+        .par_iter()
+        .map(|&(field, class, k)| {
+            let start = elst_slot(&mut fitting.elst.clone(), k).map(|x| *x)?;
+            // A same-energy ELST of 0 (ATOM's) has no logarithm to search: those switches are
+            // the gantry's alone and the value stays as the first fits left it.
+            if start <= 1e-6 {
+                return None;
+            }
+            let fit = crate::transitions::fit_by_gaps(
+                fitting,
+                &set_kind(k),
+                (
+                    start,
+                    1.5,
+                    (0.0, arcsim_plan::MAX_SWITCH_TIME_S),
+                    crate::transitions::LOG_TOLERANCE,
+                ),
+                (runs, &logged),
+                crate::transitions::Switches::Kind(class),
+                options,
+            )?;
+            Some((field, class, k, start, fit))
+        })
+        .collect();
+    for (field, class, k, start, fit) in fits.into_iter().flatten() {
         let Some(row) = values.iter_mut().find(|v| v.field == field) else {
             continue;
         };
-        set(machine, fit.value);
-        row.value = fit.value;
-        row.interval = Some(fit.interval);
-        row.observations = fit.transitions;
-        row.determined = true;
-        row.note = format!(
+        set_kind(k)(machine, fit.value);
+        let note = format!(
             "by the model: the ELST whose simulated gaps ({class}; constant speed per layer, the schedule re-simulated at each candidate) last as the {} logged ones (golden section over its logarithm from {start:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval from the misfit's curvature",
             fit.transitions
         );
+        record_gap_fit(row, &fit, note);
     }
 }
 
@@ -619,7 +636,8 @@ fn bound_unseen_elst(
         let which = crate::transitions::Switches::Kind(class);
         let rms =
             |e: f64| crate::transitions::gap_rms(machine, &set, e, (runs, &logged), which, options);
-        let (Some((at_fit, n)), Some((at_zero, _))) = (rms(fitted), rms(0.0)) else {
+        let (Some((at_fit, n)), Some((at_zero, _))) = rayon::join(|| rms(fitted), || rms(0.0))
+        else {
             continue;
         };
         if n < 3 || at_zero > at_fit + (0.1 * at_fit).max(0.02) {
@@ -988,28 +1006,36 @@ fn fit_beam(
     if b.min_spot_time_s > 0.0 {
         values.push(kept("beam.min_spot_time_s", "s", Some(b.min_spot_time_s), 0, "not fitted (the fit assumes no spot is held at its minimum time): the base value is kept"));
     }
-    let rel: Vec<f64> = rows
-        .iter()
-        .map(|r| r.2 / (s * r.0 + w * r.1) - 1.0)
-        .filter(|x| x.is_finite())
-        .collect();
-    let res_rel: f64 = rows
-        .iter()
-        .map(|r| (res_sd / (s * r.0 + w * r.1)).powi(2))
-        .filter(|x| x.is_finite())
-        .sum::<f64>()
-        / rows.len() as f64;
-    let n = rel.len().max(2) as f64;
-    let mean = rel.iter().sum::<f64>() / n;
-    let var = rel.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let pairs: Vec<(f64, f64)> = rows.iter().map(|r| (r.2, s * r.0 + w * r.1)).collect();
     BeamResult {
         model: Some(BeamModel::PerMu(PerMuBeam {
             s_per_mu: s,
             spot_switch_time_s: w,
             min_spot_time_s: b.min_spot_time_s,
         })),
-        sd_fraction: (var - res_rel).max(0.0).sqrt(),
+        sd_fraction: beam_time_sd_fraction(&pairs, res_sd),
     }
+}
+
+/// The spread of a layer's beam-on time as a fraction of the model's, from `(logged, model)`
+/// pairs: the relative residuals' variance less what the log's time resolution `res_sd` alone
+/// gives.
+fn beam_time_sd_fraction(pairs: &[(f64, f64)], res_sd: f64) -> f64 {
+    let rel: Vec<f64> = pairs
+        .iter()
+        .map(|(y, p)| y / p - 1.0)
+        .filter(|x| x.is_finite())
+        .collect();
+    let res_rel: f64 = pairs
+        .iter()
+        .map(|(_, p)| (res_sd / p).powi(2))
+        .filter(|x| x.is_finite())
+        .sum::<f64>()
+        / pairs.len().max(1) as f64;
+    let n = rel.len().max(2) as f64;
+    let mean = rel.iter().sum::<f64>() / n;
+    let var = rel.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (var - res_rel).max(0.0).sqrt()
 }
 
 /// Per uninterrupted logged layer with spots whose pauses between bursts are all in the log:
@@ -1138,23 +1164,10 @@ fn fit_scanning_beam(
     });
     model = model.with_dose_rate_scale(1.0 / c);
     let predicted = |r: &[f64; 4]| c * r[0] + r[1] + r[2] * burst;
-    let rel: Vec<f64> = rows
-        .iter()
-        .map(|r| r[3] / predicted(r) - 1.0)
-        .filter(|x| x.is_finite())
-        .collect();
-    let res_rel: f64 = rows
-        .iter()
-        .map(|r| (res_sd / predicted(r)).powi(2))
-        .filter(|x| x.is_finite())
-        .sum::<f64>()
-        / rows.len() as f64;
-    let n = rel.len().max(2) as f64;
-    let m = rel.iter().sum::<f64>() / n;
-    let var = rel.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
+    let pairs: Vec<(f64, f64)> = rows.iter().map(|r| (r[3], predicted(r))).collect();
     BeamResult {
         model: Some(model),
-        sd_fraction: (var - res_rel).max(0.0).sqrt(),
+        sd_fraction: beam_time_sd_fraction(&pairs, res_sd),
     }
 }
 
@@ -1234,7 +1247,8 @@ fn question_speed_plateau(
             .map(|r| simulate(&r.plan, &m, &opts).ok().map(|d| d.total_s))
             .sum()
     };
-    let (Some(at_peak), Some(unbound)) = (total_at(logged_peak), total_at(10.0 * logged_peak))
+    let (Some(at_peak), Some(unbound)) =
+        rayon::join(|| total_at(logged_peak), || total_at(10.0 * logged_peak))
     else {
         return;
     };
@@ -1261,9 +1275,9 @@ fn question_speed_plateau(
 /// reversals of the trace read the beam-on dwells between a move's turns as a slow jerk.
 fn refine_jerk(
     machine: &mut Machine,
-    runs: &[LoggedRun],
-    matched: &[Matched],
+    (runs, matched): (&[LoggedRun], &[Matched]),
     options: &Options,
+    log_tolerance: f64,
     values: &mut [FittedValue],
 ) {
     let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
@@ -1272,7 +1286,12 @@ fn refine_jerk(
     let Some(fit) = crate::transitions::fit_by_gaps(
         machine,
         &set,
-        (start, 4.0, arcsim_plan::JERK_RANGE_DEG_PER_S3),
+        (
+            start,
+            4.0,
+            arcsim_plan::JERK_RANGE_DEG_PER_S3,
+            log_tolerance,
+        ),
         (runs, &logged),
         crate::transitions::Switches::All,
         options,
@@ -1284,15 +1303,21 @@ fn refine_jerk(
         .iter_mut()
         .find(|v| v.field == "gantry.max_jerk_deg_per_s3")
     {
-        v.value = fit.value;
-        v.interval = Some(fit.interval);
-        v.observations = fit.transitions;
-        v.determined = true;
-        v.note = format!(
+        let note = format!(
             "by the model: the J whose simulated moves (constant speed per layer) last as the {} logged beam-off gaps (golden section over ln J from the trace's {:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval from the misfit's curvature",
             fit.transitions, start
         );
+        record_gap_fit(v, &fit, note);
     }
+}
+
+/// A value row determined by a fit by the model ([`crate::transitions::fit_by_gaps`]).
+fn record_gap_fit(row: &mut FittedValue, fit: &crate::transitions::GapFit, note: String) {
+    row.value = fit.value;
+    row.interval = Some(fit.interval);
+    row.observations = fit.transitions;
+    row.determined = true;
+    row.note = note;
 }
 
 fn fit_gantry(

@@ -18,8 +18,9 @@ use crate::matching::LoggedLayer;
 /// pause or an interruption must not pull the fit.
 const ROBUST_CAP_S: f64 = 0.3;
 
-/// Golden-section steps over the logarithm (a factor 16 narrowed to 1e-4 relative).
-const STEPS: usize = 30;
+/// The golden section stops when its bracket over the logarithm is this narrow (the value known
+/// to 1e-4 relative, far below any interval it is given with).
+pub(crate) const LOG_TOLERANCE: f64 = 2e-4;
 
 /// A value fitted by the model: its value, 95 % interval and the transitions behind it.
 pub(crate) struct GapFit {
@@ -97,13 +98,14 @@ pub(crate) fn gap_rms(
 }
 
 /// The value in [`start` / `span`, `span` × `start`] (clamped to `range`) that makes the
-/// simulated gaps of `which` last as logged (golden section over its logarithm), with a 95 %
+/// simulated gaps of `which` last as logged (golden section over its logarithm, to a bracket of
+/// `log_tolerance`), with a 95 %
 /// interval from the misfit's curvature; `None` with fewer than 3 such gaps or when the misfit
 /// does not depend on the value (no gap of `which` is bound by it).
 pub(crate) fn fit_by_gaps(
     machine: &Machine,
     set: &dyn Fn(&mut Machine, f64),
-    (start, span, range): (f64, f64, (f64, f64)),
+    (start, span, range, log_tolerance): (f64, f64, (f64, f64), f64),
     data: (&[LoggedRun], &[&[LoggedLayer]]),
     which: Switches,
     options: &Options,
@@ -127,7 +129,8 @@ pub(crate) fn fit_by_gaps(
     let mut c = b - phi * (b - a);
     let mut d = a + phi * (b - a);
     let (mut fc, mut fd) = (f(c)?.0, f(d)?.0);
-    for _ in 0..STEPS {
+    let steps = ((log_tolerance / (b - a)).ln() / phi.ln()).ceil().max(1.0) as usize;
+    for _ in 0..steps {
         if fc <= fd {
             (b, d, fd) = (d, c, fc);
             c = b - phi * (b - a);
