@@ -335,23 +335,10 @@ pub fn calibrate(
     fit_gantry(base, &observed, &mut machine, &mut values);
     if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
         question_speed_plateau(base, &mut machine, runs, options, &observed, &mut values);
-    }
-    if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
         // A seed for the second ELST pass: 0.1 % is enough.
         refine_jerk(&mut machine, (runs, &matched), options, 2e-3, &mut values);
     }
-    // Second pass: the switches a simulation on the first fit times at their ELST carry the
-    // ELST alone (no gap the gantry lengthened pulls it up).
-    let lasting = lasting_switches(&machine, runs, options)?;
-    let clean: Vec<Gap> = matched
-        .iter()
-        .zip(&lasting)
-        .flat_map(|(m, lasts)| {
-            gaps(m, base)
-                .into_iter()
-                .filter(|g| lasts.get(g.to_layer).copied().unwrap_or(false))
-        })
-        .collect();
+    let clean = clean_gaps(base, &machine, runs, &matched, options)?;
     let mut elst_values = Vec::new();
     let elst = fit_elst(
         base,
@@ -410,6 +397,27 @@ pub fn calibrate(
             warnings: Vec::new(),
         },
     })
+}
+
+/// The second ELST pass's gaps: those whose switch a simulation on the first fit (`machine`)
+/// times at its ELST carry the ELST alone (no gap the gantry lengthened pulls it up).
+fn clean_gaps(
+    base: &Machine,
+    machine: &Machine,
+    runs: &[LoggedRun],
+    matched: &[Matched],
+    options: &Options,
+) -> Result<Vec<Gap>, CalibrateError> {
+    let lasting = lasting_switches(machine, runs, options)?;
+    Ok(matched
+        .iter()
+        .zip(&lasting)
+        .flat_map(|(m, lasts)| {
+            gaps(m, base)
+                .into_iter()
+                .filter(|g| lasts.get(g.to_layer).copied().unwrap_or(false))
+        })
+        .collect())
 }
 
 /// Each run's log matched to its plan's layers on `base` (its MU column checked too).
