@@ -148,6 +148,13 @@ pub struct CalibrationReport {
     pub warnings: Vec<String>,
 }
 
+impl CalibrationReport {
+    /// The value row of `field` (e.g. `elst.down_s`), if the calibration considered it.
+    pub fn value(&self, field: &str) -> Option<&FittedValue> {
+        self.values.iter().find(|v| v.field == field)
+    }
+}
+
 /// The fitted machine and its report.
 #[derive(Debug, Clone)]
 pub struct Calibration {
@@ -449,8 +456,18 @@ fn mark_early_ends(base: &Machine, arcs: &[ResolvedArc], layers: &mut [LoggedLay
     let flat: Vec<&arcsim_plan::ResolvedLayer> = arcs.iter().flat_map(|a| &a.layers).collect();
     for l in layers {
         if let Some(p) = flat.get(l.index) {
-            l.ends_early = (l.pauses as f64) < (p.burst_switching_s / burst).round();
+            l.ends_early = l.pauses() < simulated_burst_pauses(p, burst);
         }
+    }
+}
+
+/// How many pauses between bursts a layer's simulation has, with `burst_s` between bursts (0:
+/// no bursts).
+fn simulated_burst_pauses(layer: &arcsim_plan::ResolvedLayer, burst_s: f64) -> usize {
+    if burst_s > 0.0 {
+        (layer.burst_switching_s / burst_s).round() as usize
+    } else {
+        0
     }
 }
 
@@ -526,6 +543,22 @@ fn uncertainty_of(values: &[FittedValue]) -> arcsim_plan::FitUncertainty {
     }
 }
 
+/// The single-valued ELSTs: field, class of switches, slot ([`elst_slot`]).
+const ELST_KINDS: [(&str, &str, usize); 3] = [
+    ("elst.up_s", "upward switch", 0),
+    ("elst.down_s", "downward switch", 1),
+    ("elst.same_s", "same energy", 2),
+];
+
+/// Sets the ELST of kind `k` ([`elst_slot`]) of a machine (nothing where the model has none).
+fn set_elst(k: usize) -> impl Fn(&mut Machine, f64) + Copy + Send + Sync {
+    move |m: &mut Machine, e: f64| {
+        if let Some(x) = elst_slot(&mut m.elst, k) {
+            *x = e;
+        }
+    }
+}
+
 /// The ELST slot of kind `k` (0 up, 1 down, 2 same) of a constant (or, for down and same, a
 /// polynomial) ELST model.
 fn elst_slot(elst: &mut ElstModel, k: usize) -> Option<&mut f64> {
@@ -555,22 +588,10 @@ fn elst_by_model(
     values: &mut [FittedValue],
 ) {
     let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
-    let kinds = [
-        ("elst.up_s", "upward switch", 0),
-        ("elst.down_s", "downward switch", 1),
-        ("elst.same_s", "same energy", 2),
-    ];
-    let set_kind = |k: usize| {
-        move |m: &mut Machine, e: f64| {
-            if let Some(x) = elst_slot(&mut m.elst, k) {
-                *x = e;
-            }
-        }
-    };
     // The kinds are fitted side by side from the same machine (each its own switches), in
     // parallel: with one log the simulations inside a fit cannot be.
     let fitting: &Machine = machine;
-    let fits: Vec<_> = kinds
+    let fits: Vec<_> = ELST_KINDS
         .par_iter()
         .map(|&(field, class, k)| {
             let start = elst_slot(&mut fitting.elst.clone(), k).map(|x| *x)?;
@@ -581,7 +602,7 @@ fn elst_by_model(
             }
             let fit = crate::transitions::fit_by_gaps(
                 fitting,
-                &set_kind(k),
+                &set_elst(k),
                 (
                     start,
                     1.5,
@@ -599,7 +620,7 @@ fn elst_by_model(
         let Some(row) = values.iter_mut().find(|v| v.field == field) else {
             continue;
         };
-        set_kind(k)(machine, fit.value);
+        set_elst(k)(machine, fit.value);
         let note = format!(
             "by the model: the ELST whose simulated gaps ({class}; constant speed per layer, the schedule re-simulated at each candidate) last as the {} logged ones (golden section over its logarithm from {start:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval from the misfit's curvature",
             fit.transitions
@@ -622,11 +643,7 @@ fn bound_unseen_elst(
     values: &mut [FittedValue],
 ) {
     let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
-    for (field, class, k) in [
-        ("elst.up_s", "upward switch", 0),
-        ("elst.down_s", "downward switch", 1),
-        ("elst.same_s", "same energy", 2),
-    ] {
+    for &(field, class, k) in &ELST_KINDS {
         let Some(fitted) = elst_slot(&mut machine.elst, k).map(|x| *x) else {
             continue;
         };
@@ -636,11 +653,7 @@ fn bound_unseen_elst(
         if fitted <= 1e-6 {
             continue;
         }
-        let set = move |m: &mut Machine, e: f64| {
-            if let Some(x) = elst_slot(&mut m.elst, k) {
-                *x = e;
-            }
-        };
+        let set = set_elst(k);
         let which = crate::transitions::Switches::Kind(class);
         let rms =
             |e: f64| crate::transitions::gap_rms(machine, &set, e, (runs, &logged), which, options);
@@ -1059,19 +1072,14 @@ fn scanning_rows(matched: &[Matched], burst_s: f64) -> (Vec<[f64; 4]>, Vec<f64>)
             m.arcs.iter().flat_map(|a| &a.layers).collect();
         for l in &m.layers {
             let Some(p) = flat.get(l.index) else { continue };
-            let bursts = if burst_s > 0.0 {
-                (p.burst_switching_s / burst_s).round()
-            } else {
-                0.0
-            };
-            // A burst shorter than a log period may not be sampled (a last pass over a few
-            // split spots): the layer then shows fewer pauses, and its beam-on lacks them.
-            let bursts = bursts.min(l.pauses as f64);
+            // A layer that ends early (a last burst too short to be sampled) lacks pauses and
+            // beam-on: it is left out.
             if !l.ends_early
                 && l.interruptions == 0
                 && p.spot_irradiation_s > 0.0
                 && p.spill_waiting_s == 0.0
             {
+                let bursts = simulated_burst_pauses(p, burst_s) as f64;
                 rows.push([p.spot_irradiation_s, p.scanning_s, bursts, l.beam_on_s]);
             }
             if p.burst_switching_s > 0.0 {

@@ -200,7 +200,7 @@ pub fn compare(
         simulated: simulated_split,
         interrupted_layers,
         interruptions: logged.iter().map(|l| l.interruptions).sum(),
-        machine_pauses: logged.iter().map(|l| l.pauses).sum(),
+        machine_pauses: logged.iter().map(LoggedLayer::pauses).sum(),
         uncertain_edges: logged.iter().map(|l| l.uncertain_edges).sum(),
         glitches_rejected: log.glitches_rejected,
         classes: classes(simulated, arcs, &layers),

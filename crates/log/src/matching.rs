@@ -77,13 +77,9 @@ pub struct LoggedLayer {
     pub beam_on_s: f64,
     /// How many beam-on segments it was delivered in (1: no pause, no interruption).
     pub segments: usize,
-    /// Of the gaps between its segments, how many are the machine's own pauses (burst
-    /// switching, a wait for a spill; see the module documentation).
-    pub pauses: usize,
-    /// Their time, s (part of `beam_on_s`).
-    pub pauses_s: f64,
-    /// Each of them, s, shortest first.
-    #[serde(skip)]
+    /// Of the gaps between its segments, those that are the machine's own pauses (burst
+    /// switching, a wait for a spill; see the module documentation), s, shortest first: part of
+    /// `beam_on_s`.
     pub pause_gaps_s: Vec<f64>,
     /// Whether its end is early: fewer pauses between bursts logged than the machine has, a last
     /// burst too short to be sampled (set by calibration, which knows the bursts; `false` here).
@@ -91,8 +87,6 @@ pub struct LoggedLayer {
     pub ends_early: bool,
     /// The other gaps between its segments: interruptions (gating, a beam hold).
     pub interruptions: usize,
-    /// Their beam-off time, s.
-    pub interruptions_s: f64,
     /// Gantry angle at its first beam-on sample, degrees.
     pub angle_start_deg: f64,
     /// Gantry angle at its last beam-on sample, degrees.
@@ -501,18 +495,14 @@ fn logged_layer(index: usize, parts: &[BeamSegment], pause_s: f64, period_s: f64
         .collect();
     gaps.sort_by(f64::total_cmp);
     let (pauses, paused_s) = machine_pauses(&gaps, pause_s, period_s);
-    let interruptions_s: f64 = gaps[pauses..].iter().sum();
     LoggedLayer {
         index,
         start_s: first.start_s,
         end_s: last.end_s,
         beam_on_s: parts.iter().map(|p| p.end_s - p.start_s).sum::<f64>() + paused_s,
         segments: parts.len(),
-        pauses,
-        pauses_s: paused_s,
         pause_gaps_s: gaps[..pauses].to_vec(),
         interruptions: gaps.len() - pauses,
-        interruptions_s,
         angle_start_deg: first.angle_start_deg,
         angle_end_deg: last.angle_end_deg,
         uncertain_edges: parts
@@ -520,6 +510,13 @@ fn logged_layer(index: usize, parts: &[BeamSegment], pause_s: f64, period_s: f64
             .map(|p| usize::from(p.start_uncertain) + usize::from(p.end_uncertain))
             .sum(),
         ends_early: false,
+    }
+}
+
+impl LoggedLayer {
+    /// How many of the gaps between its segments are the machine's own pauses.
+    pub fn pauses(&self) -> usize {
+        self.pause_gaps_s.len()
     }
 }
 

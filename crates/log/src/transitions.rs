@@ -99,9 +99,8 @@ pub(crate) fn gap_rms(
 
 /// The value in [`start` / `span`, `span` × `start`] (clamped to `range`) that makes the
 /// simulated gaps of `which` last as logged (golden section over its logarithm, to a bracket of
-/// `log_tolerance`), with a 95 %
-/// interval from the misfit's curvature; `None` with fewer than 3 such gaps or when the misfit
-/// does not depend on the value (no gap of `which` is bound by it).
+/// `log_tolerance`), with a 95 % interval from the misfit's curvature; `None` with fewer than 3
+/// such gaps or when the misfit does not depend on the value (no gap of `which` is bound by it).
 pub(crate) fn fit_by_gaps(
     machine: &Machine,
     set: &dyn Fn(&mut Machine, f64),

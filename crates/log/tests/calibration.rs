@@ -118,13 +118,7 @@ fn calibration_recovers_a_hidden_machine_and_predicts_a_held_out_plan() {
     within(b.s_per_mu, 0.004, 0.02, "s per MU");
     let g = &fitted.gantry;
     within(g.max_accel_deg_per_s2, 0.3, 0.05, "A");
-    let value = |field: &str| {
-        cal.report
-            .values
-            .iter()
-            .find(|v| v.field == field)
-            .expect(field)
-    };
+    let value = |field: &str| cal.report.value(field).expect(field);
     // Two-arc holds V for seconds, and the acceleration reversals (1.5 s) are long enough for
     // the fits to resolve J: all three are identifiable in these logs.
     for field in [

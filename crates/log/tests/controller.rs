@@ -264,14 +264,7 @@ fn check(truth: Truth, seed: u64) {
     }
     // A and J where the logs reach them (the servo loop's are its own, not the machine's).
     if truth != Truth::Servo {
-        let value = |field: &str| {
-            cal.report
-                .values
-                .iter()
-                .find(|v| v.field == field)
-                .expect(field)
-                .clone()
-        };
+        let value = |field: &str| cal.report.value(field).expect(field).clone();
         let (a, j) = (
             value("gantry.max_accel_deg_per_s2"),
             value("gantry.max_jerk_deg_per_s3"),
@@ -284,12 +277,7 @@ fn check(truth: Truth, seed: u64) {
         }
     }
     // V is never below what the logs show of it.
-    let v = cal
-        .report
-        .values
-        .iter()
-        .find(|v| v.field == "gantry.max_speed_deg_per_s")
-        .expect("V");
+    let v = cal.report.value("gantry.max_speed_deg_per_s").expect("V");
     if let Some(peak) = cal.report.observed.speed.as_ref() {
         assert!(
             v.value >= 0.98 * peak.peak,

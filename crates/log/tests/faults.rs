@@ -441,14 +441,7 @@ fn in_spill_switches_and_spill_waits_are_not_energy_switches() {
     for v in &cal.report.values {
         eprintln!("{} = {} ({})", v.field, v.value, v.note);
     }
-    let value = |field: &str| {
-        cal.report
-            .values
-            .iter()
-            .find(|v| v.field == field)
-            .unwrap_or_else(|| panic!("{field}"))
-            .clone()
-    };
+    let value = |field: &str| cal.report.value(field).expect(field).clone();
     for field in ["elst.down_s", "elst.up_s"] {
         let v = value(field);
         assert!(
@@ -508,12 +501,7 @@ fn an_elst_that_no_switch_shows_is_bounded_not_fitted() {
         same_s: 0.0,
     };
     let cal = calibrate(&base, &runs, ElstFit::Constant, &free()).expect("calibrates");
-    let v = cal
-        .report
-        .values
-        .iter()
-        .find(|v| v.field == "elst.down_s")
-        .expect("elst.down_s");
+    let v = cal.report.value("elst.down_s").expect("elst.down_s");
     assert!(
         !v.determined && v.value <= shortest + 2.0 * PERIOD_S && v.note.contains("at most"),
         "{v:?} (shortest downward gap {shortest} s)"
