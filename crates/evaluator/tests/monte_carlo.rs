@@ -71,3 +71,67 @@ fn a_fitted_value_s_uncertainty_spreads_the_total_by_its_derivative() {
         "independent sources add in quadrature: {both} against {s} and {p}"
     );
 }
+
+/// A `scanning` beam's fitted factor on its times per MU and its burst switching time are
+/// drawn too: each spreads the total by its own derivative (two plain simulations with the
+/// whole table scaled, or the burst time moved).
+#[test]
+fn a_scanning_beam_s_fitted_scale_and_burst_time_spread_the_total() {
+    use arcsim_plan::BeamModel;
+    let plan = load_plan(repo().join("plans/lung.json")).expect("plan");
+    let base =
+        load_machine(repo().join("scenarios/machine-proteusone-like.json")).expect("machine");
+    let opts = Options {
+        build_timeline: false,
+        ..Options::new(Schedule::Optimal)
+    };
+    let total = |m: &Machine| simulate(&plan, m, &opts).expect("simulates").total_s;
+    let scaled = |k: f64| {
+        let mut m = base.clone();
+        let BeamModel::Scanning(b) = &mut m.beam else {
+            panic!("a scanning beam")
+        };
+        for row in &mut b.s_per_mu_by_energy {
+            row[1] *= k;
+        }
+        m
+    };
+    let bursts = |dt: f64| {
+        let mut m = base.clone();
+        let BeamModel::Scanning(b) = &mut m.beam else {
+            panic!("a scanning beam")
+        };
+        b.burst_switching_time_s += dt;
+        m
+    };
+    let h = 0.01;
+    let d_scale = (total(&scaled(1.0 + h)) - total(&scaled(1.0 - h))) / (2.0 * h);
+    let d_burst = (total(&bursts(h)) - total(&bursts(-h))) / (2.0 * h);
+    assert!(d_scale > 1.0 && d_burst > 1.0, "{d_scale} {d_burst}");
+    for (u, expected) in [
+        (
+            FitUncertainty {
+                s_per_mu_scale_sd_fraction: 0.01,
+                ..FitUncertainty::default()
+            },
+            d_scale * 0.01,
+        ),
+        (
+            FitUncertainty {
+                burst_switching_time_s_sd: 0.01,
+                ..FitUncertainty::default()
+            },
+            d_burst * 0.01,
+        ),
+    ] {
+        let mut machine = base.clone();
+        machine.uncertainty = Some(u);
+        machine.spread = None;
+        let mc = machine_monte_carlo(&plan, &machine, &opts, 200, 5).expect("draws");
+        assert!(
+            (mc.both.sd_s / expected - 1.0).abs() < 0.2,
+            "sd {} against |dT/dx| σ = {expected} ({u:?})",
+            mc.both.sd_s
+        );
+    }
+}

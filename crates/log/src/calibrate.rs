@@ -369,8 +369,19 @@ pub fn calibrate(
         );
     }
     let elst_sd = elst.sd;
+    let spread = TimingSpread {
+        elst_up_sd_s: elst_sd[0],
+        elst_down_sd_s: elst_sd[1],
+        elst_same_sd_s: elst_sd[2],
+        beam_time_sd_fraction: beam.sd_fraction,
+    };
     if options.motion == arcsim_sequencer::Motion::Constant {
         elst_by_model(&mut machine, runs, &matched, options, &mut values);
+        let noise = crate::joint::Noise {
+            spread: &spread,
+            resolution_sd_s: resolution_sd,
+        };
+        refine_by_model_jointly(&mut machine, (runs, &matched), options, noise, &mut values);
     }
     bound_unseen_elst(
         &mut machine,
@@ -380,12 +391,6 @@ pub fn calibrate(
         options,
         &mut values,
     );
-    let spread = TimingSpread {
-        elst_up_sd_s: elst_sd[0],
-        elst_down_sd_s: elst_sd[1],
-        elst_same_sd_s: elst_sd[2],
-        beam_time_sd_fraction: beam.sd_fraction,
-    };
     machine.spread = Some(spread);
     let uncertainty = uncertainty_of(&values);
     machine.uncertainty = uncertainty.any().then_some(uncertainty);
@@ -540,6 +545,11 @@ fn uncertainty_of(values: &[FittedValue]) -> arcsim_plan::FitUncertainty {
         max_speed_deg_per_s_sd: sd("gantry.max_speed_deg_per_s"),
         max_accel_deg_per_s2_sd: sd("gantry.max_accel_deg_per_s2"),
         max_jerk_deg_per_s3_sd: sd("gantry.max_jerk_deg_per_s3"),
+        s_per_mu_scale_sd_fraction: values
+            .iter()
+            .find(|v| v.field == "beam.s_per_mu_scale" && v.determined && v.value > 0.0)
+            .map_or(0.0, |v| sd("beam.s_per_mu_scale") / v.value),
+        burst_switching_time_s_sd: sd("beam.burst_switching_time_s"),
     }
 }
 
@@ -622,10 +632,102 @@ fn elst_by_model(
         };
         set_elst(k)(machine, fit.value);
         let note = format!(
-            "by the model: the ELST whose simulated gaps ({class}; constant speed per layer, the schedule re-simulated at each candidate) last as the {} logged ones (golden section over its logarithm from {start:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval from the misfit's curvature",
+            "by the model: the ELST whose simulated gaps ({class}; constant speed per layer, the schedule re-simulated at each candidate) last as the logged ones (golden section over its logarithm from {start:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval: the sandwich over the {} gaps it moves, Student's t",
             fit.transitions
         );
         record_gap_fit(row, &fit, note);
+    }
+}
+
+/// The values fitted by the model one at a time (J, each ELST) refined together
+/// ([`crate::joint::refine_jointly`]): J's fit saw the ELSTs of the cluster pass, each
+/// ELST's the J of then; their intervals become the joint sandwich's, which carries what each
+/// value's error does to the others'.
+fn refine_by_model_jointly(
+    machine: &mut Machine,
+    (runs, matched): (&[LoggedRun], &[Matched]),
+    options: &Options,
+    noise: crate::joint::Noise,
+    values: &mut [FittedValue],
+) {
+    const JERK: &str = "gantry.max_jerk_deg_per_s3";
+    let by_model = |field: &str| {
+        values
+            .iter()
+            .any(|v| v.field == field && v.determined && v.note.starts_with("by the model"))
+    };
+    const ACCEL: &str = "gantry.max_accel_deg_per_s2";
+    let set_jerk = |m: &mut Machine, j: f64| m.gantry.max_jerk_deg_per_s3 = j;
+    // A, from the trace's plateaus, moves every gap J does: held (the gaps' fit would absorb
+    // any model error into it), its error carried into J's and the ELSTs' intervals (a trace's
+    // A 0.5 % low reads J 1 % high).
+    let set_accel = |m: &mut Machine, a: f64| {
+        let shift = a - m.gantry.max_accel_deg_per_s2;
+        m.gantry.max_accel_deg_per_s2 = a;
+        if let Some(d) = &mut m.gantry.max_decel_deg_per_s2 {
+            *d += shift;
+        }
+    };
+    let accel: Vec<crate::joint::Nuisance> = values
+        .iter()
+        .filter(|v| v.field == ACCEL && v.determined && v.value > 0.0)
+        .filter_map(|v| {
+            let [lo, hi] = v.interval?;
+            Some(crate::joint::Nuisance {
+                set: &set_accel,
+                value: v.value,
+                sd_ln: (hi.max(1e-12).ln() - lo.max(1e-12).ln()) / (2.0 * 1.96),
+            })
+        })
+        .collect();
+    let setters: Vec<_> = ELST_KINDS.iter().map(|&(_, _, k)| set_elst(k)).collect();
+    let mut fields = Vec::new();
+    let mut params = Vec::new();
+    if by_model(JERK) {
+        fields.push(JERK);
+        params.push(crate::joint::Param {
+            set: &set_jerk,
+            start: machine.gantry.max_jerk_deg_per_s3,
+            range: arcsim_plan::JERK_RANGE_DEG_PER_S3,
+        });
+    }
+    for (&(field, _, k), set) in ELST_KINDS.iter().zip(&setters) {
+        let Some(start) = elst_slot(&mut machine.elst.clone(), k).map(|x| *x) else {
+            continue;
+        };
+        if by_model(field) && start > 1e-6 {
+            fields.push(field);
+            params.push(crate::joint::Param {
+                set,
+                start,
+                range: (0.0, arcsim_plan::MAX_SWITCH_TIME_S),
+            });
+        }
+    }
+    let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
+    let Some(fit) = crate::joint::refine_jointly(
+        machine,
+        &params,
+        (runs, &logged),
+        options,
+        Some(noise),
+        &accel,
+    ) else {
+        return;
+    };
+    for (k, (field, q)) in fields.iter().zip(&params).enumerate() {
+        (q.set)(machine, fit.values[k]);
+        if let Some(row) = values.iter_mut().find(|v| v.field == *field) {
+            row.value = fit.values[k];
+            row.interval = Some(fit.intervals[k]);
+            row.observations = fit.moved[k];
+            row.note = format!(
+                "{}; then refined with {} by Gauss–Newton on every beam-off gap, interval: the joint sandwich or, the larger, the spread of the fit over the fitted machine replayed 12 times with the logs' measured jitter, plus what A's own error moves ({} gaps move it)",
+                row.note.split("; interval:").next().unwrap_or(&row.note),
+                list(&fields),
+                fit.moved[k]
+            );
+        }
     }
 }
 
@@ -1320,8 +1422,8 @@ fn refine_jerk(
         .find(|v| v.field == "gantry.max_jerk_deg_per_s3")
     {
         let note = format!(
-            "by the model: the J whose simulated moves (constant speed per layer) last as the {} logged beam-off gaps (golden section over ln J from the trace's {:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval from the misfit's curvature",
-            fit.transitions, start
+            "by the model: the J whose simulated moves (constant speed per layer) last as the logged beam-off gaps (golden section over ln J from the trace's {:.4}; a gap off by more than 0.3 s counts as 0.3 s); interval: the sandwich over the {} gaps it moves, Student's t",
+            start, fit.transitions
         );
         record_gap_fit(v, &fit, note);
     }

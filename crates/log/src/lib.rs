@@ -16,6 +16,7 @@ mod columns;
 mod compare;
 mod controller;
 mod error;
+mod joint;
 pub mod kinematics;
 mod matching;
 mod mu_check;

@@ -8,10 +8,11 @@
 //! uncertain ([`BeamSegment::start_uncertain`], [`LoggedLayer::uncertain_edges`]).
 //! Consecutive segments of one energy form a run; the plan's consecutive layers of one energy
 //! form one too. The runs must agree in number and energy (with the log's energies). Inside a
-//! run of `r` layers the segments are split into `r` consecutive groups by time
-//! ([`layer_cuts`]): each group's beam-on time against its layer's planned one (after one common
-//! scale, the run's logged over planned beam-on), the angles against the layers' windows, and,
-//! between equally good splits, the longer gaps. So a gating pause inside a layer, however long,
+//! run of `r` layers the segments are split into `r` consecutive groups by time and MU
+//! ([`layer_cuts`]): each group's MU against its layer's planned MU where the log has a `mu`
+//! column and the plan spots (else its beam-on time against the planned one, which leans on the
+//! base's beam model), after one common scale (the run's logged over planned amount), the
+//! angles against the layers' windows, and, between equally good splits, the longer gaps. So a gating pause inside a layer, however long,
 //! stays inside it. Without energies the whole log is one run.
 //!
 //! Inside a layer with pauses of its own (burst switching, waits for a spill:
@@ -25,6 +26,8 @@
 //! every time fitted or compared would be off by that factor.
 
 use arcsim_plan::ResolvedArc;
+
+use crate::LogSample;
 use serde::Serialize;
 use thiserror::Error;
 
@@ -61,6 +64,9 @@ pub struct BeamSegment {
     pub start_uncertain: bool,
     /// Whether the beam-off precedes such a gap (`end_s` is the last beam-on sample).
     pub end_uncertain: bool,
+    /// The MU the log's `mu` column gives the segment ([`attribute_mu`]); `None` without the
+    /// column.
+    pub mu: Option<f64>,
 }
 
 /// One plan layer as the log shows it delivered.
@@ -118,6 +124,8 @@ struct Planned {
     on_s: f64,
     /// The machine's pauses inside the layer (burst switching, spill waits), s.
     pause_s: f64,
+    /// Planned MU, 0 when the plan gives none.
+    mu: f64,
 }
 
 fn planned(arcs: &[ResolvedArc]) -> Vec<Planned> {
@@ -131,6 +139,7 @@ fn planned(arcs: &[ResolvedArc]) -> Vec<Planned> {
                 energy_mev: l.energy_mev,
                 on_s: (l.irradiation_s - l.burst_switching_s - l.spill_waiting_s).max(0.0),
                 pause_s: l.burst_switching_s + l.spill_waiting_s,
+                mu: l.mu,
             })
         })
         .collect()
@@ -151,6 +160,8 @@ pub fn beam_segments(log: &DeliveryLog) -> Vec<BeamSegment> {
     };
     let mut out = Vec::new();
     let mut i = 0;
+    // Each segment's first and last beam-on rows.
+    let mut rows = Vec::new();
     while i < s.len() {
         if !s[i].beam_on {
             i += 1;
@@ -178,10 +189,41 @@ pub fn beam_segments(log: &DeliveryLog) -> Vec<BeamSegment> {
             energy_mev: s[first..=last].iter().find_map(|x| x.energy_mev),
             start_uncertain,
             end_uncertain,
+            mu: None,
         });
+        rows.push((first, last));
         i += 1;
     }
+    if log.has_mu {
+        attribute_mu(s, &rows, &mut out);
+    }
     out
+}
+
+/// Each segment's MU ([`BeamSegment::mu`]): its rows' and the first beam-off row's after it
+/// (each row holds the MU since the previous), and of the beam-off rows between two segments
+/// those nearer in time to it. A spot too short for any row to see the beam on still counts,
+/// with the segment it was delivered next to.
+fn attribute_mu(s: &[LogSample], rows: &[(usize, usize)], out: &mut [BeamSegment]) {
+    let mu = |k: usize| s.get(k).and_then(|x| x.mu).unwrap_or(0.0);
+    for (j, &(first, last)) in rows.iter().enumerate() {
+        let own: f64 = (first..=last + 1).map(mu).sum();
+        out[j].mu = Some(own);
+    }
+    // The rows between segment j's first beam-off row and segment j + 1's first row.
+    for j in 0..rows.len() {
+        let from = rows[j].1 + 2;
+        let to = rows.get(j + 1).map_or(s.len(), |r| r.0);
+        let (end_s, next_start_s) = (out[j].end_s, out.get(j + 1).map(|n| n.start_s));
+        for row in s.get(from..to).unwrap_or(&[]) {
+            let t = row.t_s;
+            let nearer_next = next_start_s.is_some_and(|n| n - t < t - end_s);
+            let target = if nearer_next { j + 1 } else { j };
+            if let Some(m) = &mut out[target].mu {
+                *m += row.mu.unwrap_or(0.0);
+            }
+        }
+    }
 }
 
 /// Consecutive items of one energy: `(first index, count, energy)`.
@@ -321,6 +363,7 @@ fn merge_short_gaps(run: &[BeamSegment]) -> Vec<BeamSegment> {
                 last.end_s = sg.end_s;
                 last.angle_end_deg = sg.angle_end_deg;
                 last.end_uncertain = sg.end_uncertain;
+                last.mu = last.mu.zip(sg.mu).map(|(a, b)| a + b);
             }
             _ => out.push(*sg),
         }
@@ -332,6 +375,11 @@ fn merge_short_gaps(run: &[BeamSegment]) -> Vec<BeamSegment> {
 /// a layer's logged to planned beam-on: enough to choose the longer gap between splits whose
 /// times fit alike, too little to cut at a long pause where the times say otherwise.
 const GAP_WEIGHT: f64 = 0.02;
+
+/// Weight of the MU misfit against the time misfit's: a log's MU are the dose monitor's, exact
+/// to its resolution, where a beam-on time leans on the base's beam model; a layer's MU off by
+/// 2 % outweighs any gap's length.
+const MU_FIT_WEIGHT: f64 = 100.0;
 
 /// Cost of a segment irradiated outside its layer's window (plus [`ANGLE_TOLERANCE_DEG`]):
 /// larger than any time misfit, so windows decide wherever they differ.
@@ -346,6 +394,50 @@ const MAX_GROUP_RATIO: f64 = 4.0;
 /// segments): each visits the segments its layer's time allows.
 const MAX_SEARCH: usize = 10_000_000;
 
+/// What [`layer_cuts`] weighs each group by, in one unit: the prefix sums of the segments'
+/// amounts, each layer's expected amount (after the run's common scale), the floor under both,
+/// and the misfit's weight.
+struct Weighing {
+    prefix: Vec<f64>,
+    expected: Vec<f64>,
+    floor: f64,
+    weight: f64,
+}
+
+/// The MU where the log and the plan both give it (the dose monitor's count, which no beam
+/// model can skew), else the beam-on time; scaled by the run's logged over planned amount.
+fn weighing(run: &[BeamSegment], layers: &[Planned], period_s: f64) -> Weighing {
+    let by_mu =
+        run.iter().all(|sg| sg.mu.is_some_and(|mu| mu >= 0.0)) && layers.iter().all(|p| p.mu > 0.0);
+    let amount = |sg: &BeamSegment| match (by_mu, sg.mu) {
+        (true, Some(mu)) => mu,
+        _ => (sg.end_s - sg.start_s).max(0.0),
+    };
+    let planned_amount = |p: &Planned| if by_mu { p.mu } else { p.on_s };
+    let floor = if by_mu {
+        1e-3 * layers.iter().map(|p| p.mu).sum::<f64>() / layers.len().max(1) as f64
+    } else {
+        2.0 * period_s.max(1e-6)
+    };
+    let mut prefix = vec![0.0; run.len() + 1];
+    for (i, sg) in run.iter().enumerate() {
+        prefix[i + 1] = prefix[i] + amount(sg);
+    }
+    let planned: f64 = layers.iter().map(planned_amount).sum();
+    let logged = prefix[run.len()];
+    let scale = if planned > 0.0 && logged > 0.0 {
+        logged / planned
+    } else {
+        1.0
+    };
+    Weighing {
+        prefix,
+        expected: layers.iter().map(|p| scale * planned_amount(p)).collect(),
+        floor,
+        weight: if by_mu { MU_FIT_WEIGHT } else { 1.0 },
+    }
+}
+
 /// Where a run of segments splits into the run's `layers`: the end (exclusive) of each layer's
 /// segments, by the least total misfit (module documentation) over all splits into consecutive
 /// groups, found by dynamic programming.
@@ -358,17 +450,12 @@ fn layer_cuts(run: &[BeamSegment], layers: &[Planned], period_s: f64) -> Vec<usi
     if r.saturating_mul(m) > MAX_SEARCH {
         return longest_gap_cuts(run, r);
     }
-    let floor = 2.0 * period_s.max(1e-6);
-    let mut prefix = vec![0.0; m + 1];
-    for (i, sg) in run.iter().enumerate() {
-        prefix[i + 1] = prefix[i] + (sg.end_s - sg.start_s).max(0.0);
-    }
-    let planned: f64 = layers.iter().map(|p| p.on_s).sum();
-    let scale = if planned > 0.0 && prefix[m] > 0.0 {
-        prefix[m] / planned
-    } else {
-        1.0
-    };
+    let Weighing {
+        prefix,
+        expected,
+        floor,
+        weight,
+    } = weighing(run, layers, period_s);
     let outside = |i: usize, p: &Planned| {
         let reach = p.window_deg / 2.0 + ANGLE_TOLERANCE_DEG;
         let seg = run[i];
@@ -396,8 +483,8 @@ fn layer_cuts(run: &[BeamSegment], layers: &[Planned], period_s: f64) -> Vec<usi
     // the first segment of layer l there.
     let mut best = vec![vec![f64::INFINITY; m]; r];
     let mut from = vec![vec![0usize; m]; r];
-    for (l, p) in layers.iter().enumerate() {
-        let expected = scale * p.on_s;
+    for l in 0..r {
+        let expected = expected[l];
         let limit = MAX_GROUP_RATIO * expected + 2.0 * floor;
         // Layer l ends at i in [l, m - r + l]; it starts at j in [l, i].
         for i in l..=(m - r + l) {
@@ -413,7 +500,7 @@ fn layer_cuts(run: &[BeamSegment], layers: &[Planned], period_s: f64) -> Vec<usi
                     Some(best[l - 1][j - 1]).filter(|b| b.is_finite())
                 };
                 if let Some(before) = before {
-                    let fit = ((on + floor) / (expected + floor)).ln().powi(2);
+                    let fit = weight * ((on + floor) / (expected + floor)).ln().powi(2);
                     let angles =
                         OUTSIDE_WINDOW_COST * (outside_prefix[l][i + 1] - outside_prefix[l][j]);
                     let cut = if l == 0 { 0.0 } else { gap_bonus(j) };
@@ -553,4 +640,97 @@ fn check_angles(logged: &[LoggedLayer], plan: &[Planned]) -> Result<(), String> 
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn segment(start_s: f64, on_s: f64, mu: Option<f64>) -> BeamSegment {
+        BeamSegment {
+            start_s,
+            end_s: start_s + on_s,
+            angle_start_deg: 0.0,
+            angle_end_deg: 0.0,
+            energy_mev: None,
+            start_uncertain: false,
+            end_uncertain: false,
+            mu,
+        }
+    }
+
+    fn layer(on_s: f64, mu: f64) -> Planned {
+        Planned {
+            arc: 0,
+            control_point: 0,
+            angle_deg: 0.0,
+            window_deg: 1.0,
+            energy_mev: 100.0,
+            on_s,
+            pause_s: 0.0,
+            mu,
+        }
+    }
+
+    /// Three layers in one window, the middle one's beam-on cut by a 3 s pause, its beam twice
+    /// as slow as the base's model says. By time, cutting at the pause fits as well as cutting
+    /// at the switch, and the longer gap wins; the MU (10, 30, 10) say where the layers are.
+    #[test]
+    fn the_mu_column_decides_where_the_beam_on_times_cannot() {
+        let layers = [layer(1.0, 10.0), layer(1.0, 30.0), layer(1.0, 10.0)];
+        let times = [
+            (0.0, 1.0, 10.0),
+            (1.5, 1.0, 15.0),
+            (5.5, 1.0, 15.0),
+            (7.0, 1.0, 10.0),
+        ];
+        let with_mu: Vec<BeamSegment> = times
+            .iter()
+            .map(|&(t, on, mu)| segment(t, on, Some(mu)))
+            .collect();
+        let without: Vec<BeamSegment> = times
+            .iter()
+            .map(|&(t, on, _)| segment(t, on, None))
+            .collect();
+        assert_eq!(layer_cuts(&with_mu, &layers, 0.01), vec![1, 3, 4]);
+        // Without it, the time alone is fooled (the pause is the longer gap).
+        assert_eq!(layer_cuts(&without, &layers, 0.01), vec![2, 3, 4]);
+    }
+
+    /// MU seen only on beam-off rows (a spot shorter than the sampling) goes with the segment
+    /// nearer in time; each segment's own rows and the first row after it are its.
+    #[test]
+    fn mu_between_segments_goes_to_the_nearer() {
+        let row = |t_s: f64, beam_on: bool, mu: f64| LogSample {
+            t_s,
+            gantry_angle_deg: 0.0,
+            beam_on,
+            energy_mev: None,
+            spot: None,
+            mu: Some(mu),
+        };
+        let samples = vec![
+            row(0.0, true, 1.0),
+            row(0.1, true, 1.0),
+            row(0.2, false, 1.0),
+            row(0.3, false, 0.5),
+            row(1.0, false, 0.25),
+            row(1.1, true, 2.0),
+            row(1.2, false, 0.0),
+        ];
+        let log = DeliveryLog {
+            source: "rows".into(),
+            samples,
+            has_energy: false,
+            has_spot: false,
+            has_mu: true,
+            wraps_unwrapped: 0,
+            glitches_rejected: 0,
+        };
+        let mu: Vec<f64> = beam_segments(&log)
+            .iter()
+            .map(|g| g.mu.expect("mu"))
+            .collect();
+        assert_eq!(mu, vec![3.5, 2.25]);
+    }
 }

@@ -7,7 +7,7 @@
 //! spot: the jerk limit from every gap, each ELST from the gaps of its kind.
 
 use arcsim_plan::Machine;
-use arcsim_sequencer::{simulate, Options};
+use arcsim_sequencer::{simulate, Delivery, Options};
 use rayon::prelude::*;
 
 use crate::calibrate::LoggedRun;
@@ -16,7 +16,7 @@ use crate::matching::LoggedLayer;
 
 /// A gap differing from its simulation by more than this counts as this much (s): a gating
 /// pause or an interruption must not pull the fit.
-const ROBUST_CAP_S: f64 = 0.3;
+pub(crate) const ROBUST_CAP_S: f64 = 0.3;
 
 /// The golden section stops when its bracket over the logarithm is this narrow (the value known
 /// to 1e-4 relative, far below any interval it is given with).
@@ -36,47 +36,67 @@ pub(crate) enum Switches {
     Kind(&'static str),
 }
 
-/// Robust sum of squares of (logged − simulated) beam-off gaps over the transitions of `which`
-/// of every run, `machine` changed by `set(value)`; `None` if a simulation fails.
-fn misfit(
+/// The (logged, simulated) beam-off gaps (s) over the transitions of `which` of every run,
+/// `machine` changed by `set(value)`, in a fixed order; `None` if a simulation fails.
+pub(crate) fn gap_pairs(
     machine: &Machine,
     set: &dyn Fn(&mut Machine, f64),
     value: f64,
     (runs, logged): (&[LoggedRun], &[&[LoggedLayer]]),
     which: Switches,
     opts: &Options,
-) -> Option<(f64, usize)> {
+) -> Option<Vec<(f64, f64)>> {
     let mut m = machine.clone();
     set(&mut m, value);
     let parts = runs
         .par_iter()
         .zip(logged)
-        .map(|(r, layers)| {
-            let d = simulate(&r.plan, &m, opts).ok()?;
-            let mut ss = 0.0;
-            let mut n = 0;
-            for (k, pair) in layers.windows(2).enumerate() {
-                let (Some(a), Some(b)) = (d.layers.get(k), d.layers.get(k + 1)) else {
-                    continue;
-                };
-                if a.arc != b.arc || pair[0].ends_early {
-                    continue;
-                }
-                if let Switches::Kind(kind) = which {
-                    if switch_class(a.energy_mev, b.energy_mev) != kind {
-                        continue;
-                    }
-                }
-                let gap_logged = pair[1].start_s - pair[0].end_s;
-                let gap_sim = b.t_start_s - a.t_end_s;
-                let r = (gap_logged - gap_sim).abs().min(ROBUST_CAP_S);
-                ss += r * r;
-                n += 1;
-            }
-            Some((ss, n))
-        })
+        .map(|(r, layers)| Some(pairs_of(&simulate(&r.plan, &m, opts).ok()?, layers, which)))
         .collect::<Option<Vec<_>>>()?;
-    Some(parts.iter().fold((0.0, 0), |(a, b), (x, y)| (a + x, b + y)))
+    Some(parts.concat())
+}
+
+/// The (logged, simulated) gaps of `which` between a run's logged layers and a simulation of
+/// its plan, in order (switches between arcs and after a layer the log ends early left out).
+pub(crate) fn pairs_of(d: &Delivery, layers: &[LoggedLayer], which: Switches) -> Vec<(f64, f64)> {
+    let mut pairs = Vec::new();
+    for (k, pair) in layers.windows(2).enumerate() {
+        let (Some(a), Some(b)) = (d.layers.get(k), d.layers.get(k + 1)) else {
+            continue;
+        };
+        if a.arc != b.arc || pair[0].ends_early {
+            continue;
+        }
+        if let Switches::Kind(kind) = which {
+            if switch_class(a.energy_mev, b.energy_mev) != kind {
+                continue;
+            }
+        }
+        pairs.push((pair[1].start_s - pair[0].end_s, b.t_start_s - a.t_end_s));
+    }
+    pairs
+}
+
+/// Robust sum of squares of (logged − simulated) gaps, and how many.
+pub(crate) fn misfit_of(pairs: &[(f64, f64)]) -> (f64, usize) {
+    let ss = pairs
+        .iter()
+        .map(|(l, s)| (l - s).abs().min(ROBUST_CAP_S).powi(2))
+        .sum();
+    (ss, pairs.len())
+}
+
+/// Robust sum of squares of (logged − simulated) beam-off gaps over the transitions of `which`
+/// of every run, `machine` changed by `set(value)`; `None` if a simulation fails.
+fn misfit(
+    machine: &Machine,
+    set: &dyn Fn(&mut Machine, f64),
+    value: f64,
+    data: (&[LoggedRun], &[&[LoggedLayer]]),
+    which: Switches,
+    opts: &Options,
+) -> Option<(f64, usize)> {
+    gap_pairs(machine, set, value, data, which, opts).map(|p| misfit_of(&p))
 }
 
 /// The robust rms (s) of (logged − simulated) beam-off gaps of `which` with `machine` changed by
@@ -99,8 +119,10 @@ pub(crate) fn gap_rms(
 
 /// The value in [`start` / `span`, `span` × `start`] (clamped to `range`) that makes the
 /// simulated gaps of `which` last as logged (golden section over its logarithm, to a bracket of
-/// `log_tolerance`), with a 95 % interval from the misfit's curvature; `None` with fewer than 3
-/// such gaps or when the misfit does not depend on the value (no gap of `which` is bound by it).
+/// `log_tolerance`), with a 95 % interval from the sandwich over the gaps it moves
+/// ([`sandwich_sd`]); `None` when fewer than 3 gaps of `which` move with it, or when the misfit
+/// does not curve up on both sides of it (no gap of `which` bound by it, or the value pinned at
+/// the end of its bracket).
 pub(crate) fn fit_by_gaps(
     machine: &Machine,
     set: &dyn Fn(&mut Machine, f64),
@@ -141,23 +163,155 @@ pub(crate) fn fit_by_gaps(
         }
     }
     let x = 0.5 * (a + b);
-    let (f0, n) = f(x)?;
+    let at = |x: f64| {
+        gap_pairs(
+            machine,
+            set,
+            x.exp().clamp(range.0, range.1),
+            data,
+            which,
+            &opts,
+        )
+    };
+    // One simulation of each run at a time, its runs in parallel (`set` need not be `Sync`).
+    let (centre, plus, minus) = (at(x)?, at(x + H)?, at(x - H)?);
+    // A value the gaps do not bind, or one pinned at the bracket's end, is no minimum: the
+    // misfit must curve up on both sides.
+    let (f0, fp, fm) = (
+        misfit_of(&centre).0,
+        misfit_of(&plus).0,
+        misfit_of(&minus).0,
+    );
+    if fp + fm - 2.0 * f0 <= 0.0 || (fp - f0).abs() + (fm - f0).abs() < 1e-12 {
+        return None;
+    }
+    let sd = sandwich_sd(&centre, &plus, &minus)?;
+    Some(GapFit {
+        value: x.exp().clamp(range.0, range.1),
+        interval: [
+            (x - sd.t95 * sd.sd).exp().clamp(range.0, range.1),
+            (x + sd.t95 * sd.sd).exp().clamp(range.0, range.1),
+        ],
+        transitions: sd.moved,
+    })
+}
+
+/// The step (in the logarithm) of the central differences behind each gap's sensitivity.
+pub(crate) const H: f64 = 0.02;
+
+/// The spread of a fitted logarithm: its standard deviation, the 95 % two-sided Student
+/// quantile for its degrees of freedom, and how many gaps the value moves.
+struct Spread {
+    sd: f64,
+    t95: f64,
+    moved: usize,
+}
+
+/// The standard deviation of a fitted logarithm θ from each gap's residual rᵢ at θ and its
+/// sensitivity gᵢ = ∂simᵢ/∂θ (central difference over ±[`H`]): the sandwich
+/// √(Σ gᵢ² rᵢ²) / Σ gᵢ², scaled by n/(n−1) for the n gaps θ moves. Unlike a misfit's curvature
+/// with one residual variance over all gaps, it weighs only the gaps the value binds (the
+/// others, gantry-bound, have rᵢ near the log's resolution and would shrink the variance) and
+/// lets their noise differ. `None` when fewer than 3 gaps move with θ. Gaps beyond the robust
+/// cap do not pull the fit and are left out.
+fn sandwich_sd(centre: &[(f64, f64)], plus: &[(f64, f64)], minus: &[(f64, f64)]) -> Option<Spread> {
+    if centre.len() != plus.len() || centre.len() != minus.len() {
+        return None;
+    }
+    let terms: Vec<(f64, f64)> = centre
+        .iter()
+        .zip(plus.iter().zip(minus))
+        .map(|((l, s), ((_, sp), (_, sm)))| (l - s, (sp - sm) / (2.0 * H)))
+        .filter(|(r, _)| r.abs() < ROBUST_CAP_S)
+        .collect();
+    let g_max = terms.iter().map(|(_, g)| g.abs()).fold(0.0, f64::max);
+    if g_max.is_nan() || g_max <= 1e-9 {
+        return None;
+    }
+    let moved: Vec<&(f64, f64)> = terms
+        .iter()
+        .filter(|(_, g)| g.abs() > 1e-3 * g_max)
+        .collect();
+    let n = moved.len();
     if n < 3 {
         return None;
     }
-    let h = 0.02_f64;
-    let (fp, fm) = (f(x + h)?.0, f(x - h)?.0);
-    let curvature = (fp + fm - 2.0 * f0) / (h * h);
-    if curvature <= 0.0 || (fp - f0).abs() + (fm - f0).abs() < 1e-12 {
-        return None;
-    }
-    // f ≈ f0 + curvature/2 (ln x − x0)², residual variance f0 / (n − 1): one standard deviation
-    // of ln x where f has risen by that variance (twice, for the 1/2).
-    let var = (f0 / (n as f64 - 1.0)).max(1e-12);
-    let sd = (2.0 * var / curvature).sqrt();
-    Some(GapFit {
-        value: x.exp().clamp(range.0, range.1),
-        interval: [(x - 1.96 * sd).exp(), (x + 1.96 * sd).exp()],
-        transitions: n,
+    let s_gg: f64 = moved.iter().map(|(_, g)| g * g).sum();
+    let s_ggrr: f64 = moved.iter().map(|(r, g)| g * g * r * r).sum();
+    let dof = n as f64 - 1.0;
+    let sd = (s_ggrr * n as f64 / dof).sqrt() / s_gg;
+    Some(Spread {
+        sd: sd.max(1e-9),
+        t95: student_t95(dof),
+        moved: n,
     })
+}
+
+/// The 97.5 % quantile of Student's t with `dof` degrees of freedom (Cornish–Fisher expansion
+/// about the normal's 1.96; within 1 % of the tables from 4 degrees of freedom, and on the wide
+/// side below).
+pub(crate) fn student_t95(dof: f64) -> f64 {
+    const Z: f64 = 1.959_963_984_540_054;
+    let nu = dof.max(1.0);
+    let z3 = Z.powi(3);
+    let z5 = Z.powi(5);
+    let z7 = Z.powi(7);
+    Z + (z3 + Z) / (4.0 * nu)
+        + (5.0 * z5 + 16.0 * z3 + 3.0 * Z) / (96.0 * nu * nu)
+        + (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * Z) / (384.0 * nu.powi(3))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Student's t quantiles against the published table (e.g. NIST/SEMATECH e-Handbook,
+    /// 1.3.6.7.2): 2.776 at 4, 2.228 at 10, 2.042 at 30, 1.984 at 100 degrees of freedom.
+    #[test]
+    fn student_quantiles_match_the_table() {
+        for (dof, table) in [(4.0, 2.776), (10.0, 2.228), (30.0, 2.042), (100.0, 1.984)] {
+            let t = student_t95(dof);
+            assert!((t / table - 1.0).abs() < 0.01, "{dof}: {t} against {table}");
+        }
+        // Below 4 degrees of freedom the expansion errs on the wide side or close to it.
+        assert!(student_t95(2.0) > 0.9 * 4.303);
+    }
+
+    /// The sandwich on a linear model with known noise: gaps g·θ + noise, the spread of θ is
+    /// σ/√(Σg²) for equal noise, and gaps that θ does not move change nothing.
+    #[test]
+    fn the_sandwich_weighs_only_the_gaps_the_value_moves() {
+        let sigma = 0.02;
+        // Deterministic residuals of rms sigma (±sigma alternately).
+        let bound: Vec<(f64, f64)> = (0..40)
+            .map(|k| (if k % 2 == 0 { sigma } else { -sigma }, 0.7))
+            .collect();
+        let mk = |extra: usize| {
+            let mut c = Vec::new();
+            let mut p = Vec::new();
+            let mut m = Vec::new();
+            for &(r, g) in &bound {
+                c.push((1.0 + r, 1.0));
+                p.push((0.0, 1.0 + g * H));
+                m.push((0.0, 1.0 - g * H));
+            }
+            for _ in 0..extra {
+                c.push((2.0, 2.0));
+                p.push((0.0, 2.0));
+                m.push((0.0, 2.0));
+            }
+            sandwich_sd(&c, &p, &m).expect("spread")
+        };
+        let expected = sigma / (40.0_f64 * 0.49).sqrt() * (40.0_f64 / 39.0).sqrt();
+        for extra in [0, 200] {
+            let s = mk(extra);
+            assert_eq!(s.moved, 40);
+            assert!(
+                (s.sd / expected - 1.0).abs() < 1e-9,
+                "{} {}",
+                s.sd,
+                expected
+            );
+        }
+    }
 }

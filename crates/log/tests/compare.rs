@@ -434,3 +434,78 @@ fn the_jerk_is_read_from_the_acceleration_reversals() {
         assert!(!o.jerk.expect("jerk").reached);
     }
 }
+
+/// Issue 44, finding 6: layers are matched by MU where the log has it. Head-neck has three
+/// layers at many control points, inside one window (the angles cannot tell them apart). A
+/// machine whose beam time goes mostly to spot switching (30 ms a spot, 0.005 s/MU) logs it
+/// without energies, with a 2 s gating pause in a layer; matched to the plan resolved on the ATOM
+/// machine (0.005 s/MU, 2 ms a spot) the beam-on times mislead, the MU column does not.
+#[test]
+fn layers_are_matched_by_mu_where_the_log_has_it() {
+    let mut truth = atom();
+    truth.beam = arcsim_plan::BeamModel::PerMu(arcsim_plan::PerMuBeam {
+        s_per_mu: 0.005,
+        spot_switch_time_s: 0.03,
+        min_spot_time_s: 0.0,
+    });
+    // Its first 40 control points (a shorter test).
+    let mut p = plan("head-neck");
+    p.arcs.truncate(1);
+    p.arcs[0].control_points.truncate(40);
+    let (d, log) = logged(&p, &truth);
+    let arcs = resolve(&p, &atom()).expect("resolves");
+    let firsts: Vec<usize> = d
+        .layers
+        .iter()
+        .enumerate()
+        .filter(|(k, l)| {
+            d.layers
+                .get(k + 2)
+                .is_some_and(|n| n.control_point == l.control_point && n.arc == l.arc)
+                && (*k == 0 || d.layers[k - 1].control_point != l.control_point)
+        })
+        .map(|(k, _)| k)
+        .take(12)
+        .collect();
+    assert!(
+        firsts.len() >= 10,
+        "{} control points of 3 layers",
+        firsts.len()
+    );
+    for &k in &firsts {
+        let layer = &d.layers[k];
+        let paused = with_gating_pause(&log.samples, 0.5 * (layer.t_start_s + layer.t_end_s), 2.0);
+        // Without the energy (and spot) columns; the MU column kept.
+        let text: String = to_csv(&paused)
+            .lines()
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                format!("{},{},{},{}\n", f[0], f[1], f[2], f[5])
+            })
+            .collect();
+        let log =
+            parse_log(text.as_bytes(), "no-energy.csv", &ColumnMap::default()).expect("reads");
+        assert!(log.has_mu && !log.has_energy);
+        let layers = match_layers(&log, &arcs).expect("matches");
+        let (t0, s0) = (layers[0].start_s, d.layers[0].t_start_s);
+        for (l, s) in layers.iter().zip(&d.layers) {
+            // Layers after the pause start 2 s later in the log. A first spot too short for any
+            // row to see it moves a start by a spot (30 ms); a layer put in the wrong place
+            // moves it by a switch (at least 0.5 s) or the pause.
+            let shift = if l.index > k { 2.0 } else { 0.0 };
+            assert!(
+                ((l.start_s - t0) - (s.t_start_s - s0) - shift).abs() <= 0.2,
+                "pause in layer {k}: layer {} logged from {:.3} s, delivered from {:.3} s",
+                l.index,
+                l.start_s - t0 - shift,
+                s.t_start_s - s0
+            );
+        }
+        // The pause is inside its layer.
+        assert!(
+            layers[k].end_s - layers[k].start_s > 2.0,
+            "pause in layer {k}: {:?}",
+            layers[k]
+        );
+    }
+}

@@ -511,3 +511,71 @@ fn an_elst_that_no_switch_shows_is_bounded_not_fitted() {
     };
     assert_eq!(down_s, v.value);
 }
+
+/// Issue 44, finding 4: a fast gantry's logs (A 1.5 deg/s², free motion, the bundled `fast`
+/// machine) calibrating the ATOM machine. The acceleration's interval holds the truth, and the
+/// same-energy switches, all the gantry's (the fast machine's same-energy ELST is 0), fit no
+/// same-energy ELST above what they show.
+#[test]
+fn a_fast_gantry_s_acceleration_interval_holds_the_truth_and_same_energy_gaps_are_the_gantry_s() {
+    let fast = arcsim_plan::load_machine(repo().join("scenarios/machine-fast.json")).expect("fast");
+    let atom = arcsim_plan::load_machine(repo().join("scenarios/machine-atom.json")).expect("atom");
+    let runs: Vec<LoggedRun> = ["lung", "prostate", "two-arc"]
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let plan = bundled(name);
+            let arcs = resolve(&plan, &fast).expect("resolves");
+            let limits = machine_limits(&fast).expect("limits");
+            let d = simulate_resolved(&arcs, &limits, &free()).expect("simulated");
+            let spots = spot_timeline(&plan, &fast, &d).expect("spots");
+            let opts = VirtualLogOptions {
+                period_s: PERIOD_S,
+                angle_noise_deg: 0.01,
+                seed: 40 + k as u64,
+            };
+            let samples = virtual_log(&d, &spots, &opts).expect("log");
+            LoggedRun {
+                plan_name: name.to_string(),
+                plan,
+                log: read(&samples).expect("reads"),
+            }
+        })
+        .collect();
+    let cal = arcsim_log::calibrate_controller(
+        &atom,
+        &runs,
+        ElstFit::Polynomial,
+        &Options::new(Schedule::Optimal),
+        None,
+    )
+    .expect("calibrated");
+    for v in &cal.report.values {
+        eprintln!("{} = {} {:?} ({})", v.field, v.value, v.interval, v.note);
+    }
+    eprintln!("{:?}", cal.machine.controller);
+    let a = cal
+        .report
+        .value("gantry.max_accel_deg_per_s2")
+        .expect("A")
+        .clone();
+    if let (true, Some([lo, hi])) = (a.determined, a.interval) {
+        assert!(
+            lo <= 1.5 && 1.5 <= hi,
+            "A {} [{lo}, {hi}] excludes 1.5",
+            a.value
+        );
+    }
+    let same = cal.report.value("elst.same_s").expect("same").clone();
+    assert!(
+        !same.determined || same.value <= 0.05,
+        "same-energy ELST {} from gantry-limited gaps ({})",
+        same.value,
+        same.note
+    );
+    let down = cal.report.value("elst.down_s").expect("down").clone();
+    assert!(
+        !down.determined || (down.value / 0.3 - 1.0).abs() < 0.02,
+        "{down:?}"
+    );
+}

@@ -383,6 +383,10 @@ pub struct ResolvedLayer {
     pub required_speed_deg_per_s: Option<f64>,
     /// Switching time from the previous layer of the plan, seconds (0 for the very first).
     pub switch_in_s: f64,
+    /// The layer's planned MU (its spots'), 0 when the plan gives none: what a log's MU column
+    /// is matched against.
+    #[serde(default)]
+    pub mu: f64,
 }
 
 /// One arc's layers in delivery order.

@@ -96,6 +96,7 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
                     spill_waiting_s: beam.spill_waiting_s,
                     required_speed_deg_per_s: cp.required_speed_deg_per_s,
                     switch_in_s,
+                    mu: layer.spots.as_ref().map_or(0.0, crate::layer_mu),
                 });
             }
         }

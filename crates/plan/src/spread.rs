@@ -88,11 +88,16 @@ pub struct FitUncertainty {
     pub max_accel_deg_per_s2_sd: f64,
     /// Of `gantry.max_jerk_deg_per_s3`, deg/s³.
     pub max_jerk_deg_per_s3_sd: f64,
+    /// Of the one factor a calibration puts on a `scanning` beam's times per MU
+    /// (`beam.s_per_mu_scale`), as a fraction of it: a draw scales the whole table.
+    pub s_per_mu_scale_sd_fraction: f64,
+    /// Of a `scanning` beam's `burst_switching_time_s`, s.
+    pub burst_switching_time_s_sd: f64,
 }
 
 impl FitUncertainty {
     /// Each value with its machine-file name.
-    pub fn fields(&self) -> [(&'static str, f64); 8] {
+    pub fn fields(&self) -> [(&'static str, f64); 10] {
         [
             ("elst_up_s_sd", self.elst_up_s_sd),
             ("elst_down_s_sd", self.elst_down_s_sd),
@@ -102,6 +107,11 @@ impl FitUncertainty {
             ("max_speed_deg_per_s_sd", self.max_speed_deg_per_s_sd),
             ("max_accel_deg_per_s2_sd", self.max_accel_deg_per_s2_sd),
             ("max_jerk_deg_per_s3_sd", self.max_jerk_deg_per_s3_sd),
+            (
+                "s_per_mu_scale_sd_fraction",
+                self.s_per_mu_scale_sd_fraction,
+            ),
+            ("burst_switching_time_s_sd", self.burst_switching_time_s_sd),
         ]
     }
 
@@ -136,9 +146,22 @@ impl FitUncertainty {
             }
             _ => {}
         }
-        if let BeamModel::PerMu(b) = &mut m.beam {
-            time(&mut b.s_per_mu, self.s_per_mu_sd);
-            time(&mut b.spot_switch_time_s, self.spot_switch_time_s_sd);
+        match &mut m.beam {
+            BeamModel::PerMu(b) => {
+                time(&mut b.s_per_mu, self.s_per_mu_sd);
+                time(&mut b.spot_switch_time_s, self.spot_switch_time_s_sd);
+            }
+            BeamModel::Scanning(b) => {
+                let mut factor = 1.0;
+                time(&mut factor, self.s_per_mu_scale_sd_fraction);
+                for row in &mut b.s_per_mu_by_energy {
+                    row[1] *= factor;
+                }
+                time(
+                    &mut b.burst_switching_time_s,
+                    self.burst_switching_time_s_sd,
+                );
+            }
         }
         let mut limit = |x: &mut f64, sd: f64, (lo, hi): (f64, f64)| {
             let z = normal();

@@ -217,6 +217,7 @@ pub(crate) mod tests {
                     spill_waiting_s: 0.0,
                     required_speed_deg_per_s: None,
                     switch_in_s: elsts_s[rng.below(elsts_s.len())],
+                    mu: 0.0,
                 }
             })
             .collect();

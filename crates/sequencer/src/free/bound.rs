@@ -202,6 +202,7 @@ mod tests {
             spill_waiting_s: 0.0,
             required_speed_deg_per_s: None,
             switch_in_s: elst,
+            mu: 0.0,
         };
         for elst in [0.5, 20.0] {
             let arc = ResolvedArc {

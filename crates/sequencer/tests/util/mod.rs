@@ -105,6 +105,7 @@ pub fn random_arc(rng: &mut Rng, n: usize, r: &ArcRanges) -> ResolvedArc {
                 } else {
                     r.elst_s[rng.below(r.elst_s.len())]
                 },
+                mu: 0.0,
             }
         })
         .collect();
