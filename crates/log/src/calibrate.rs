@@ -722,7 +722,7 @@ fn refine_by_model_jointly(
             row.interval = Some(fit.intervals[k]);
             row.observations = fit.moved[k];
             row.note = format!(
-                "{}; then refined with {} by Gauss–Newton on every beam-off gap, interval: the joint sandwich or, the larger, the spread of the fit over the fitted machine replayed 12 times with the logs' measured jitter, plus what A's own error moves ({} gaps move it)",
+                "{}; then refined with {} by Gauss–Newton on every beam-off gap, interval: the widest of the joint sandwich, the value's own sandwich over the gaps it moves most and the spread of the fit over the fitted machine replayed 12 times with the logs' measured jitter, plus what A's own error moves ({} gaps move it)",
                 row.note.split("; interval:").next().unwrap_or(&row.note),
                 list(&fields),
                 fit.moved[k]

@@ -13,7 +13,9 @@ use rayon::prelude::*;
 
 use crate::calibrate::LoggedRun;
 use crate::matching::LoggedLayer;
-use crate::transitions::{gap_pairs, misfit_of, pairs_of, student_t95, Switches, H, ROBUST_CAP_S};
+use crate::transitions::{
+    gap_pairs, misfit_of, pairs_of, student_t95, weighted_sums, Switches, H, ROBUST_CAP_S,
+};
 
 /// One value of a joint fit by the model: how to set it, its start and its range.
 pub(crate) struct Param<'a> {
@@ -241,15 +243,13 @@ fn alone_variances(lin: &Linearised) -> Vec<f64> {
         .iter()
         .map(|gk| {
             let g_max = gk.iter().map(|x| x.abs()).fold(0.0, f64::max);
-            let (mut s_gg, mut s_ggrr, mut m) = (0.0, 0.0, 0usize);
-            for ((l, s), g) in lin.centre.iter().zip(gk) {
-                let r = l - s;
-                if r.abs() < ROBUST_CAP_S && g.abs() >= 0.5 * g_max {
-                    s_gg += g * g;
-                    s_ggrr += g * g * r * r;
-                    m += 1;
-                }
-            }
+            let (s_gg, s_ggrr, m) = weighted_sums(
+                lin.centre
+                    .iter()
+                    .zip(gk)
+                    .map(|((l, s), g)| (l - s, *g))
+                    .filter(|(r, g)| r.abs() < ROBUST_CAP_S && g.abs() >= 0.5 * g_max),
+            );
             if m < 2 || s_gg <= 0.0 {
                 0.0
             } else {
@@ -270,12 +270,10 @@ fn nuisance_variances(
     let p = lin.g.len();
     let mut out = vec![0.0; p];
     for nu in nuisance {
+        // The held value touches none of the fitted ones (A, against J and the ELSTs).
         let gaps_at = |x: f64| {
-            let mut m = model.machine.clone();
+            let mut m = model.machine_at(theta);
             (nu.set)(&mut m, x);
-            for (q, t) in model.params.iter().zip(theta) {
-                (q.set)(&mut m, t.exp().clamp(q.range.0, q.range.1));
-            }
             model.gaps_of(&m)
         };
         let ln = nu.value.max(1e-12).ln();

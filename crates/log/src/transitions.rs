@@ -135,8 +135,8 @@ pub(crate) fn fit_by_gaps(
         build_timeline: false,
         ..options.clone()
     };
-    let f = |x: f64| {
-        misfit(
+    let at = |x: f64| {
+        gap_pairs(
             machine,
             set,
             x.exp().clamp(range.0, range.1),
@@ -145,6 +145,7 @@ pub(crate) fn fit_by_gaps(
             &opts,
         )
     };
+    let f = |x: f64| at(x).map(|p| misfit_of(&p));
     let phi = 0.5 * (5f64.sqrt() - 1.0);
     let (mut a, mut b) = ((start / span).ln(), (start * span).ln());
     let mut c = b - phi * (b - a);
@@ -163,16 +164,6 @@ pub(crate) fn fit_by_gaps(
         }
     }
     let x = 0.5 * (a + b);
-    let at = |x: f64| {
-        gap_pairs(
-            machine,
-            set,
-            x.exp().clamp(range.0, range.1),
-            data,
-            which,
-            &opts,
-        )
-    };
     // One simulation of each run at a time, its runs in parallel (`set` need not be `Sync`).
     let (centre, plus, minus) = (at(x)?, at(x + H)?, at(x - H)?);
     // A value the gaps do not bind, or one pinned at the bracket's end, is no minimum: the
@@ -228,22 +219,29 @@ fn sandwich_sd(centre: &[(f64, f64)], plus: &[(f64, f64)], minus: &[(f64, f64)])
     if g_max.is_nan() || g_max <= 1e-9 {
         return None;
     }
-    let moved: Vec<&(f64, f64)> = terms
-        .iter()
-        .filter(|(_, g)| g.abs() > 1e-3 * g_max)
-        .collect();
-    let n = moved.len();
+    let (s_gg, s_ggrr, n) = weighted_sums(
+        terms
+            .iter()
+            .copied()
+            .filter(|(_, g)| g.abs() > 1e-3 * g_max),
+    );
     if n < 3 {
         return None;
     }
-    let s_gg: f64 = moved.iter().map(|(_, g)| g * g).sum();
-    let s_ggrr: f64 = moved.iter().map(|(r, g)| g * g * r * r).sum();
     let dof = n as f64 - 1.0;
     let sd = (s_ggrr * n as f64 / dof).sqrt() / s_gg;
     Some(Spread {
         sd: sd.max(1e-9),
         t95: student_t95(dof),
         moved: n,
+    })
+}
+
+/// Σ gᵢ², Σ gᵢ² rᵢ² and n over the (rᵢ, gᵢ) given: the sums behind the sandwich of a value
+/// that moves those gaps by gᵢ, √(Σ gᵢ² rᵢ²) / Σ gᵢ² (a weighted mean's).
+pub(crate) fn weighted_sums(terms: impl Iterator<Item = (f64, f64)>) -> (f64, f64, usize) {
+    terms.fold((0.0, 0.0, 0), |(s_gg, s_ggrr, n), (r, g)| {
+        (s_gg + g * g, s_ggrr + g * g * r * r, n + 1)
     })
 }
 
