@@ -186,7 +186,7 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-fn mad_sd(v: &[f64], centre: f64) -> f64 {
+pub(crate) fn mad_sd(v: &[f64], centre: f64) -> f64 {
     let mut dev: Vec<f64> = v.iter().map(|x| (x - centre).abs()).collect();
     1.4826 * median(&mut dev)
 }
@@ -342,9 +342,11 @@ pub fn calibrate(
     fit_gantry(base, &observed, &mut machine, &mut values);
     if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
         question_speed_plateau(base, &mut machine, runs, options, &observed, &mut values);
-        // A seed for the second ELST pass: 0.1 % is enough.
-        refine_jerk(&mut machine, (runs, &matched), options, 2e-3, &mut values);
+        // A seed for the second ELST pass and the joint fit, which refines it: 0.1 % is enough.
+        refine_jerk(&mut machine, (runs, &matched), options, &mut values);
     }
+    // After the J seed: a replay simulates moves shaped by J as the logs' are.
+    crate::plateau_replay::correct_plateaus(&mut machine, runs, options, &observed, &mut values);
     let clean = clean_gaps(base, &machine, runs, &matched, options)?;
     let mut elst_values = Vec::new();
     let elst = fit_elst(
@@ -358,16 +360,6 @@ pub fn calibrate(
     machine.elst = elst.model;
     values.retain(|v| !v.field.starts_with("elst."));
     values.splice(0..0, elst_values);
-    // Again on the final ELST: the first pass's lowest clusters shift the moves' share of the gaps.
-    if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
-        refine_jerk(
-            &mut machine,
-            (runs, &matched),
-            options,
-            crate::transitions::LOG_TOLERANCE,
-            &mut values,
-        );
-    }
     let elst_sd = elst.sd;
     let spread = TimingSpread {
         elst_up_sd_s: elst_sd[0],
@@ -553,6 +545,11 @@ fn uncertainty_of(values: &[FittedValue]) -> arcsim_plan::FitUncertainty {
     }
 }
 
+/// The bracket (in the logarithm) the one-at-a-time fits by the model (J, each ELST) stop at:
+/// 0.2 %, a start for the joint fit ([`crate::joint::refine_jointly`]), which refines them
+/// together; golden sections to finer brackets cost a simulation per 0.48 of a bracket's log.
+const SEED_TOLERANCE: f64 = 2e-3;
+
 /// The single-valued ELSTs: field, class of switches, slot ([`elst_slot`]).
 const ELST_KINDS: [(&str, &str, usize); 3] = [
     ("elst.up_s", "upward switch", 0),
@@ -617,7 +614,7 @@ fn elst_by_model(
                     start,
                     1.5,
                     (0.0, arcsim_plan::MAX_SWITCH_TIME_S),
-                    crate::transitions::LOG_TOLERANCE,
+                    SEED_TOLERANCE,
                 ),
                 (runs, &logged),
                 crate::transitions::Switches::Kind(class),
@@ -722,7 +719,7 @@ fn refine_by_model_jointly(
             row.interval = Some(fit.intervals[k]);
             row.observations = fit.moved[k];
             row.note = format!(
-                "{}; then refined with {} by Gauss–Newton on every beam-off gap, interval: the widest of the joint sandwich, the value's own sandwich over the gaps it moves most and the spread of the fit over the fitted machine replayed 12 times with the logs' measured jitter, plus what A's own error moves ({} gaps move it)",
+                "{}; then refined with {} by Gauss–Newton on every beam-off gap, interval: the wider of the joint sandwich and the spread of the fit over the fitted machine replayed 12 times with the logs' measured jitter, plus what A's own error moves ({} gaps move it)",
                 row.note.split("; interval:").next().unwrap_or(&row.note),
                 list(&fields),
                 fit.moved[k]
@@ -1390,12 +1387,16 @@ fn question_speed_plateau(
 }
 
 /// Under a constant-speed controller, J by the model ([`crate::transitions::fit_by_gaps`]): the
-/// reversals of the trace read the beam-on dwells between a move's turns as a slow jerk.
+/// reversals of the trace read the beam-on dwells between a move's turns as a slow jerk. The
+/// search spans a factor 4 each way: wider, the constant-speed model takes a free-motion
+/// gantry's logs for a jerk of 21 deg/s³ (the README's fast machine, J 3) and fits them almost
+/// as well as free motion does, and the controller is no longer told apart. The joint
+/// refinement reaches up to a third beyond the bracket's end (three steps of at most 10 %): the
+/// tests' constant-speed machine, whose J the trace reads 4.2 times low.
 fn refine_jerk(
     machine: &mut Machine,
     (runs, matched): (&[LoggedRun], &[Matched]),
     options: &Options,
-    log_tolerance: f64,
     values: &mut [FittedValue],
 ) {
     let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
@@ -1408,7 +1409,7 @@ fn refine_jerk(
             start,
             4.0,
             arcsim_plan::JERK_RANGE_DEG_PER_S3,
-            log_tolerance,
+            SEED_TOLERANCE,
         ),
         (runs, &logged),
         crate::transitions::Switches::All,

@@ -13,9 +13,7 @@ use rayon::prelude::*;
 
 use crate::calibrate::LoggedRun;
 use crate::matching::LoggedLayer;
-use crate::transitions::{
-    gap_pairs, misfit_of, pairs_of, student_t95, weighted_sums, Switches, H, ROBUST_CAP_S,
-};
+use crate::transitions::{gap_pairs, misfit_of, pairs_of, student_t95, Switches, H, ROBUST_CAP_S};
 
 /// One value of a joint fit by the model: how to set it, its start and its range.
 pub(crate) struct Param<'a> {
@@ -43,9 +41,9 @@ pub(crate) struct JointFit {
 /// together: Gauss–Newton over their logarithms on every beam-off gap, the Jacobian by central
 /// differences (each move's duration depends on J and on which ELST its schedule stretches it
 /// to, so values fitted one by one each absorb the others' error), a step taken only where it
-/// lowers the robust misfit. The 95 % intervals are the largest of the logs' jitter replayed
-/// ([`jitter_replay`], when `noise` is given), each value's own sandwich on the gaps it moves
-/// most, and the joint sandwich
+/// lowers the robust misfit. The 95 % intervals are the wider of the logs' jitter replayed
+/// ([`jitter_replay`], when `noise` is given: the fit's spread with the coupling through the
+/// schedule) and the joint sandwich
 /// (GᵀG)⁻¹ Gᵀdiag(r²)G (GᵀG)⁻¹ · n/(n − p) with Student's t on n − p degrees of freedom, n the
 /// gaps any value moves; gaps beyond the robust cap are left out. The error of each `nuisance`
 /// value (held, not fitted) is carried into the variances. `None` when a simulation fails
@@ -71,8 +69,7 @@ pub(crate) fn refine_jointly(
             ..options.clone()
         },
     };
-    let theta = gauss_newton(&model)?;
-    let (centre, g) = model.jacobian(&theta)?;
+    let (theta, (centre, g)) = gauss_newton(&model)?;
     let normal = normal_equations(&centre, &g);
     let n = normal.used;
     if n <= p + 1 {
@@ -100,11 +97,10 @@ pub(crate) fn refine_jointly(
         None => vec![0.0; p],
     };
     let from_nuisance = nuisance_variances(&model, &theta, &lin, nuisance)?;
-    let alone = alone_variances(&lin);
     let mut intervals = Vec::with_capacity(p);
     let mut values = Vec::with_capacity(p);
     for (k, q) in params.iter().enumerate() {
-        let var = sandwich[k].max(spread[k]).max(alone[k]) + from_nuisance[k];
+        let var = sandwich[k].max(spread[k]) + from_nuisance[k];
         let sd = var.max(0.0).sqrt().max(1e-9);
         let t95 = student_t95(((n - p).min(carried[k].max(2) - 1)) as f64);
         let clamp = |x: f64| x.exp().clamp(q.range.0, q.range.1);
@@ -145,17 +141,28 @@ impl Model<'_> {
         gap_pairs(m, &|_, _| {}, 0.0, self.data, Switches::All, &self.opts)
     }
 
-    /// The gaps at `theta` and each value's column of derivatives (central differences).
-    fn jacobian(&self, theta: &[f64]) -> Option<(Vec<(f64, f64)>, Columns)> {
-        let centre = self.gaps(theta)?;
-        let mut columns = Vec::with_capacity(theta.len());
-        for k in 0..theta.len() {
-            let (mut up, mut down) = (theta.to_vec(), theta.to_vec());
-            up[k] += H;
-            down[k] -= H;
-            columns.push(central(&centre, &self.gaps(&up)?, &self.gaps(&down)?)?);
-        }
-        Some((centre, columns))
+    /// The gaps at `theta` and each value's column of derivatives (central differences), the
+    /// 2p + 1 simulations in parallel (one log alone would leave a core idle).
+    fn jacobian(&self, theta: &[f64]) -> Option<Linearisation> {
+        let points: Vec<Vec<f64>> = std::iter::once(theta.to_vec())
+            .chain((0..theta.len()).flat_map(|k| {
+                [H, -H].map(|h| {
+                    let mut t = theta.to_vec();
+                    t[k] += h;
+                    t
+                })
+            }))
+            .collect();
+        let gaps: Vec<Vec<(f64, f64)>> = points
+            .par_iter()
+            .map(|t| self.gaps(t))
+            .collect::<Option<_>>()?;
+        let (centre, shifted) = gaps.split_first()?;
+        let columns = shifted
+            .chunks(2)
+            .map(|pair| central(centre, &pair[0], &pair[1]))
+            .collect::<Option<_>>()?;
+        Some((centre.clone(), columns))
     }
 }
 
@@ -173,18 +180,23 @@ fn central(centre: &[(f64, f64)], up: &[(f64, f64)], down: &[(f64, f64)]) -> Opt
 }
 
 /// Up to three Gauss–Newton steps from the values' starts (each step clamped to 0.1 in the
-/// logarithm, halved up to three times until the robust misfit falls; none kept otherwise).
-fn gauss_newton(model: &Model) -> Option<Vec<f64>> {
+/// logarithm, halved up to three times until the robust misfit falls; none kept otherwise),
+/// with the gaps and the Jacobian at the values returned (computed once more only when the last
+/// step was taken).
+fn gauss_newton(model: &Model) -> Option<(Vec<f64>, Linearisation)> {
     let mut theta: Vec<f64> = model
         .params
         .iter()
         .map(|q| q.start.max(1e-9).ln())
         .collect();
-    let mut current = misfit_of(&model.gaps(&theta)?).0;
+    let (mut centre, mut g) = model.jacobian(&theta)?;
+    let mut current = misfit_of(&centre).0;
     for _ in 0..3 {
-        let (centre, g) = model.jacobian(&theta)?;
         let normal = normal_equations(&centre, &g);
         let step = solve(&normal.gtg, &normal.gtr)?;
+        if step.iter().all(|d| d.abs() < 1e-4) {
+            break;
+        }
         let mut accepted = false;
         let mut scale = 1.0;
         for _ in 0..3 {
@@ -200,11 +212,12 @@ fn gauss_newton(model: &Model) -> Option<Vec<f64>> {
             }
             scale *= 0.5;
         }
-        if !accepted || step.iter().all(|d| d.abs() < 1e-4) {
+        if !accepted {
             break;
         }
+        (centre, g) = model.jacobian(&theta)?;
     }
-    Some(theta)
+    Some((theta, (centre, g)))
 }
 
 /// The joint sandwich's diagonal, (GᵀG)⁻¹ Σ rᵢ² gᵢgᵢᵀ (GᵀG)⁻¹, scaled by the larger of
@@ -231,30 +244,6 @@ fn joint_sandwich(lin: &Linearised, carried: &[usize], n: usize) -> Vec<f64> {
                 .map(|(a, b)| lin.inv[k][a] * meat[a][b] * lin.inv[b][k])
                 .sum::<f64>()
                 * (n as f64 / (n - p) as f64).max(m / (m - 1.0))
-        })
-        .collect()
-}
-
-/// Each value alone on the gaps it moves most (at least half its most): the plain sandwich of a
-/// mean, which leans on no coupling through the schedule (the joint one credits the gaps a
-/// value moves a little with what it moves them by, and reads narrow).
-fn alone_variances(lin: &Linearised) -> Vec<f64> {
-    lin.g
-        .iter()
-        .map(|gk| {
-            let g_max = gk.iter().map(|x| x.abs()).fold(0.0, f64::max);
-            let (s_gg, s_ggrr, m) = weighted_sums(
-                lin.centre
-                    .iter()
-                    .zip(gk)
-                    .map(|((l, s), g)| (l - s, *g))
-                    .filter(|(r, g)| r.abs() < ROBUST_CAP_S && g.abs() >= 0.5 * g_max),
-            );
-            if m < 2 || s_gg <= 0.0 {
-                0.0
-            } else {
-                s_ggrr / (s_gg * s_gg) * m as f64 / (m - 1) as f64
-            }
         })
         .collect()
 }
@@ -309,6 +298,9 @@ pub(crate) struct Noise<'a> {
 
 /// One column per value: each gap's derivative in the value's logarithm.
 type Columns = Vec<Vec<f64>>;
+
+/// The (logged, simulated) gaps at some values and the Jacobian's columns there.
+type Linearisation = (Vec<(f64, f64)>, Columns);
 
 /// A joint fit linearised at its values: the (logged, simulated) gaps there, the Jacobian's
 /// columns, and (GᵀG)⁻¹.

@@ -89,7 +89,7 @@ pub struct Trace {
 }
 
 /// Logs sampled faster than this are averaged into bins of [`BIN_S`] before the local fits.
-const BIN_BELOW_S: f64 = 0.005;
+pub const BIN_BELOW_S: f64 = 0.005;
 
 /// Bin width of fast logs, s: a 2 s window then holds 200 points whatever the log's rate, so the
 /// fits cost the same per second of log (a 4 kHz per-spot record of a 300 s arc is 1.2M rows),

@@ -20,6 +20,7 @@ mod joint;
 pub mod kinematics;
 mod matching;
 mod mu_check;
+mod plateau_replay;
 mod read;
 mod sample;
 mod transitions;

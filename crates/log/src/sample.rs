@@ -77,6 +77,20 @@ pub const GLITCH_FLOOR_DEG: f64 = 0.5;
 pub const LONG_GAP_PERIODS: f64 = 5.0;
 
 impl DeliveryLog {
+    /// A log of an angle trace as sampled: no optional column, nothing cleaned (a simulated
+    /// trace, read again by the kinematics).
+    pub fn of_angles(source: impl Into<String>, samples: Vec<LogSample>) -> DeliveryLog {
+        DeliveryLog {
+            source: source.into(),
+            samples,
+            has_energy: false,
+            has_spot: false,
+            has_mu: false,
+            wraps_unwrapped: 0,
+            glitches_rejected: 0,
+        }
+    }
+
     /// Time from the first sample to the last, s.
     pub fn duration_s(&self) -> f64 {
         match (self.samples.first(), self.samples.last()) {

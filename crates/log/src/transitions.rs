@@ -18,10 +18,6 @@ use crate::matching::LoggedLayer;
 /// pause or an interruption must not pull the fit.
 pub(crate) const ROBUST_CAP_S: f64 = 0.3;
 
-/// The golden section stops when its bracket over the logarithm is this narrow (the value known
-/// to 1e-4 relative, far below any interval it is given with).
-pub(crate) const LOG_TOLERANCE: f64 = 2e-4;
-
 /// A value fitted by the model: its value, 95 % interval and the transitions behind it.
 pub(crate) struct GapFit {
     pub value: f64,
@@ -239,7 +235,7 @@ fn sandwich_sd(centre: &[(f64, f64)], plus: &[(f64, f64)], minus: &[(f64, f64)])
 
 /// Σ gᵢ², Σ gᵢ² rᵢ² and n over the (rᵢ, gᵢ) given: the sums behind the sandwich of a value
 /// that moves those gaps by gᵢ, √(Σ gᵢ² rᵢ²) / Σ gᵢ² (a weighted mean's).
-pub(crate) fn weighted_sums(terms: impl Iterator<Item = (f64, f64)>) -> (f64, f64, usize) {
+fn weighted_sums(terms: impl Iterator<Item = (f64, f64)>) -> (f64, f64, usize) {
     terms.fold((0.0, 0.0, 0), |(s_gg, s_ggrr, n), (r, g)| {
         (s_gg + g * g, s_ggrr + g * g * r * r, n + 1)
     })

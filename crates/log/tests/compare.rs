@@ -343,15 +343,7 @@ fn the_observed_limits_of_a_known_motion_are_its_own() {
         acc = new_acc;
         t += dt;
     }
-    let log = DeliveryLog {
-        source: "known".into(),
-        samples,
-        has_energy: false,
-        has_spot: false,
-        has_mu: false,
-        wraps_unwrapped: 0,
-        glitches_rejected: 0,
-    };
+    let log = DeliveryLog::of_angles("known", samples);
     let o = observe(&[trace(&log)]);
     let speed = o.speed.expect("speed");
     assert!(
@@ -410,15 +402,7 @@ fn the_jerk_is_read_from_the_acceleration_reversals() {
                 t += dt;
             }
         }
-        let log = DeliveryLog {
-            source: "reversals".into(),
-            samples,
-            has_energy: false,
-            has_spot: false,
-            has_mu: false,
-            wraps_unwrapped: 0,
-            glitches_rejected: 0,
-        };
+        let log = DeliveryLog::of_angles("reversals", samples);
         let o = observe(&[trace(&log)]);
         let accel = o.accel.expect("accel");
         assert!(

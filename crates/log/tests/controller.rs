@@ -121,6 +121,17 @@ fn servo(samples: &mut [LogSample]) {
 /// A log of `plan` delivered by the hidden machine of `truth`: each switch's ELST drawn at 3 %
 /// (seeded), sampled every 10 ms, 0.01° of angle noise, written and read back as a file.
 fn log_of(plan: &ArcPlan, truth: Truth, seed: u64, name: &str) -> DeliveryLog {
+    noisy_log_of(plan, truth, seed, name, 0.01)
+}
+
+/// [`log_of`] with `noise_deg` of angle noise.
+fn noisy_log_of(
+    plan: &ArcPlan,
+    truth: Truth,
+    seed: u64,
+    name: &str,
+    noise_deg: f64,
+) -> DeliveryLog {
     let machine = hidden(truth);
     let arcs = resolve(plan, &machine).expect("resolves");
     let ElstModel::Constant { up_s, down_s, .. } = machine.elst else {
@@ -156,7 +167,7 @@ fn log_of(plan: &ArcPlan, truth: Truth, seed: u64, name: &str) -> DeliveryLog {
         servo(&mut samples);
     }
     for s in &mut samples {
-        s.gantry_angle_deg += 0.01 * normal();
+        s.gantry_angle_deg += noise_deg * normal();
     }
     // Every other log has an encoder glitch: one sample 5° off.
     if seed % 2 == 1 {
@@ -235,11 +246,8 @@ fn check(truth: Truth, seed: u64) {
     else {
         panic!("constant ELST expected")
     };
-    // The beam in bursts misses the 2 % goal on some seeds (seed 3: ELST down -2.1 %, its
-    // interval too narrow to hold the truth): checked at 3 % until the cause is found.
-    let elst_tolerance = if truth == Truth::Burst { 0.03 } else { 0.02 };
-    within(*up_s, *u, elst_tolerance, "ELST up");
-    within(*down_s, *d, elst_tolerance, "ELST down");
+    within(*up_s, *u, 0.02, "ELST up");
+    within(*down_s, *d, 0.02, "ELST down");
     match (&cal.machine.beam, &hidden.beam) {
         (BeamModel::PerMu(b), BeamModel::PerMu(t)) => {
             within(b.s_per_mu, t.s_per_mu, 0.02, "s per MU")
@@ -371,12 +379,17 @@ fn a_forced_motion_is_written_as_forced() {
 #[test]
 #[ignore = "about 20 minutes: run by hand, figures in the closing note"]
 fn controller_twenty_seeds() {
+    let mut failed = Vec::new();
     for truth in [Truth::Constant, Truth::Free, Truth::Servo, Truth::Burst] {
         for seed in 0..20 {
-            check(truth, seed);
-            eprintln!("{truth:?} seed {seed}: ok");
+            // Every seed is run and the failures listed together (one alone says little).
+            match std::panic::catch_unwind(|| check(truth, seed)) {
+                Ok(()) => eprintln!("{truth:?} seed {seed}: ok"),
+                Err(_) => failed.push(format!("{truth:?} seed {seed}")),
+            }
         }
     }
+    assert!(failed.is_empty(), "failed: {failed:?}");
 }
 
 /// Issue 44, finding 10: logs of two different machines pooled for one fit leave residuals no
@@ -590,4 +603,63 @@ fn interval_coverage_free_motion() {
 #[ignore = "about an hour per machine: run by hand, figures in the closing note"]
 fn interval_coverage_beam_in_bursts() {
     coverage(Truth::Burst, 0..coverage_seeds());
+}
+
+/// The trace's acceleration plateau, corrected by replaying the fitted machine: with 0.03° of
+/// noise (three times the other tests') the plateau's band takes in more windows over its edges
+/// and A reads low (1.6 % on average here); the replay measures that bias and the estimator's
+/// spread. The correction raises A and its interval holds the truth (on seed 3 the trace's own,
+/// [0.377, 0.398], does not).
+#[test]
+fn the_acceleration_plateau_is_corrected_by_replay() {
+    let truth = Truth::Constant;
+    let hidden_a = hidden(truth).gantry.max_accel_deg_per_s2;
+    for seed in [3, 4] {
+        let runs: Vec<LoggedRun> = ["lung", "prostate", "two-arc"]
+            .iter()
+            .enumerate()
+            .map(|(k, name)| {
+                let plan = bundled(name);
+                let log = noisy_log_of(&plan, truth, seed * 10 + k as u64, name, 0.03);
+                LoggedRun {
+                    plan_name: name.to_string(),
+                    plan,
+                    log,
+                }
+            })
+            .collect();
+        let traces: Vec<_> = runs
+            .iter()
+            .map(|r| arcsim_log::kinematics::trace(&r.log))
+            .collect();
+        let read = arcsim_log::kinematics::observe(&traces)
+            .accel
+            .expect("a plateau");
+        let cal = calibrate_controller(
+            &truth.base(),
+            &runs,
+            ElstFit::Constant,
+            &Options::new(Schedule::Optimal),
+            Some(Motion::Constant),
+        )
+        .expect("calibrated");
+        let a = cal
+            .report
+            .value("gantry.max_accel_deg_per_s2")
+            .expect("A")
+            .clone();
+        let [lo, hi] = a.interval.expect("an interval");
+        eprintln!(
+            "seed {seed}: trace {} {:?}, corrected {} [{lo}, {hi}]",
+            read.level, read.interval, a.value
+        );
+        assert!(a.note.contains("corrected by replay"), "{}", a.note);
+        assert!(
+            a.value >= 1.005 * read.level,
+            "seed {seed}: the correction ({} from {}) does not raise A by 0.5 %",
+            a.value,
+            read.level
+        );
+        assert!((lo..=hi).contains(&hidden_a), "seed {seed}: [{lo}, {hi}]");
+    }
 }
