@@ -47,6 +47,7 @@ CASES = [
     ("plans/lung.json", "step-and-shoot", None),
     ("plans/head-neck.json", "scan", "constant"),
     ("plans/two-arc.json", "optimal", "constant"),
+    ("plans/two-arc.json", "optimal", "one-speed"),
 ]
 
 

@@ -108,15 +108,14 @@ impl SimulateRequest {
         };
         let (motion, motion_from) = match self.motion {
             Some(m) => (m, "option"),
-            None if controller.motion != Motion::Constant && period.is_some() => {
-                notes.push("a servo period applies, so the motion is constant speed per layer (free motion is continuous-time only)".to_string());
+            None if controller.motion.continuous_time_only().is_some() && period.is_some() => {
+                notes.push(format!(
+                    "a servo period applies, so the motion is constant speed per layer ({} is continuous-time only)",
+                    controller.motion.describe()
+                ));
                 (Motion::Constant, "rule")
             }
-            None if controller.motion != Motion::Constant
-                && matches!(schedule, Schedule::Prescribed | Schedule::StepAndShoot) =>
-            {
-                (Motion::Constant, "rule")
-            }
+            None if !controller.motion.accepts_schedule(schedule) => (Motion::Constant, "rule"),
             None => (controller.motion, from_machine),
         };
         let opts = Options {

@@ -38,7 +38,8 @@ pub struct Args {
     /// The logs' column names, e.g. `t_s=TIME,gantry_angle_deg=GantryAngle,beam_on=BeamOn`.
     #[arg(long, value_name = "MAP")]
     columns: Option<String>,
-    /// Force the motion model instead of learning it from the logs (`constant` or `free`).
+    /// Force the motion model instead of learning it from the logs (`constant` or `free`; a
+    /// calibration under `one-speed` is not built and is refused with the reason).
     #[arg(long, value_parser = parse_motion, value_name = "MOTION")]
     motion: Option<arcsim_sequencer::Motion>,
     /// Speed schedule of the simulations (default: the base machine's controller's).

@@ -91,7 +91,8 @@ The summary, term by term (docs/results.md describes every output field):
   lost (gantry)        Time the transitions take beyond their ELST: the time the gantry makes the
                        beam wait, sum of max(0, transition duration - ELST) (with free arc ends,
                        plus the run-up before the first beam). 0 s: the gantry never waits.
-  free motion saves    Free motion against one constant speed per layer, same schedule.
+  free motion saves    Free motion (or one speed per arc: costs) against one constant speed
+                       per layer, same schedule.
   transitions limited by
                        Which gantry limit, raised, would shorten each transition most: the
                        transition is re-planned exactly (same gap, boundary speeds and ELST) with

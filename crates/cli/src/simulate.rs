@@ -72,9 +72,9 @@ pub struct Args {
     #[arg(long, value_enum)]
     schedule: Option<ScheduleArg>,
     /// Motion model, overriding the machine's controller: `constant` (one speed per layer,
-    /// ATOM's model) or `free` (speed may change during beam-on). Default: the machine's
-    /// controller (constant speed per layer, assumed, when the machine names none; constant
-    /// when a servo period applies).
+    /// ATOM's model), `free` (speed may change during beam-on) or `one-speed` (one speed per
+    /// arc, the AAPM 2026 one-speed workflow). Default: the machine's controller (constant speed
+    /// per layer, assumed, when the machine names none; constant when a servo period applies).
     #[arg(long, value_parser = parse_motion, value_name = "MOTION")]
     motion: Option<Motion>,
     /// Arc ends at rest (default) or free (free motion only).
@@ -190,9 +190,10 @@ fn heading(s: &mut String, d: &Delivery, plan: &str, machine: &str) {
         "plan {plan} on {machine}, schedule {}, motion {}{}",
         d.schedule.name(),
         d.motion.name(),
-        match d.motion {
-            Motion::Free => format!(" (arc ends {})", d.arc_ends.name()),
-            Motion::Constant => String::new(),
+        if d.motion.speed_changes_during_beam() {
+            format!(" (arc ends {})", d.arc_ends.name())
+        } else {
+            String::new()
         }
     );
     let _ = writeln!(
@@ -270,20 +271,26 @@ fn time_breakdown(s: &mut String, d: &Delivery) {
 }
 
 /// After the heading's first line: the controller the number comes from and where that came
-/// from, and how to see the other model as a what-if (constant speed is free motion's seed, so
-/// free motion shows both; free motion costs seconds, so it is asked for).
+/// from, and how to see each other model as a what-if (the constant-speed total comes with every
+/// other model, as its seed or baseline; the others are asked for, as free motion costs seconds).
 pub fn insert_controller_lines(text: &mut String, used: &arcsim_app::ControllerUsed, d: &Delivery) {
     let mut lines = format!("{}\n", used.line());
-    if d.motion == Motion::Constant {
-        lines.push_str(
-            "what-if: free motion (speed may change during beam-on) with --motion free\n",
-        );
+    for m in Motion::ALL {
+        let shown = m == d.motion || (m == Motion::Constant && d.constant_speed_total_s.is_some());
+        if !shown {
+            lines.push_str(&format!(
+                "what-if: {} with --motion {}\n",
+                m.describe(),
+                m.name()
+            ));
+        }
     }
     let at = text.find('\n').map_or(text.len(), |i| i + 1);
     text.insert_str(at, &lines);
 }
 
-/// The servo period, the saving of free motion, and what limits the transitions.
+/// The servo period, what the model saves or costs against constant speed per layer, and what
+/// limits the transitions.
 fn motion_notes(s: &mut String, d: &Delivery) {
     if let Some(ts) = d.servo_period_s {
         let _ = writeln!(
@@ -294,11 +301,17 @@ fn motion_notes(s: &mut String, d: &Delivery) {
     }
     if let Some(c) = d.constant_speed_total_s {
         let saved = c - d.total_s;
+        let (verb, by) = if saved >= 0.0 {
+            ("saves", saved)
+        } else {
+            ("costs", -saved)
+        };
         let _ = writeln!(
             s,
-            "free motion saves {} s ({} %) against constant speed per layer ({c:.2} s)",
-            fixed(saved, 2, 0),
-            fixed(if c > 0.0 { 100.0 * saved / c } else { 0.0 }, 1, 0)
+            "{} {verb} {} s ({} %) against constant speed per layer ({c:.2} s)",
+            d.motion.describe(),
+            fixed(by, 2, 0),
+            fixed(if c > 0.0 { 100.0 * by / c } else { 0.0 }, 1, 0)
         );
     }
     let c = d.limiter_counts;
@@ -627,9 +640,12 @@ fn certificate_lines(c: &Certificate, total_s: f64, motion: Motion) -> String {
     } else {
         0.0
     };
-    let what = match motion {
-        Motion::Constant => "no constant-speed schedule is faster",
-        Motion::Free => "no free motion is faster; a loose bound",
+    // One speed per arc is a constant-speed delivery (its cruises held): the constant-speed
+    // bound holds for it too.
+    let what = if motion.speed_changes_during_beam() {
+        "no free motion is faster; a loose bound"
+    } else {
+        "no constant-speed schedule is faster"
     };
     format!(
         "lower bound          {:9.2} s  ({what})\n\

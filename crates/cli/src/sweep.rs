@@ -148,10 +148,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
 /// (relative), named.
 fn certificate_line(rows: &[arcsim_evaluator::Row]) -> Option<String> {
     let mut text = String::new();
-    for (motion, what) in [
-        (Motion::Constant, "constant-speed"),
-        (Motion::Free, "free-motion"),
-    ] {
+    for (motion, what) in Motion::ALL.map(|m| (m, m.adjective())) {
         let gaps: Vec<(f64, &arcsim_evaluator::Row)> = rows
             .iter()
             .filter(|r| r.schedule.motion == motion)

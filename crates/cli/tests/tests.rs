@@ -11,6 +11,7 @@ mod hardening;
 mod log_tools;
 mod logs;
 mod messages;
+mod one_speed;
 mod probe;
 mod profile_reversal;
 mod python;

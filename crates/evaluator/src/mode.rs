@@ -1,4 +1,4 @@
-//! What a schedule entry runs: a speed schedule, constant or free motion, and arc ends.
+//! What a schedule entry runs: a speed schedule, a motion model, and arc ends.
 
 use arcsim_sequencer::{ArcEnds, Motion, Schedule};
 use serde::{Serialize, Serializer};
@@ -28,8 +28,9 @@ impl RunMode {
     /// The entry's name in tables and files, e.g. `optimal+free+free-ends`.
     pub fn name(&self) -> String {
         let mut s = self.schedule.name().to_string();
-        if self.motion == Motion::Free {
-            s.push_str("+free");
+        if self.motion != Motion::Constant {
+            s.push('+');
+            s.push_str(self.motion.name());
         }
         if self.arc_ends == ArcEnds::Free {
             s.push_str("+free-ends");

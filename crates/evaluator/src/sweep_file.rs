@@ -504,10 +504,13 @@ impl<'de> Deserialize<'de> for ScheduleEntry {
             }
             fn visit_map<M: MapAccess<'de>>(self, map: M) -> Result<ScheduleEntry, M::Error> {
                 let o = ScheduleObject::deserialize(MapAccessDeserializer::new(map))?;
-                if o.motion == Some(Motion::Constant) && o.arc_ends == ArcEnds::Free {
-                    return Err(de::Error::custom(
-                        "arc_ends \"free\" needs \"motion\": \"free\" (a constant-speed arc starts and ends at rest)",
-                    ));
+                if let (Some(m), ArcEnds::Free) = (o.motion, o.arc_ends) {
+                    if !m.speed_changes_during_beam() {
+                        return Err(de::Error::custom(format!(
+                            "arc_ends \"free\" needs \"motion\": \"free\" (a {} arc starts and ends at rest)",
+                            m.adjective()
+                        )));
+                    }
                 }
                 Ok(ScheduleEntry {
                     schedule: o.schedule,

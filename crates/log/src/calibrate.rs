@@ -82,6 +82,22 @@ pub enum CalibrateError {
     /// No run given.
     #[error("no plan and log to calibrate from")]
     NoRuns,
+    /// A motion model the calibration cannot fit timings under.
+    #[error("calibration under {} is not built (its inner moves are cruises, which show no switching time or gantry limit to fit): calibrate under {} and simulate with --motion {}", .motion.describe(), calibratable(), .motion.name())]
+    NotCalibratable {
+        /// The motion model asked for.
+        motion: arcsim_plan::Motion,
+    },
+}
+
+/// The names of the motion models a calibration can fit under ("constant or free").
+fn calibratable() -> String {
+    let names: Vec<&str> = arcsim_plan::Motion::ALL
+        .iter()
+        .filter(|m| m.calibrates_from_logs())
+        .map(|m| m.name())
+        .collect();
+    names.join(" or ")
 }
 
 /// One fitted (or kept) machine value.
@@ -798,6 +814,21 @@ fn durations_of(gaps: &[Gap], class: &str) -> Vec<f64> {
         .collect()
 }
 
+/// Gap durations are whole log periods (each edge halfway between two samples), so their median
+/// and its bootstrap land on that grid: an interval [0.80, 0.81] s missed a true 0.80 by
+/// rounding, and one of [0.30, 0.30] s claimed no uncertainty at all. A uniform dither of one
+/// period (seeded, so the fit stays a function of its inputs) makes the bootstrap's medians
+/// continuous again without bias: jittering, as for quantiles of counts. The period is
+/// `res_sd`·√6 (an edge within half a period each end).
+fn dithered(durations: &[f64], res_sd: f64, seed: u64) -> Vec<f64> {
+    let period = res_sd * 6f64.sqrt();
+    let mut rng = ChaCha8Rng::seed_from_u64(0xd17e_0000 + seed);
+    durations
+        .iter()
+        .map(|x| (x + period * (rng.random::<f64>() - 0.5)).max(0.0))
+        .collect()
+}
+
 /// One ELST (see [`fit_elst`]) and its spread; its value row pushed to `values`.
 fn fit_one_elst(
     kind: &ElstKind,
@@ -808,6 +839,10 @@ fn fit_one_elst(
 ) -> (f64, f64) {
     let spread_of = |sd: f64| (sd * sd - res_sd * res_sd).max(0.0).sqrt();
     let d = durations_of(gaps, kind.class);
+    // Values from the logged durations, intervals from their dithered copies ([`dithered`]),
+    // widened to hold the value (a median on the period grid may sit just outside them).
+    let d_dithered = dithered(&d, res_sd, kind.seed);
+    let holding = |i: Option<[f64; 2]>, v: f64| i.map(|[lo, hi]| [lo.min(v), hi.max(v)]);
     let row = |value: f64, interval, observations, note: String| FittedValue {
         field: kind.field.into(),
         unit: "s".into(),
@@ -824,10 +859,12 @@ fn fit_one_elst(
     {
         let centre = median(&mut c.clone());
         let sd = mad_sd(&c, centre).max(res_sd);
+        let c_dithered = dithered(&c, res_sd, kind.seed);
         let interval = bootstrap(c.len(), kind.seed, &|idx| {
-            let mut s: Vec<f64> = idx.iter().map(|&i| c[i]).collect();
+            let mut s: Vec<f64> = idx.iter().map(|&i| c_dithered[i]).collect();
             Some(median(&mut s))
         });
+        let interval = holding(interval, centre);
         let note = format!(
             "median of the {} of {} switches that a simulation on the first fit times at their ELST",
             c.len(),
@@ -839,9 +876,10 @@ fn fit_one_elst(
     match lowest_cluster(&d, res_sd).filter(|c| c.count >= 3) {
         Some(c) => {
             let interval = bootstrap(d.len(), kind.seed, &|idx| {
-                let s: Vec<f64> = idx.iter().map(|&i| d[i]).collect();
+                let s: Vec<f64> = idx.iter().map(|&i| d_dithered[i]).collect();
                 lowest_cluster(&s, res_sd).map(|c| c.centre)
             });
+            let interval = holding(interval, c.centre);
             let note = format!(
                 "peak of the lowest cluster of the {} beam-off gaps ({} within three spreads of it)",
                 d.len(),

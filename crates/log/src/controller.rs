@@ -1,5 +1,5 @@
 //! Which controller a machine follows, learnt from its logs: the calibration is fitted under
-//! every motion model, each fitted machine simulates every logged plan under its model, and the
+//! every motion model it can fit under ([`Motion::calibrates_from_logs`]), each fitted machine simulates every logged plan under its model, and the
 //! model whose layer beam-on times come out closest to the logged ones is chosen when its error
 //! is at least [`CONTROLLER_DECISION_RATIO`] times smaller than every other's. Otherwise the
 //! controller is "not determined" and the base machine's is kept, said so. Timings fitted under
@@ -33,8 +33,14 @@ pub fn calibrate_controller(
 ) -> Result<Calibration, CalibrateError> {
     let logs: Vec<String> = runs.iter().map(|r| r.log.source.clone()).collect();
     let candidates: Vec<Motion> = match forced {
+        Some(m) if !m.calibrates_from_logs() => {
+            return Err(CalibrateError::NotCalibratable { motion: m })
+        }
         Some(m) => vec![m],
-        None => Motion::ALL.to_vec(),
+        None => Motion::ALL
+            .into_iter()
+            .filter(|m| m.calibrates_from_logs())
+            .collect(),
     };
     let fits = candidates
         .par_iter()
@@ -132,25 +138,34 @@ fn decide(
             ),
         )
     } else {
-        let kept = rms
+        let errors = rms_by_name
             .iter()
-            .position(|f| f.0 == base_controller.motion)
-            .unwrap_or(best);
-        (
-            kept,
-            "not determined",
-            format!(
-                "not determined by {} delivery log(s) (the models' rms beam-on timing errors differ by less than {}×: {}); kept from the base machine: {}",
-                logs,
-                CONTROLLER_DECISION_RATIO,
-                rms_by_name
-                    .iter()
-                    .map(|(k, v)| format!("{k} {v:.3} s"))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                base_controller.source
+            .map(|(k, v)| format!("{k} {v:.3} s"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let why = format!(
+            "not determined by {logs} delivery log(s) (the models' rms beam-on timing errors differ by less than {CONTROLLER_DECISION_RATIO}×: {errors})"
+        );
+        match rms.iter().position(|f| f.0 == base_controller.motion) {
+            Some(kept) => (
+                kept,
+                "not determined",
+                format!(
+                    "{why}; kept from the base machine: {}",
+                    base_controller.source
+                ),
             ),
-        )
+            // The base's model is one a calibration cannot fit under (one speed per arc).
+            None => (
+                best,
+                "not determined",
+                format!(
+                    "{why}; the base machine's {} is not fitted from logs, so the closest model, {}, is used",
+                    base_controller.motion.describe(),
+                    rms[best].0.describe()
+                ),
+            ),
+        }
     }
 }
 
@@ -325,5 +340,23 @@ mod tests {
         let one = [(Motion::Free, 5.0)];
         let (i, decision, _) = decide(&one, &by_name(&one), &base, true, 1);
         assert_eq!((one[i].0, decision), (Motion::Free, "forced"));
+    }
+
+    /// A base machine whose controller logs cannot calibrate (one speed per arc): when the models
+    /// that can are not told apart, the closer one is used and the source says why, rather than
+    /// claiming the base's was kept.
+    #[test]
+    fn a_base_controller_logs_cannot_fit_is_replaced_by_the_closer_model_said_so() {
+        let base = Controller {
+            motion: Motion::OneSpeed,
+            ..Controller::assumed()
+        };
+        let close = [(Motion::Constant, 2.0), (Motion::Free, 1.0)];
+        let (i, decision, source) = decide(&close, &by_name(&close), &base, false, 3);
+        assert_eq!((close[i].0, decision), (Motion::Free, "not determined"));
+        assert!(
+            source.contains("is not fitted from logs") && !source.contains("kept from the base"),
+            "{source}"
+        );
     }
 }

@@ -4,8 +4,9 @@
 //!
 //! A controller is a [`Motion`] (the law of motion during and between layers) and a [`Schedule`]
 //! (how the constant layer speeds are chosen; free motion starts from them). Adding a controller
-//! is a new [`Motion`] variant and its solver in the sequencer; every command lists, parses and
-//! reports controllers through [`Motion::ALL`], [`Motion::name`] and [`Motion::describe`].
+//! is a new [`Motion`] variant with its facts here (name, description, what it accepts) and its
+//! solver file in the sequencer, dispatched from one `match` there; every command lists, parses,
+//! checks and reports controllers through [`Motion::ALL`] and these facts, never by variant.
 
 use std::collections::BTreeMap;
 
@@ -21,7 +22,7 @@ pub struct UnknownName {
     /// The name given.
     pub name: String,
     /// The names it may be.
-    pub expected: &'static str,
+    pub expected: String,
 }
 
 /// How layer speeds are chosen.
@@ -71,7 +72,7 @@ impl std::str::FromStr for Schedule {
             .ok_or_else(|| UnknownName {
                 what: "schedule",
                 name: s.to_string(),
-                expected: "prescribed, scan, optimal or step-and-shoot",
+                expected: "prescribed, scan, optimal or step-and-shoot".into(),
             })
     }
 }
@@ -87,17 +88,22 @@ pub enum Motion {
     /// The machine's own limits only: the gantry may speed up or slow down while the beam is on,
     /// anywhere inside the layer's window.
     Free,
+    /// One constant gantry speed for the whole arc (the AAPM 2026 one-speed workflow: the beam's
+    /// intensity is adapted so each layer fits its window at that speed): the first and last
+    /// layers at rest, every other layer and every move between them at the arc's one speed.
+    OneSpeed,
 }
 
 impl Motion {
     /// Every motion model, in the order the CLI lists them.
-    pub const ALL: [Motion; 2] = [Motion::Constant, Motion::Free];
+    pub const ALL: [Motion; 3] = [Motion::Constant, Motion::Free, Motion::OneSpeed];
 
     /// The name the CLI and the files use.
     pub fn name(self) -> &'static str {
         match self {
             Motion::Constant => "constant",
             Motion::Free => "free",
+            Motion::OneSpeed => "one-speed",
         }
     }
 
@@ -106,6 +112,60 @@ impl Motion {
         match self {
             Motion::Constant => "constant speed per layer",
             Motion::Free => "free motion (speed may change during beam-on)",
+            Motion::OneSpeed => "one constant speed per arc (AAPM 2026 one-speed workflow)",
+        }
+    }
+
+    /// The model as an adjective, for tables and what-if lines ("free-motion total").
+    pub fn adjective(self) -> &'static str {
+        match self {
+            Motion::Constant => "constant-speed",
+            Motion::Free => "free-motion",
+            Motion::OneSpeed => "one-speed",
+        }
+    }
+
+    /// Whether the gantry's speed may change while a layer is irradiated; only such a model may
+    /// leave an arc's ends free (a run-up through the first layer, braking after the last).
+    pub fn speed_changes_during_beam(self) -> bool {
+        matches!(self, Motion::Free)
+    }
+
+    /// Why the model cannot run on a servo period, if it cannot (its moves are not built of whole
+    /// periods); `None` where it can.
+    pub fn continuous_time_only(self) -> Option<&'static str> {
+        match self {
+            Motion::Constant => None,
+            Motion::Free => Some("its solver switches jerk at any instant; a version whose jerk holds over whole servo periods is not built"),
+            Motion::OneSpeed => Some("its cruises between layers last gap / speed, not whole servo periods"),
+        }
+    }
+
+    /// Whether the model takes its layer speeds from `schedule`: constant speed per layer takes
+    /// every schedule; free motion starts from a searched one (`scan` or `optimal`); one speed
+    /// per arc sets its own and accepts those two as the sweep's default, not the others, which
+    /// fix the speeds.
+    pub fn accepts_schedule(self, schedule: Schedule) -> bool {
+        match self {
+            Motion::Constant => true,
+            Motion::Free | Motion::OneSpeed => {
+                matches!(schedule, Schedule::Scan | Schedule::Optimal)
+            }
+        }
+    }
+
+    /// Whether a calibration can fit a machine's timings under this model from logs (and so
+    /// whether `calibrate` weighs it when it learns the controller).
+    pub fn calibrates_from_logs(self) -> bool {
+        matches!(self, Motion::Constant | Motion::Free)
+    }
+
+    /// The names of every model, for errors ("constant, free or one-speed").
+    pub fn names() -> String {
+        let names: Vec<&str> = Motion::ALL.iter().map(|m| m.name()).collect();
+        match names.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+            _ => names.join(""),
         }
     }
 }
@@ -119,7 +179,7 @@ impl std::str::FromStr for Motion {
             .ok_or_else(|| UnknownName {
                 what: "motion",
                 name: s.to_string(),
-                expected: "constant or free",
+                expected: Motion::names(),
             })
     }
 }

@@ -402,7 +402,8 @@ fn run(
 
 /// Simulates `plan` on `machine` (default: the built-in ATOM machine) as `arcsim simulate` does:
 /// `schedule` "optimal", "scan", "prescribed", "step-and-shoot" or None (the machine
-/// controller's); `motion` "free", "constant" or None (the machine's controller, as the CLI);
+/// controller's); `motion` "constant", "free", "one-speed" or None (the machine's controller, as
+/// the CLI);
 /// `period_s` a servo period overriding the machine's; `strict` refuses implausible values
 /// (likely unit slips) instead of warning. The GIL is released while it runs.
 #[pyfunction]

@@ -49,10 +49,12 @@ struct MoveContext {
     layer: usize,
 }
 
-/// Solves one forward move of `mv` lasting at least `elst`.
+/// Solves one forward move of `mv` lasting at least `elst` and at least `hold` (a cruise's
+/// duration; 0 for none).
 fn solve_move(
     mv: Move,
     elst: f64,
+    hold: f64,
     lim: &Limits,
     at: &MoveContext,
 ) -> Result<Solved, SequenceError> {
@@ -66,9 +68,12 @@ fn solve_move(
     let timed = timed(&analysis);
     let min_time = timed.min_time;
     let duration = timed
-        .at_least(elst)
+        .at_least(elst.max(hold))
         .ok_or_else(|| infeasible(Infeasibility::CannotLastElst { elst_s: elst }))?;
-    let limiter = if duration > 0.0 {
+    // A held move (a cruise) is labelled by its controller, which knows what set the hold.
+    let limiter = if hold > 0.0 {
+        Limiter::None
+    } else if duration > 0.0 {
         label_by_raise(duration, elst, lim, |l| move_duration(&mv, elst, l))
     } else {
         Limiter::None
@@ -138,11 +143,12 @@ pub(crate) fn assemble(
     let mut prev_end: Option<(f64, usize)> = None;
     for (ai, (arc, p)) in arcs.iter().zip(problems).enumerate() {
         let v = &chosen.speeds[ai];
+        let hold = |k: usize| chosen.min_move_s.get(ai).map_or(0.0, |h| h[k]);
         for k in 0..p.len() {
             let transition_in = match (k, prev_end) {
                 (0, None) => (0.0, Limiter::None),
                 (0, Some((angle, from))) => a.turn_between_arcs(arc, p, angle, from)?,
-                _ => a.move_within_arc(arc, p, k, v)?,
+                _ => a.move_within_arc(arc, p, k, v, hold(k))?,
             };
             a.beam_on(arc, p, k, v[k], chosen.bounds[ai][k], transition_in);
         }
@@ -170,6 +176,8 @@ struct TransitionSpec {
     /// The move along its direction of travel.
     mv: Move,
     elst_s: f64,
+    /// The least duration beyond the ELST (a cruise's), 0 for none (s).
+    hold_s: f64,
     from_layer: usize,
     arc_change: bool,
     /// Where the move starts (deg) and its direction (+1 or −1).
@@ -190,7 +198,7 @@ impl Assembly<'_> {
             arc: spec.at_arc,
             layer: spec.at_layer,
         };
-        let s = solve_move(spec.mv, spec.elst_s, self.lim, &at)?;
+        let s = solve_move(spec.mv, spec.elst_s, spec.hold_s, self.lim, &at)?;
         let index = self.transitions.len();
         if let Some(prof) = &s.profile {
             push_profile(
@@ -237,6 +245,7 @@ impl Assembly<'_> {
                 v_end: 0.0,
             },
             elst_s: p.elst[0],
+            hold_s: 0.0,
             from_layer,
             arc_change: true,
             start_angle_deg: from_angle,
@@ -246,17 +255,20 @@ impl Assembly<'_> {
         })
     }
 
-    /// The move from layer `k − 1` to layer `k` of an arc, between their beam-on sweeps.
+    /// The move from layer `k − 1` to layer `k` of an arc, between their beam-on sweeps, lasting
+    /// at least `hold_s` (a cruise) as well as the ELST.
     fn move_within_arc(
         &mut self,
         arc: &ResolvedArc,
         p: &ArcProblem,
         k: usize,
         v: &[f64],
+        hold_s: f64,
     ) -> Result<(f64, Limiter), SequenceError> {
         self.transition(TransitionSpec {
             mv: p.transition_move(k - 1, v[k - 1], v[k]),
             elst_s: p.elst[k],
+            hold_s,
             from_layer: self.layers.len() - 1,
             arc_change: false,
             start_angle_deg: p.angle[k - 1] + p.dir * 0.5 * v[k - 1] * p.irradiation_s[k - 1],

@@ -3,7 +3,7 @@
 use arcsim_plan::SpotTimingError;
 use arcsim_planner::PlannerError;
 
-use crate::types::Schedule;
+use crate::types::{Motion, Schedule};
 use thiserror::Error;
 
 pub use arcsim_plan::UnknownName;
@@ -45,15 +45,25 @@ pub enum InputError {
         /// The period given (s).
         period_s: f64,
     },
-    /// Free arc ends asked of constant motion.
-    #[error("free arc ends need free motion (--motion free): a constant-speed arc starts and ends at rest")]
-    FreeEndsNeedFreeMotion,
-    /// Free motion asked on a servo period.
-    #[error("free motion is continuous-time only (its solver switches jerk at any instant; a version whose jerk holds over whole servo periods is not built): drop the servo period (--period or the machine's servo_period_s), or use --motion constant, which supports one")]
-    FreeMotionOnServoPeriod,
-    /// Free motion asked with a schedule that fixes the speeds.
-    #[error("free motion chooses its own speeds: use it with the optimal or scan schedule, not {}", .schedule.name())]
-    FreeMotionSchedule {
+    /// Free arc ends asked of a model whose speed is constant while the beam is on.
+    #[error("free arc ends need free motion (--motion free): a {} arc starts and ends at rest", .motion.adjective())]
+    FreeEndsNeedFreeMotion {
+        /// The motion model asked for.
+        motion: Motion,
+    },
+    /// A continuous-time model asked on a servo period.
+    #[error("{} is continuous-time only ({why}): drop the servo period (--period or the machine's servo_period_s), or use --motion constant, which supports one", .motion.describe())]
+    ContinuousTimeOnly {
+        /// The motion model asked for.
+        motion: Motion,
+        /// Why it has no servo-period version.
+        why: &'static str,
+    },
+    /// A model that chooses its own speeds asked with a schedule that fixes them.
+    #[error("{} chooses its own speeds: use it with the optimal or scan schedule, not {}", .motion.describe(), .schedule.name())]
+    MotionSchedule {
+        /// The motion model asked for.
+        motion: Motion,
         /// The schedule asked for.
         schedule: Schedule,
     },
@@ -247,6 +257,12 @@ pub enum Infeasibility {
     /// Free motion could not rebuild the constant-speed schedule.
     #[error("the constant-speed schedule could not be rebuilt as free motion")]
     FreeMotionRebuild,
+    /// No single gantry speed delivers the arc's layers (one speed per arc).
+    #[error("no single arc speed delivers it: {why}")]
+    NoArcSpeed {
+        /// What rules every speed out.
+        why: String,
+    },
     /// No stop-and-turn move between two arcs reaches the next arc's start.
     #[error("no stop-and-turn move reaches the arc's start")]
     NoStopAndTurn,

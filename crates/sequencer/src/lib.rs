@@ -4,19 +4,20 @@
 //! gantry's limits into one verified delivery: its total time, per-layer and per-transition rows,
 //! where the time is lost, and the gantry timeline.
 //!
-//! Two motions ([`Motion`]): *constant* irradiates each layer at one speed, its sweep centred in
-//! its window, with the planner's jerk-limited moves between layers (ATOM's model; a servo
-//! period puts every move on whole periods); *free* lets the gantry change speed while the beam
-//! is on, anywhere inside the window (a solver seeded by the constant-speed schedule, never
-//! slower). The layer speeds come from a [`Schedule`]: prescribed by the plan, a bidirectional
+//! Three motions ([`Motion`]), each a controller with its own solver file: *constant* irradiates
+//! each layer at one speed, its sweep centred in its window, with the planner's jerk-limited
+//! moves between layers (ATOM's model; a servo period puts every move on whole periods); *free*
+//! lets the gantry change speed while the beam is on, anywhere inside the window (a solver
+//! seeded by the constant-speed schedule, never slower); *one-speed* holds one speed through the
+//! whole arc (`one_speed.rs`, the AAPM 2026 one-speed workflow). The layer speeds come from a [`Schedule`]: prescribed by the plan, a bidirectional
 //! scan, the shortest found by a search over refined speed grids, or step-and-shoot.
 //! [`certify`] bounds every constant-speed schedule from below. Every timeline is verified by
 //! integrating its pieces before it is returned.
 //!
 //! Entry points: [`simulate`] (plan and machine), [`simulate_resolved`] (resolved arcs and
 //! limits, for sweeps), [`simulate_with_speeds`] (given speeds). [`Options::default`] is
-//! constant motion with the `scan` schedule; the CLI and the Python package default to free
-//! motion with the `optimal` schedule (see `arcsim-app`'s `SimulateRequest`).
+//! constant motion with the `scan` schedule; the CLI and the Python package take the machine's
+//! controller (see `arcsim-app`'s `SimulateRequest`).
 
 #![warn(missing_docs)]
 
@@ -25,6 +26,7 @@ mod constant;
 mod error;
 mod free;
 mod lost;
+mod one_speed;
 mod optimal;
 mod polish;
 mod prescribed;

@@ -15,6 +15,9 @@ pub(crate) struct ChosenSpeeds {
     pub(crate) speeds: Vec<Vec<f64>>,
     pub(crate) bounds: Vec<Vec<SpeedBound>>,
     pub(crate) violations: Vec<Violation>,
+    /// Per arc and layer, the least duration of the move into the layer beyond its ELST (s):
+    /// one speed per arc cruises between layers (gap / speed). Empty: the ELST alone.
+    pub(crate) min_move_s: Vec<Vec<f64>>,
 }
 
 /// Runs the options' schedule on every arc.
@@ -28,6 +31,7 @@ pub(crate) fn choose_speeds(
         speeds: Vec::with_capacity(arcs.len()),
         bounds: Vec::with_capacity(arcs.len()),
         violations: Vec::new(),
+        min_move_s: Vec::new(),
     };
     let mut first_layer = 0;
     let period = opts.servo_period_s;

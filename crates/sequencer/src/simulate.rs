@@ -5,6 +5,7 @@ use arcsim_planner::Limits;
 
 use crate::constant::assemble;
 use crate::free::simulate_free;
+use crate::one_speed::simulate_one_speed;
 use crate::problem::ArcProblem;
 use crate::schedule::{choose_speeds, ChosenSpeeds};
 use crate::{
@@ -60,35 +61,37 @@ pub fn simulate_resolved(
     check_motion(opts)?;
     let problems: Vec<ArcProblem> = arcs.iter().map(|a| ArcProblem::new(a, limits)).collect();
     let chosen = choose_speeds(arcs, &problems, limits, opts);
-    // Free motion needs only the constant-speed total (its baseline), not its timeline.
+    // Other models need only the constant-speed total (their baseline), not its timeline.
     let constant_opts = Options {
         build_timeline: opts.build_timeline && opts.motion == Motion::Constant,
         ..opts.clone()
     };
     let constant = assemble(arcs, &problems, &chosen, limits, &constant_opts)?;
+    // The one place a motion model is dispatched: each has its own solver file.
     match opts.motion {
         Motion::Constant => Ok(constant),
         Motion::Free => simulate_free(arcs, &problems, &chosen.speeds, limits, opts, constant),
+        Motion::OneSpeed => simulate_one_speed(arcs, &problems, limits, opts, constant),
     }
 }
 
 /// Checks the motion options against the rest of the options.
 fn check_motion(opts: &Options) -> Result<(), SequenceError> {
-    match (opts.motion, opts.arc_ends) {
-        (Motion::Constant, ArcEnds::Free) => Err(InputError::FreeEndsNeedFreeMotion.into()),
-        (Motion::Free, _) if opts.servo_period_s.is_some() => {
-            Err(InputError::FreeMotionOnServoPeriod.into())
-        }
-        (Motion::Free, _)
-            if matches!(opts.schedule, Schedule::StepAndShoot | Schedule::Prescribed) =>
-        {
-            Err(InputError::FreeMotionSchedule {
-                schedule: opts.schedule,
-            }
-            .into())
-        }
-        _ => Ok(()),
+    let motion = opts.motion;
+    if opts.arc_ends == ArcEnds::Free && !motion.speed_changes_during_beam() {
+        return Err(InputError::FreeEndsNeedFreeMotion { motion }.into());
     }
+    if let (Some(why), Some(_)) = (motion.continuous_time_only(), opts.servo_period_s) {
+        return Err(InputError::ContinuousTimeOnly { motion, why }.into());
+    }
+    if !motion.accepts_schedule(opts.schedule) {
+        return Err(InputError::MotionSchedule {
+            motion,
+            schedule: opts.schedule,
+        }
+        .into());
+    }
+    Ok(())
 }
 
 /// Builds the timeline for given layer speeds (one per layer, delivery order; magnitudes),
@@ -145,6 +148,7 @@ pub fn simulate_with_speeds(
         speeds,
         bounds,
         violations: Vec::new(),
+        min_move_s: Vec::new(),
     };
     let opts = Options {
         schedule: Schedule::Prescribed,

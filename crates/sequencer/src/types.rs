@@ -43,7 +43,7 @@ impl std::str::FromStr for ArcEnds {
             .ok_or_else(|| UnknownName {
                 what: "arc ends",
                 name: s.to_string(),
-                expected: "rest or free",
+                expected: "rest or free".into(),
             })
     }
 }
@@ -117,6 +117,8 @@ pub enum SpeedBound {
     Servo,
     /// Free motion: the speed changes while the beam is on (the row gives its mean).
     Free,
+    /// One speed for the whole arc, set by its most demanding layer or move.
+    OneSpeed,
 }
 
 /// What limits a transition: the gantry limit whose raise by [`crate::LIMIT_RAISE_FACTOR`]
@@ -315,11 +317,12 @@ pub struct Violation {
 pub struct Delivery {
     /// The schedule that chose the speeds.
     pub schedule: Schedule,
-    /// Constant or free motion.
+    /// The motion model (the controller) that made the delivery.
     pub motion: Motion,
     /// What the gantry does at the arcs' ends.
     pub arc_ends: ArcEnds,
-    /// Free motion: the total with constant speed per layer (same schedule), so the saving is
+    /// Any model but constant speed per layer: the total with constant speed per layer (same
+    /// schedule), so what the model saves (free motion) or costs (one speed per arc) is
     /// `constant_speed_total_s - total_s`.
     pub constant_speed_total_s: Option<f64>,
     /// Total delivery time (s).

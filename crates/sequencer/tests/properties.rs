@@ -8,7 +8,7 @@ use arcsim_plan::{ArcPlan, Machine};
 use arcsim_sequencer::{simulate, Delivery, Options, PieceKind, Schedule};
 
 /// Independent checks by sampling and integrating the timeline.
-fn check(d: &Delivery, m: &Machine, what: &str) {
+pub(crate) fn check(d: &Delivery, m: &Machine, what: &str) {
     let tl = d.timeline.as_ref().expect("timeline");
     let g = &m.gantry;
     // Breakdown and totals.

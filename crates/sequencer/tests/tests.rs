@@ -3,6 +3,7 @@
 mod free_motion;
 mod free_optimality;
 mod limiter;
+mod one_speed;
 mod properties;
 mod small_arcs;
 mod spots;

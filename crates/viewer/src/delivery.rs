@@ -361,6 +361,7 @@ fn bound_name(b: SpeedBound) -> &'static str {
         SpeedBound::Optimised => "optimised",
         SpeedBound::Servo => "servo period",
         SpeedBound::Free => "free motion (mean speed)",
+        SpeedBound::OneSpeed => "the arc's one speed",
     }
 }
 
@@ -387,7 +388,7 @@ fn log_layer_text(
             "{} schedule, {} motion{}: total {:.1} s = beam on {:.1} s + energy switching {:.1} s + gantry {:.1} s; {} layers{}",
             d.schedule.name(),
             d.motion.name(),
-            if d.motion == arcsim_sequencer::Motion::Free {
+            if d.motion.speed_changes_during_beam() {
                 format!(" (arc ends {})", d.arc_ends.name())
             } else {
                 String::new()

@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 
 use arcsim_plan::{BeamModel, ElstModel, Machine};
-use arcsim_sequencer::{ArcEnds, Motion, Schedule};
+use arcsim_sequencer::{ArcEnds, Motion};
 
 use super::*;
 use crate::sweep_file::{Axes, AxisSpec, Scale, SweepFile};
@@ -143,15 +143,19 @@ fn entry_motion(
     file: &str,
     at: &str,
 ) -> Result<Motion, EvalError> {
-    let motion = entry.motion.unwrap_or_else(|| match entry.schedule {
-        Schedule::Prescribed | Schedule::StepAndShoot => Motion::Constant,
-        _ => machine.controller_or_assumed().motion,
+    let motion = entry.motion.unwrap_or_else(|| {
+        let own = machine.controller_or_assumed().motion;
+        if own.accepts_schedule(entry.schedule) {
+            own
+        } else {
+            Motion::Constant
+        }
     });
-    if motion == Motion::Constant && entry.arc_ends == ArcEnds::Free {
+    if !motion.speed_changes_during_beam() && entry.arc_ends == ArcEnds::Free {
         return Err(EvalError::sweep(
             file,
             format!("{at}.arc_ends"),
-            "\"free\" needs free motion (a constant-speed arc starts and ends at rest); the base machine's controller is constant speed per layer: give \"motion\": \"free\"".to_string(),
+            format!("\"free\" needs free motion (a {} arc starts and ends at rest); the entry's motion is {}: give \"motion\": \"free\"", motion.adjective(), motion.describe()),
         ));
     }
     Ok(motion)
