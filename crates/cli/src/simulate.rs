@@ -309,8 +309,7 @@ fn motion_notes(s: &mut String, d: &Delivery) {
         let _ = writeln!(
             s,
             "{} {verb} {} s ({} %) against constant speed per layer ({c:.2} s)",
-            // The model's name without its parenthesis: "free motion saves …".
-            d.motion.describe().split(" (").next().unwrap_or_default(),
+            d.motion.short(),
             fixed(by, 2, 0),
             fixed(if c > 0.0 { 100.0 * by / c } else { 0.0 }, 1, 0)
         );

@@ -83,21 +83,11 @@ pub enum CalibrateError {
     #[error("no plan and log to calibrate from")]
     NoRuns,
     /// A motion model the calibration cannot fit timings under.
-    #[error("calibration under {} is not built (its inner moves are cruises, which show no switching time or gantry limit to fit): calibrate under {} and simulate with --motion {}", .motion.describe(), calibratable(), .motion.name())]
+    #[error("calibration under {} is not built (its inner moves are cruises, which show no switching time or gantry limit to fit): calibrate under {} and simulate with --motion {}", .motion.describe(), arcsim_plan::Motion::names_where(arcsim_plan::Motion::calibrates_from_logs), .motion.name())]
     NotCalibratable {
         /// The motion model asked for.
         motion: arcsim_plan::Motion,
     },
-}
-
-/// The names of the motion models a calibration can fit under ("constant or free").
-fn calibratable() -> String {
-    let names: Vec<&str> = arcsim_plan::Motion::ALL
-        .iter()
-        .filter(|m| m.calibrates_from_logs())
-        .map(|m| m.name())
-        .collect();
-    names.join(" or ")
 }
 
 /// One fitted (or kept) machine value.

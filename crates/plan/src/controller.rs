@@ -116,6 +116,16 @@ impl Motion {
         }
     }
 
+    /// The model's name in a sentence, without [`Motion::describe`]'s parenthesis ("free motion
+    /// saves …").
+    pub fn short(self) -> &'static str {
+        match self {
+            Motion::Constant => "constant speed per layer",
+            Motion::Free => "free motion",
+            Motion::OneSpeed => "one constant speed per arc",
+        }
+    }
+
     /// The model as an adjective, for tables and what-if lines ("free-motion total").
     pub fn adjective(self) -> &'static str {
         match self {
@@ -162,7 +172,16 @@ impl Motion {
 
     /// The names of every model, for errors ("constant, free or one-speed").
     pub fn names() -> String {
-        let names: Vec<&str> = Motion::ALL.iter().map(|m| m.name()).collect();
+        Motion::names_where(|_| true)
+    }
+
+    /// The names of the models `keep` keeps, for errors ("constant or free").
+    pub fn names_where(keep: impl Fn(Motion) -> bool) -> String {
+        let names: Vec<&str> = Motion::ALL
+            .into_iter()
+            .filter(|&m| keep(m))
+            .map(Motion::name)
+            .collect();
         match names.split_last() {
             Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
             _ => names.join(""),

@@ -23,10 +23,11 @@ use arcsim_planner::{Limits, MoveAnalysis, Reversal};
 
 use crate::constant::{assemble, limiter_counts};
 use crate::problem::ArcProblem;
-use crate::raise::{label_by_raise, timed};
+use crate::raise::{label_by_raise, raised_limits, timed, GANTRY_LIMITS};
 use crate::schedule::ChosenSpeeds;
 use crate::{
     Delivery, Infeasibility, Limiter, LostTime, Motion, Options, SequenceError, SpeedBound,
+    LIMIT_RAISE_FACTOR,
 };
 
 /// Bisection steps for the run-up and braking bound (2⁻⁶⁰ of the bracket: below rounding).
@@ -102,14 +103,25 @@ fn cruise_s(p: &ArcProblem, k: usize, omega: f64) -> Option<f64> {
 fn label_cruises(d: &mut Delivery, problems: &[ArcProblem], lim: &Limits, omegas: &[f64]) {
     let mut first = 0;
     for (p, &omega) in problems.iter().zip(omegas) {
+        // The arc's speed under each raised limit, once per arc (not once per cruise).
+        let faster: Vec<(Limits, Option<f64>)> = GANTRY_LIMITS
+            .iter()
+            .map(|&which| {
+                let raised = raised_limits(lim, which, LIMIT_RAISE_FACTOR);
+                (raised, arc_speed(p, &raised).ok())
+            })
+            .collect();
         for k in 0..p.len() {
             let Some(base) = cruise_s(p, k, omega) else {
                 continue;
             };
             let to = first + k;
             let label = label_by_raise(base, p.elst[k], lim, |raised| {
-                let faster = arc_speed(p, raised).ok()?;
-                cruise_s(p, k, faster)
+                let speed = match faster.iter().find(|(l, _)| l == raised) {
+                    Some(&(_, speed)) => speed?,
+                    None => arc_speed(p, raised).ok()?,
+                };
+                cruise_s(p, k, speed)
             });
             for tr in d.transitions.iter_mut().filter(|t| t.to_layer == to) {
                 tr.limited_by = if base > 0.0 { label } else { Limiter::None };
@@ -126,9 +138,17 @@ pub(crate) fn arc_speed(p: &ArcProblem, lim: &Limits) -> Result<f64, (usize, Str
     if n < 3 {
         return Ok(0.0);
     }
+    // Each inner sweep within its window and V, from `lim` (not the problem's own caps, made
+    // with the limits it was built under: the labels ask for the speed under a raised V).
     let mut top = f64::INFINITY;
     for k in 1..n - 1 {
-        top = top.min(p.speed_cap[k]);
+        let t = p.irradiation_s[k];
+        let window_cap = if t > 0.0 {
+            p.window[k] / t
+        } else {
+            f64::INFINITY
+        };
+        top = top.min(window_cap.min(lim.max_vel));
     }
     for k in 2..n - 1 {
         let distance = p.travel_deg[k] - p.travel_deg[k - 1];
@@ -223,6 +243,22 @@ mod tests {
         let p = ArcProblem::new(&a, &lim);
         let omega = arc_speed(&p, &lim).expect("a speed");
         assert!((omega - 2.0 / 1.5).abs() < 1e-12, "{omega}");
+    }
+
+    /// An arc whose speed only V holds: its cruises are labelled V (the speed is found again
+    /// under the raised V, not from the caps the problem was built with).
+    #[test]
+    fn cruises_held_by_v_are_labelled_v() {
+        let a = arc(&[0.0, 20.0, 40.0, 60.0, 80.0, 100.0], 0.1, 0.5, 2.0);
+        let lim = Limits::new(2.0, 1.0, 1.0).expect("limits");
+        let opts = Options {
+            motion: Motion::OneSpeed,
+            ..Options::new(crate::Schedule::Optimal)
+        };
+        let d = crate::simulate_resolved(std::slice::from_ref(&a), &lim, &opts).expect("one speed");
+        assert_eq!(d.layers[2].speed_deg_per_s, 1.0);
+        let cruises: Vec<Limiter> = d.transitions[2..4].iter().map(|t| t.limited_by).collect();
+        assert_eq!(cruises, vec![Limiter::Speed, Limiter::Speed]);
     }
 
     /// Two inner layers at one angle leave no speed, and the error names the layer.
