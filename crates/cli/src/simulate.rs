@@ -5,8 +5,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use arcsim_sequencer::{
-    certify, machine_limits, simulate, spot_timeline, ArcEnds, Certificate, Delivery, GantryState,
-    Limiter, Margins, Motion, Schedule, SpotRow, CERTIFY_ROUNDS,
+    certify, machine_limits, simulate_observed, spot_timeline, ArcEnds, Certificate, Delivery,
+    GantryState, Limiter, Margins, Motion, Schedule, SpotRow, CERTIFY_ROUNDS,
 };
 
 use crate::input::{load_machine_hashed, load_plan_hashed};
@@ -860,7 +860,10 @@ pub fn run(args: Args) -> Result<(), CliError> {
         eprintln!("note: {n}");
     }
     check_monte_carlo(&args, &machine)?;
-    let delivery = simulate(&plan, &machine, &opts)
+    let watch = Watch::new();
+    let delivery = simulate_observed(&plan, &machine, &opts, &|p| watch.report(p));
+    watch.finish();
+    let delivery = delivery
         .map_err(|e| CliError::failed(format!("{}: {e}", crate::input::input_name(&args.plan))))?;
     check_sample_count(&args, &delivery)?;
     let certificate = match args.certify {
@@ -945,5 +948,54 @@ mod tests {
         assert_eq!(fixed(-1e-12, 1, 5), "  0.0");
         assert_eq!(fixed(-0.5, 2, 0), "-0.50");
         assert_eq!(fixed(12.345, 2, 9), "    12.35");
+    }
+}
+
+/// A simulation's progress on a terminal (standard error), shown once it has run a second: a
+/// plan of several hundred layers under free motion takes seconds.
+struct Watch {
+    bar: indicatif::ProgressBar,
+    started: std::time::Instant,
+    shown: std::sync::atomic::AtomicBool,
+    terminal: bool,
+}
+
+impl Watch {
+    /// How long a simulation runs before its progress is shown.
+    const QUIET: std::time::Duration = std::time::Duration::from_secs(1);
+
+    fn new() -> Watch {
+        use std::io::IsTerminal;
+        let bar = indicatif::ProgressBar::with_draw_target(
+            Some(1),
+            indicatif::ProgressDrawTarget::hidden(),
+        );
+        if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed} [{bar:30}] {msg}") {
+            bar.set_style(style);
+        }
+        Watch {
+            bar,
+            started: std::time::Instant::now(),
+            shown: std::sync::atomic::AtomicBool::new(false),
+            terminal: std::io::stderr().is_terminal(),
+        }
+    }
+
+    fn report(&self, p: arcsim_sequencer::Progress) {
+        if !self.terminal || self.started.elapsed() < Self::QUIET {
+            return;
+        }
+        if !self.shown.swap(true, std::sync::atomic::Ordering::Relaxed) {
+            self.bar
+                .set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        }
+        let arcsim_sequencer::Progress::FreeMotion { step, steps, .. } = p;
+        self.bar.set_length(steps as u64);
+        self.bar.set_position(step as u64);
+        self.bar.set_message(p.line());
+    }
+
+    fn finish(&self) {
+        self.bar.finish_and_clear();
     }
 }

@@ -447,6 +447,98 @@ fn generate_plan_to_a_file_says_what_it_wrote() {
 }
 
 #[test]
+fn generate_plan_reshapes_a_kind_for_large_plans() {
+    let dir = temp_dir();
+    let path = dir.join("big.json");
+    let o = arcsim(&[
+        "generate-plan",
+        "--kind",
+        "two-arc",
+        "--spacing",
+        "2.2",
+        "--layers",
+        "2-4",
+        "--energy",
+        "70-230",
+        "-o",
+        path.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    // 320 deg per arc every 2.2 deg: 146 control points each (docs/commands.md's figures).
+    assert!(
+        out.starts_with("wrote two-arc plan (seed 1): 2 arcs, 292 control points, 888 layers"),
+        "{out}"
+    );
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).expect("plan written")).expect("json");
+    let mut layers = 0;
+    for arc in plan["arcs"].as_array().expect("arcs") {
+        let cps = arc["control_points"].as_array().expect("control points");
+        assert_eq!(cps.len(), 146);
+        for w in cps.windows(2) {
+            let step =
+                (w[1]["angle_deg"].as_f64().unwrap() - w[0]["angle_deg"].as_f64().unwrap()).abs();
+            assert!((step - 2.2).abs() < 1e-9, "step {step}");
+        }
+        for cp in cps {
+            let ls = cp["layers"].as_array().expect("layers");
+            assert!((2..=4).contains(&ls.len()), "{} layers", ls.len());
+            layers += ls.len();
+            for l in ls {
+                let e = l["energy_mev"].as_f64().unwrap();
+                assert!((70.0..=230.0).contains(&e), "energy {e}");
+            }
+        }
+    }
+    assert!(out.contains(&format!("{layers} layers")), "{out}");
+    assert!(
+        plan["description"]
+            .as_str()
+            .unwrap()
+            .contains("--spacing 2.2 --layers 2-4 --energy 70-230"),
+        "the description says how to make the plan again"
+    );
+    // The same options and seed make the same file.
+    let again = arcsim(&[
+        "generate-plan",
+        "--kind",
+        "two-arc",
+        "--spacing",
+        "2.2",
+        "--layers",
+        "2-4",
+        "--energy",
+        "70-230",
+    ]);
+    assert_eq!(
+        String::from_utf8_lossy(&again.stdout),
+        std::fs::read_to_string(&path).unwrap()
+    );
+    // Out of range: exit 2, the option named with what it takes.
+    for (args, says) in [
+        (["--spacing", "0"], "--spacing: 0 deg is not allowed"),
+        (["--spacing", "400"], "--spacing: 400 deg is not allowed"),
+        (["--layers", "4-2"], "--layers: 4-2 is not allowed"),
+        (["--layers", "0-3"], "--layers: 0-3 is not allowed"),
+        (
+            ["--energy", "230-70"],
+            "--energy: 230-70 MeV is not allowed",
+        ),
+        (["--energy", "70"], "is not LOW-HIGH in MeV"),
+        (
+            ["--layers", "two"],
+            "is not MIN-MAX layers per control point",
+        ),
+    ] {
+        let o = arcsim(&[&["generate-plan", "--kind", "two-arc"][..], &args[..]].concat());
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}
+
+#[test]
 fn one_plan_sweep_banner_is_singular() {
     let dir = temp_dir();
     let sweep = util::sweep_file(

@@ -177,11 +177,140 @@ fn round_dec(x: f64, scale: f64) -> f64 {
     (x * scale).round() / scale
 }
 
+/// What a user may change of a kind's shape (`generate-plan --spacing/--layers/--energy`): each
+/// `None` keeps the kind's own. Large plans for solver tests and benchmarks (e.g. a two-arc plan
+/// of some 870 layers: `two-arc`, spacing 2.2°, 2–4 layers per control point) come from these.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Shape {
+    /// Degrees between control points; each arc keeps its start angle and its span, so the
+    /// number of control points follows (⌊span / spacing⌋ + 1).
+    pub spacing_deg: Option<f64>,
+    /// Least and most layers per control point (each drawn uniformly).
+    pub layers_per_cp: Option<(u32, u32)>,
+    /// Lowest and highest energy (MeV); the runs of descending energies span most of it.
+    pub energy_mev: Option<(f64, f64)>,
+}
+
+/// The largest number of layers per control point [`Shape`] accepts.
+pub const MAX_LAYERS_PER_CP: u32 = 20;
+/// The energy range [`Shape`] accepts (MeV): what proton therapy machines deliver, with room.
+pub const ENERGY_RANGE_MEV: (f64, f64) = (10.0, 400.0);
+/// The narrowest spacing [`Shape`] accepts (deg): finer than any arc plan's control points.
+pub const MIN_SPACING_DEG: f64 = 0.1;
+
+/// A [`Shape`] field out of range: which option, what was given, what is expected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{option}: {given} is not allowed; expected {expected}")]
+pub struct ShapeError {
+    /// The command-line option (`--spacing`, `--layers`, `--energy`).
+    pub option: &'static str,
+    /// What was given, with its unit.
+    pub given: String,
+    /// What the option takes.
+    pub expected: String,
+}
+
+impl Shape {
+    /// Checks every field (`kind` for the largest spacing its arcs allow).
+    pub fn check(&self, kind: PlanKind) -> Result<(), ShapeError> {
+        if let Some(d) = self.spacing_deg {
+            let span = spec(kind)
+                .arcs
+                .iter()
+                .map(|a| a.step_deg.abs() * (a.control_points - 1) as f64)
+                .fold(f64::INFINITY, f64::min);
+            if !(d.is_finite() && d >= MIN_SPACING_DEG && d <= span) {
+                return Err(ShapeError {
+                    option: "--spacing",
+                    given: format!("{d} deg"),
+                    expected: format!(
+                        "a spacing from {MIN_SPACING_DEG} deg to the {} arc's span, {span} deg",
+                        kind.name()
+                    ),
+                });
+            }
+        }
+        if let Some((lo, hi)) = self.layers_per_cp {
+            if !(1 <= lo && lo <= hi && hi <= MAX_LAYERS_PER_CP) {
+                return Err(ShapeError {
+                    option: "--layers",
+                    given: format!("{lo}-{hi}"),
+                    expected: format!(
+                        "MIN-MAX layers per control point with 1 <= MIN <= MAX <= {MAX_LAYERS_PER_CP}"
+                    ),
+                });
+            }
+        }
+        if let Some((lo, hi)) = self.energy_mev {
+            let (min, max) = ENERGY_RANGE_MEV;
+            if !(lo.is_finite() && hi.is_finite() && min <= lo && lo + 1.0 <= hi && hi <= max) {
+                return Err(ShapeError {
+                    option: "--energy",
+                    given: format!("{lo}-{hi} MeV"),
+                    expected: format!(
+                        "LOW-HIGH MeV with {min} <= LOW, LOW + 1 <= HIGH, HIGH <= {max}"
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn is_default(&self) -> bool {
+        *self == Shape::default()
+    }
+
+    /// `spec` with this shape's fields in place of its own.
+    fn applied(&self, mut spec: Spec) -> Spec {
+        if let Some(d) = self.spacing_deg {
+            for a in &mut spec.arcs {
+                let span = a.step_deg.abs() * (a.control_points - 1) as f64;
+                // A hair of slack so that a spacing dividing the span exactly reaches its end.
+                a.control_points = (span / d + 1e-9).floor() as usize + 1;
+                a.step_deg = d.copysign(a.step_deg);
+            }
+        }
+        if let Some(l) = self.layers_per_cp {
+            spec.layers_per_cp = l;
+        }
+        if let Some(e) = self.energy_mev {
+            spec.energy_mev = e;
+        }
+        spec
+    }
+
+    /// The options that made a shaped plan, as `generate-plan` takes them.
+    fn options(&self) -> String {
+        let mut out = String::new();
+        if let Some(d) = self.spacing_deg {
+            out.push_str(&format!(" --spacing {d}"));
+        }
+        if let Some((lo, hi)) = self.layers_per_cp {
+            out.push_str(&format!(" --layers {lo}-{hi}"));
+        }
+        if let Some((lo, hi)) = self.energy_mev {
+            out.push_str(&format!(" --energy {lo}-{hi}"));
+        }
+        out
+    }
+}
+
 /// Generates the example plan of `kind` from `seed`; deterministic.
 pub fn generate(kind: PlanKind, seed: u64) -> ArcPlan {
-    let spec = spec(kind);
+    build(kind, seed, &Shape::default())
+}
+
+/// Generates the example plan of `kind` from `seed` in another `shape`; deterministic (the same
+/// kind, seed and shape give the same plan; the default shape gives [`generate`]'s).
+pub fn generate_shaped(kind: PlanKind, seed: u64, shape: &Shape) -> Result<ArcPlan, ShapeError> {
+    shape.check(kind)?;
+    Ok(build(kind, seed, shape))
+}
+
+fn build(kind: PlanKind, seed: u64, shape: &Shape) -> ArcPlan {
+    let spec = shape.applied(spec(kind));
     let mut rng = SplitMix64(seed ^ 0x5EED_A5C5_1A00_0000);
-    let arcs = spec
+    let arcs: Vec<Arc> = spec
         .arcs
         .iter()
         .map(|a| {
@@ -195,7 +324,7 @@ pub fn generate(kind: PlanKind, seed: u64) -> ArcPlan {
                 .iter()
                 .enumerate()
                 .map(|(i, &n)| ControlPoint {
-                    angle_deg: a.start_deg + a.step_deg * i as f64,
+                    angle_deg: round_dec(a.start_deg + a.step_deg * i as f64, 1e6),
                     required_speed_deg_per_s: None,
                     window_deg: None,
                     layers: (0..n)
@@ -214,12 +343,37 @@ pub fn generate(kind: PlanKind, seed: u64) -> ArcPlan {
             }
         })
         .collect();
+    let (what, options) = if shape.is_default() {
+        (spec.what.to_string(), String::new())
+    } else {
+        let layers: usize = arcs
+            .iter()
+            .flat_map(|a| &a.control_points)
+            .map(|cp| cp.layers.len())
+            .sum();
+        (
+            format!(
+                "{} reshaped: {} control points every {} deg, {}-{} layers each ({layers} layers), {}-{} MeV",
+                kind.name(),
+                spec.arcs
+                    .iter()
+                    .map(|a| a.control_points.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" + "),
+                spec.arcs.first().map_or(0.0, |a| a.step_deg.abs()),
+                spec.layers_per_cp.0,
+                spec.layers_per_cp.1,
+                spec.energy_mev.0,
+                spec.energy_mev.1
+            ),
+            shape.options(),
+        )
+    };
     ArcPlan {
         format: PLAN_FORMAT.to_string(),
         name: kind.name().to_string(),
         description: Some(format!(
-            "Synthetic {}. Generated by `arcsim generate-plan --kind {} --seed {seed}`; not clinical data.",
-            spec.what,
+            "Synthetic {what}. Generated by `arcsim generate-plan --kind {} --seed {seed}{options}`; not clinical data.",
             kind.name()
         )),
         arcs,
@@ -386,4 +540,135 @@ fn is_number_array_line(line: &str) -> bool {
 fn is_number_line(line: &str) -> bool {
     let t = line.trim().trim_end_matches(',');
     !t.is_empty() && t.parse::<f64>().is_ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_shape_is_the_kind_itself() {
+        for kind in PlanKind::ALL {
+            assert_eq!(
+                generate_shaped(kind, 4, &Shape::default()),
+                Ok(generate(kind, 4))
+            );
+        }
+    }
+
+    #[test]
+    fn a_shape_sets_spacing_layers_and_energies() {
+        let shape = Shape {
+            spacing_deg: Some(3.0),
+            layers_per_cp: Some((2, 4)),
+            energy_mev: Some((70.0, 230.0)),
+        };
+        let plan = generate_shaped(PlanKind::Prostate, 9, &shape).expect("valid shape");
+        let cps = &plan.arcs[0].control_points;
+        // 1..359 deg: a span of 358 deg every 3 deg.
+        assert_eq!(cps.len(), 120);
+        assert_eq!(cps[0].angle_deg, 1.0);
+        assert!((cps[1].angle_deg - 4.0).abs() < 1e-12);
+        let mut counts = [0usize; 5];
+        for cp in cps {
+            counts[cp.layers.len()] += 1;
+            for l in &cp.layers {
+                assert!((70.0..=230.0).contains(&l.energy_mev), "{}", l.energy_mev);
+            }
+        }
+        assert_eq!(counts[0] + counts[1], 0);
+        assert!(
+            counts[2] > 0 && counts[3] > 0 && counts[4] > 0,
+            "{counts:?}"
+        );
+        let all: Vec<f64> = cps
+            .iter()
+            .flat_map(|cp| &cp.layers)
+            .map(|l| l.energy_mev)
+            .collect();
+        let (lo, hi) = all
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &e| (a.min(e), b.max(e)));
+        assert!(lo < 70.0 + 0.15 * 160.0 + 1.0 && hi > 230.0 - 0.15 * 160.0 - 1.0);
+    }
+
+    #[test]
+    fn shapes_out_of_range_are_refused_naming_the_option() {
+        let bad = [
+            (
+                Shape {
+                    spacing_deg: Some(f64::NAN),
+                    ..Default::default()
+                },
+                "--spacing",
+            ),
+            (
+                Shape {
+                    spacing_deg: Some(0.05),
+                    ..Default::default()
+                },
+                "--spacing",
+            ),
+            (
+                Shape {
+                    spacing_deg: Some(121.0),
+                    ..Default::default()
+                },
+                "--spacing",
+            ),
+            (
+                Shape {
+                    layers_per_cp: Some((0, 2)),
+                    ..Default::default()
+                },
+                "--layers",
+            ),
+            (
+                Shape {
+                    layers_per_cp: Some((3, 2)),
+                    ..Default::default()
+                },
+                "--layers",
+            ),
+            (
+                Shape {
+                    layers_per_cp: Some((1, 21)),
+                    ..Default::default()
+                },
+                "--layers",
+            ),
+            (
+                Shape {
+                    energy_mev: Some((70.0, 70.5)),
+                    ..Default::default()
+                },
+                "--energy",
+            ),
+            (
+                Shape {
+                    energy_mev: Some((5.0, 200.0)),
+                    ..Default::default()
+                },
+                "--energy",
+            ),
+            (
+                Shape {
+                    energy_mev: Some((70.0, f64::INFINITY)),
+                    ..Default::default()
+                },
+                "--energy",
+            ),
+        ];
+        for (shape, option) in bad {
+            // Lung spans 120 deg.
+            let e = generate_shaped(PlanKind::Lung, 1, &shape).expect_err("refused");
+            assert_eq!(e.option, option, "{shape:?}");
+        }
+        let edge = Shape {
+            spacing_deg: Some(120.0),
+            ..Default::default()
+        };
+        let plan = generate_shaped(PlanKind::Lung, 1, &edge).expect("the whole span");
+        assert_eq!(plan.arcs[0].control_points.len(), 2);
+    }
 }

@@ -32,7 +32,7 @@ pub use controller::{
     CONTROLLER_DECISION_RATIO,
 };
 pub use error::{fmt_num, PlanError, PlanIssue};
-pub use generate::{generate, to_json, PlanKind};
+pub use generate::{generate, generate_shaped, to_json, PlanKind, Shape, ShapeError};
 pub use load::{load_machine, load_plan, parse_machine, parse_plan};
 pub use machine::{
     validate_machine, ACCEL_RANGE_DEG_PER_S2, JERK_RANGE_DEG_PER_S3, MAX_BEAM_TIME_S,

@@ -15,7 +15,8 @@
 //! integrating its pieces before it is returned.
 //!
 //! Entry points: [`simulate`] (plan and machine), [`simulate_resolved`] (resolved arcs and
-//! limits, for sweeps), [`simulate_with_speeds`] (given speeds). [`Options::default`] is
+//! limits, for sweeps), [`simulate_with_speeds`] (given speeds); the `_observed` forms report
+//! their [`Progress`] to a callback. [`Options::default`] is
 //! constant motion with the `scan` schedule; the CLI and the Python package take the machine's
 //! controller (see `arcsim-app`'s `SimulateRequest`).
 
@@ -31,6 +32,7 @@ mod optimal;
 mod polish;
 mod prescribed;
 mod problem;
+mod progress;
 mod raise;
 mod rebalance;
 mod scan;
@@ -45,6 +47,7 @@ mod verify;
 
 pub use error::{Infeasibility, InputError, SequenceError, UnknownName, VerificationError};
 pub use lost::{GapClass, LostGroup, LostTime, LostTransition, SwitchKind};
+pub use progress::{Observer, Progress};
 pub use raise::{move_duration, raised_limits, LIMIT_RAISE_FACTOR};
 pub use spots::{spot_timeline, SpotRow};
 pub use timeline::{GantryState, Piece, PieceKind, Timeline};
@@ -54,4 +57,7 @@ pub use types::{
 };
 
 pub use bound::{certify, Certificate, CERTIFY_ROUNDS};
-pub use simulate::{machine_limits, simulate, simulate_resolved, simulate_with_speeds};
+pub use simulate::{
+    machine_limits, simulate, simulate_observed, simulate_resolved, simulate_resolved_observed,
+    simulate_with_speeds,
+};

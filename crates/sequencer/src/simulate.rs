@@ -7,6 +7,7 @@ use crate::constant::assemble;
 use crate::free::simulate_free;
 use crate::one_speed::simulate_one_speed;
 use crate::problem::ArcProblem;
+use crate::progress::Observer;
 use crate::schedule::{choose_speeds, ChosenSpeeds};
 use crate::{
     ArcEnds, Delivery, Infeasibility, InputError, Motion, Options, Schedule, SequenceError,
@@ -32,13 +33,23 @@ pub fn simulate(
     machine: &Machine,
     opts: &Options,
 ) -> Result<Delivery, SequenceError> {
+    simulate_observed(plan, machine, opts, &crate::progress::ignore)
+}
+
+/// [`simulate`], reporting its progress to `observe` as it goes.
+pub fn simulate_observed(
+    plan: &ArcPlan,
+    machine: &Machine,
+    opts: &Options,
+    observe: Observer,
+) -> Result<Delivery, SequenceError> {
     let arcs = arcsim_plan::resolve(plan, machine)?;
     let limits = machine_limits(machine)?;
     let opts = Options {
         servo_period_s: opts.servo_period_s.or(machine.servo_period_s),
         ..opts.clone()
     };
-    simulate_resolved(&arcs, &limits, &opts)
+    simulate_resolved_observed(&arcs, &limits, &opts, observe)
 }
 
 fn check_period(opts: &Options) -> Result<(), SequenceError> {
@@ -56,6 +67,16 @@ pub fn simulate_resolved(
     limits: &Limits,
     opts: &Options,
 ) -> Result<Delivery, SequenceError> {
+    simulate_resolved_observed(arcs, limits, opts, &crate::progress::ignore)
+}
+
+/// [`simulate_resolved`], reporting its progress to `observe` as it goes.
+pub fn simulate_resolved_observed(
+    arcs: &[ResolvedArc],
+    limits: &Limits,
+    opts: &Options,
+    observe: Observer,
+) -> Result<Delivery, SequenceError> {
     limits.validate().map_err(SequenceError::Limits)?;
     check_period(opts)?;
     check_motion(opts)?;
@@ -70,7 +91,15 @@ pub fn simulate_resolved(
     // The one place a motion model is dispatched: each has its own solver file.
     match opts.motion {
         Motion::Constant => Ok(constant),
-        Motion::Free => simulate_free(arcs, &problems, &chosen.speeds, limits, opts, constant),
+        Motion::Free => simulate_free(
+            arcs,
+            &problems,
+            &chosen.speeds,
+            limits,
+            opts,
+            constant,
+            observe,
+        ),
         Motion::OneSpeed => simulate_one_speed(arcs, &problems, limits, opts, constant),
     }
 }

@@ -418,16 +418,20 @@ impl Assembly<'_> {
             let mut tm = t_arc + start;
             for seg in &mv.segments {
                 let end = tm + seg.duration;
+                // A few units in the last place of the clock: far into a long delivery (a switch
+                // of hours) a beam edge and a move's end differ by rounding, and the sliver
+                // between them belongs to neither.
+                let eps = 8.0 * f64::EPSILON * (1.0 + end.abs());
                 let mut cuts: Vec<f64> = edges
                     .iter()
                     .copied()
-                    .filter(|&e| e > tm + 1e-12 && e < end - 1e-12)
+                    .filter(|&e| e > tm + eps && e < end - eps)
                     .collect();
                 cuts.push(end);
                 let mut a = tm;
                 for c in cuts {
                     let d = c - a;
-                    if d > 0.0 {
+                    if d > eps {
                         self.out.pieces.push(Piece {
                             t_start_s: a,
                             duration_s: d,
@@ -437,8 +441,8 @@ impl Assembly<'_> {
                             jerk_deg_per_s3: dir * seg.jerk,
                             kind: kind_at(0.5 * (a + c)),
                         });
-                        s = s.after(d, dir * seg.jerk);
                     }
+                    s = s.after(d, dir * seg.jerk);
                     a = c;
                 }
                 tm = end;

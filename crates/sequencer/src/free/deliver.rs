@@ -6,6 +6,7 @@ use arcsim_planner::Limits;
 
 use super as free;
 use crate::problem::ArcProblem;
+use crate::progress::{Observer, Progress};
 use crate::timeline::Timeline;
 use crate::verify::{margins, verify_timeline};
 use crate::{Breakdown, Delivery, Infeasibility, Motion, Options, SequenceError};
@@ -19,6 +20,7 @@ pub(crate) fn simulate_free(
     limits: &Limits,
     opts: &Options,
     constant: Delivery,
+    observe: Observer,
 ) -> Result<Delivery, SequenceError> {
     let mut solved = Vec::with_capacity(arcs.len());
     let mut constant_arcs = Vec::with_capacity(arcs.len());
@@ -29,7 +31,16 @@ pub(crate) fn simulate_free(
             reason: Infeasibility::FreeMotionRebuild,
         })?;
         let (start, end) = free::arc_ends(opts.arc_ends, ai + 1 == arcs.len());
-        let best = match free::solve_arc(p, limits, start, end, v) {
+        let report = |step: usize, steps: usize| {
+            observe(Progress::FreeMotion {
+                arc: ai,
+                arcs: arcs.len(),
+                layers: p.len(),
+                step,
+                steps,
+            })
+        };
+        let best = match free::solve_arc(p, limits, start, end, v, &report) {
             Some(f) if f.total < base.total => f,
             _ => base.clone(),
         };

@@ -16,7 +16,7 @@ use super::transcribe::Transcript;
 use crate::problem::ArcProblem;
 
 /// Most steps one refinement takes (each solves two linear programmes).
-const MAX_STEPS: usize = 60;
+pub(super) const MAX_STEPS: usize = 60;
 /// First trust radius (a fraction of each piece's duration).
 const FIRST_RADIUS: f64 = 0.0625;
 /// The corrector's trust radius against the step's.
@@ -33,6 +33,7 @@ pub(super) fn refine(
     end: End,
     mover: &mut Mover,
     seed: &FreeArc,
+    step_done: &(dyn Fn() + Sync),
 ) -> Option<FreeArc> {
     let mut fl = Flight {
         p,
@@ -46,6 +47,7 @@ pub(super) fn refine(
     let mut best_total = best.as_ref().map_or(f64::INFINITY, |b| b.total);
     let mut radius = FIRST_RADIUS;
     for _ in 0..MAX_STEPS {
+        step_done();
         let next = tr.step(p, lim, start, end, radius).and_then(|next| {
             let mut c = next.step(p, lim, start, end, CORRECTOR_RADIUS * radius)?;
             c.normalise(p);

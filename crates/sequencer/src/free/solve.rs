@@ -4,7 +4,7 @@
 use arcsim_planner::Limits;
 
 use super::mover::{FullMove, FullState, Mover};
-use super::refine::refine;
+use super::refine::{refine, MAX_STEPS};
 use crate::problem::ArcProblem;
 
 /// How an arc's motion starts.
@@ -206,6 +206,7 @@ pub(crate) fn solve_arc(
     start: Start,
     end: End,
     speeds: &[f64],
+    report: &(dyn Fn(usize, usize) + Sync),
 ) -> Option<FreeArc> {
     let n = p.len();
     if n < 2 {
@@ -226,8 +227,26 @@ pub(crate) fn solve_arc(
     // bundled lung plan), the two lead to different local optima, 1.3 % apart.
     // The two refinements are independent: side by side when a core is free.
     let base = super::from_constant(p, lim, speeds);
+    // Both refinements' steps count towards the arc's progress.
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let steps = 2 * MAX_STEPS;
+    report(0, steps);
+    let step_done = || {
+        let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        report(d.min(steps), steps);
+    };
     let refined_from = |seed: Option<&FreeArc>| {
-        seed.and_then(|seed| refine(p, lim, start, end, &mut Mover::new(lim, false), seed))
+        seed.and_then(|seed| {
+            refine(
+                p,
+                lim,
+                start,
+                end,
+                &mut Mover::new(lim, false),
+                seed,
+                &step_done,
+            )
+        })
     };
     let (from_anchored, from_constant) = rayon::join(
         || refined_from(anchored.as_ref()),
