@@ -422,24 +422,29 @@ impl Assembly<'_> {
                 // of hours) a beam edge and a move's end differ by rounding, and the sliver
                 // between them belongs to neither.
                 let eps = 8.0 * f64::EPSILON * (1.0 + end.abs());
+                // Cut points relative to the segment's start, so that an uncut segment keeps its
+                // own duration: the difference of two clock readings far into a delivery is off
+                // by their rounding, which a crawl of hours after it turns into a jump.
                 let mut cuts: Vec<f64> = edges
                     .iter()
                     .copied()
                     .filter(|&e| e > tm + eps && e < end - eps)
+                    .map(|e| e - tm)
                     .collect();
-                cuts.push(end);
-                let mut a = tm;
+                cuts.push(seg.duration);
+                let mut a = 0.0;
                 for c in cuts {
                     let d = c - a;
+                    s = s.settled(dir * seg.jerk);
                     if d > eps {
                         self.out.pieces.push(Piece {
-                            t_start_s: a,
+                            t_start_s: tm + a,
                             duration_s: d,
                             angle_deg: s.pos,
                             speed_deg_per_s: s.vel,
                             accel_deg_per_s2: s.acc,
                             jerk_deg_per_s3: dir * seg.jerk,
-                            kind: kind_at(0.5 * (a + c)),
+                            kind: kind_at(tm + 0.5 * (a + c)),
                         });
                     }
                     s = s.after(d, dir * seg.jerk);
@@ -476,6 +481,7 @@ fn push_move(
         if seg.duration <= 0.0 {
             continue;
         }
+        s = s.settled(dir * seg.jerk);
         pieces.push(Piece {
             t_start_s: t,
             duration_s: seg.duration,

@@ -26,6 +26,21 @@ impl FullState {
         }
     }
 
+    /// This state as a segment of jerk `j` starts from: at rest when it holds (no jerk) a
+    /// rounding's speed and acceleration away from rest. A stop ends 1e-15 to 1e-11 from it,
+    /// which a hold of hours (a long switch) would integrate into micro- to milli-degrees of
+    /// drift and a speed below zero.
+    pub fn settled(&self, j: f64) -> FullState {
+        // A planned crawl (a move stretched over hours creeps at 1e-11 deg/s) has no
+        // acceleration at all; a stop's residue has some.
+        let residue = self.acc != 0.0 && self.acc.abs() < AT_REST;
+        if j == 0.0 && residue && self.vel.abs() < AT_REST {
+            FullState::rest(self.pos)
+        } else {
+            *self
+        }
+    }
+
     /// The state `t` seconds into a constant-jerk piece with jerk `j`.
     #[inline]
     pub fn after(&self, t: f64, j: f64) -> FullState {
@@ -36,6 +51,11 @@ impl FullState {
         }
     }
 }
+
+/// A speed (deg/s) and an acceleration (deg/s²) below this at the start of a segment without jerk
+/// are a stop's rounding: the gantry is at rest. Far below the verification's tolerance of a jump
+/// (1e-9 of a limit).
+const AT_REST: f64 = 1e-10;
 
 /// A solved move: its start state and constant-jerk segments.
 #[derive(Clone, Debug, PartialEq)]
@@ -145,6 +165,24 @@ fn crossing(s: FullState, j: f64, d: f64, x: f64) -> f64 {
     t.min(hi)
 }
 
+/// `mv` lasting at least `min_duration`: as it is, or held at rest at its end (Ruckig answers a
+/// move from rest to the same place at rest with no move at all, whatever the minimum duration:
+/// two arcs that meet at one angle). `None` when it is too short and does not end at rest.
+fn held_for(mut mv: FullMove, to: FullState, min_duration: f64) -> Option<FullMove> {
+    let short = min_duration - mv.duration();
+    if short <= 1e-12 * (1.0 + min_duration) {
+        return Some(mv);
+    }
+    if to.vel != 0.0 || to.acc != 0.0 {
+        return None;
+    }
+    mv.segments.push(Segment {
+        duration: short,
+        jerk: 0.0,
+    });
+    Some(mv)
+}
+
 /// Relative tolerance of a move's own check.
 const TOL: f64 = 1e-9;
 
@@ -206,13 +244,13 @@ impl Mover {
 
     /// The fastest move `from → to` lasting at least `min_duration`, as verified segments.
     pub fn solve(&mut self, from: FullState, to: FullState, min_duration: f64) -> Option<FullMove> {
-        if let Some(mv) = self.solve_once(from, to, min_duration) {
-            return Some(mv);
-        }
-        // Ruckig may fail to synchronise to a minimum duration that equals the fastest move's
-        // own duration (to rounding): that move is then the answer.
-        let mv = self.solve_once(from, to, 0.0)?;
-        (mv.duration() >= min_duration - 1e-12 * (1.0 + min_duration)).then_some(mv)
+        let mv = match self.solve_once(from, to, min_duration) {
+            Some(mv) => mv,
+            // Ruckig may fail to synchronise to a minimum duration that equals the fastest
+            // move's own duration (to rounding): that move is then the answer.
+            None => self.solve_once(from, to, 0.0)?,
+        };
+        held_for(mv, to, min_duration)
     }
 
     fn solve_once(
@@ -289,6 +327,8 @@ impl Mover {
             {
                 return None;
             }
+            // Held as the delivery will be ([`FullState::settled`]).
+            s = s.settled(seg.jerk);
             let e = s.after(seg.duration, seg.jerk);
             let mut speeds = [s.vel, e.vel, s.vel];
             if seg.jerk != 0.0 {
