@@ -1,7 +1,9 @@
 //! Sequencer benchmarks on the 180-layer ATOM article cases (the bundled `plans/atom/*.json`):
 //! `scan` and `optimal` schedules, totals only (as sweeps run them) and with the full verified
 //! timeline; `optimal` on head-and-neck; free motion (seeded by `optimal`) with both arc-end
-//! options on prostate, rest ends on head-and-neck and on the bundled 722-layer `plans/head-neck.json`.
+//! options on prostate, rest ends on head-and-neck, on the bundled 722-layer `plans/head-neck.json`
+//! and on an 888-layer two-arc plan (`generate-plan --kind two-arc --spacing 2.2 --layers 2-4
+//! --energy 70-230`, 2–4 layers per control point: issue 45's real-size case).
 //! `cargo bench --bench sequencer`
 
 use std::hint::black_box;
@@ -96,9 +98,18 @@ fn bench(c: &mut Criterion) {
         let path = arcsim_suite::repo_root().join("plans/head-neck.json");
         resolve(&load_plan(path).expect("plan"), &machine).expect("resolve")
     };
+    let shape = arcsim_plan::Shape {
+        spacing_deg: Some(2.2),
+        layers_per_cp: Some((2, 4)),
+        energy_mev: Some((70.0, 230.0)),
+    };
+    let two_arc =
+        arcsim_plan::generate_shaped(arcsim_plan::PlanKind::TwoArc, 1, &shape).expect("shape");
+    let large = resolve(&two_arc, &machine).expect("resolve");
     for (name, plan) in [
         ("head-and-neck 180 layers, arc ends rest", &hn),
         ("bundled head-neck 722 layers, arc ends rest", &long),
+        ("two-arc 888 layers, arc ends rest", &large),
     ] {
         group.bench_function(name, |b| {
             b.iter(|| {

@@ -938,19 +938,6 @@ pub fn run(args: Args) -> Result<(), CliError> {
     )
 }
 
-#[cfg(test)]
-mod tests {
-    use super::fixed;
-
-    #[test]
-    fn summary_numbers_never_show_a_signed_zero() {
-        assert_eq!(fixed(-0.0, 2, 9), "     0.00");
-        assert_eq!(fixed(-1e-12, 1, 5), "  0.0");
-        assert_eq!(fixed(-0.5, 2, 0), "-0.50");
-        assert_eq!(fixed(12.345, 2, 9), "    12.35");
-    }
-}
-
 /// A simulation's progress on a terminal (standard error), shown once it has run a second: a
 /// plan of several hundred layers under free motion takes seconds.
 struct Watch {
@@ -997,5 +984,18 @@ impl Watch {
 
     fn finish(&self) {
         self.bar.finish_and_clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fixed;
+
+    #[test]
+    fn summary_numbers_never_show_a_signed_zero() {
+        assert_eq!(fixed(-0.0, 2, 9), "     0.00");
+        assert_eq!(fixed(-1e-12, 1, 5), "  0.0");
+        assert_eq!(fixed(-0.5, 2, 0), "-0.50");
+        assert_eq!(fixed(12.345, 2, 9), "    12.35");
     }
 }

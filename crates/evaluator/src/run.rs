@@ -108,6 +108,9 @@ struct Block {
     offset: usize,
     len: usize,
     base_total_s: Option<f64>,
+    /// The base machine's delivery's peak use of each limit (what the summary's sensitivities
+    /// need to know where that delivery is still feasible).
+    base_margins: Option<Margins>,
 }
 
 /// A variant's resolved arcs, or why it does not resolve (its rows are then `invalid`).
@@ -217,6 +220,7 @@ impl Evaluator {
                     offset,
                     len,
                     base_total_s: None,
+                    base_margins: None,
                 });
                 offset += len;
             }
@@ -230,17 +234,17 @@ impl Evaluator {
         };
         let bases: Vec<(usize, Setting)> = (0..ev.sweep.plans.len()).map(|p| (p, base)).collect();
         ev.resolve(&bases);
-        let base_totals: Vec<Option<f64>> = ev
+        let base_outcomes: Vec<Option<Outcome>> = ev
             .blocks
             .par_iter()
             .map(|b| {
                 let schedule = ev.sweep.schedule_grids[b.run].schedule;
-                let (_, outcome, _) = ev.simulate(b.plan, schedule, &base, None);
-                outcome.map(|o| o.total_s)
+                ev.simulate_measured(b.plan, schedule, &base, None).1
             })
             .collect();
-        for (b, t) in ev.blocks.iter_mut().zip(base_totals) {
-            b.base_total_s = t;
+        for (b, o) in ev.blocks.iter_mut().zip(base_outcomes) {
+            b.base_total_s = o.map(|o| o.total_s);
+            b.base_margins = o.and_then(|o| o.margins);
         }
         Ok(ev)
     }
@@ -328,6 +332,15 @@ impl Evaluator {
         )
     }
 
+    /// The base machine's delivery's margins for a plan under a schedule entry (`None`:
+    /// infeasible there).
+    pub(crate) fn base_margins(&self, plan: usize, run: usize) -> Option<Margins> {
+        self.blocks
+            .iter()
+            .find(|b| b.plan == plan && b.run == run)
+            .and_then(|b| b.base_margins)
+    }
+
     /// The base machine's total for a plan under a schedule entry (`None`: infeasible there).
     pub fn base_total_s(&self, plan: usize, run: usize) -> Option<f64> {
         self.blocks
@@ -394,6 +407,25 @@ impl Evaluator {
         self.simulate_variant(&variants[&key(plan, s)], schedule, s, base_total_s, false)
     }
 
+    /// [`Evaluator::simulate`] with the delivery's margins (its peak use of each limit), whether
+    /// or not the sweep asks for them.
+    pub(crate) fn simulate_measured(
+        &self,
+        plan: usize,
+        schedule: RunMode,
+        s: &Setting,
+        base_total_s: Option<f64>,
+    ) -> (Status, Option<Outcome>, String) {
+        let variants = self.resolve(&[(plan, *s)]);
+        self.simulate_opts(
+            &variants[&key(plan, s)],
+            schedule,
+            s,
+            base_total_s,
+            (false, true),
+        )
+    }
+
     /// `certify`: also the row's certificate (the sweep's rows; not the base
     /// totals and the summary's extra settings, which need only totals).
     fn simulate_variant(
@@ -404,13 +436,27 @@ impl Evaluator {
         base_total_s: Option<f64>,
         certify_row: bool,
     ) -> (Status, Option<Outcome>, String) {
+        let margins = self.sweep.margins;
+        self.simulate_opts(arcs, schedule, s, base_total_s, (certify_row, margins))
+    }
+
+    /// The simulation of a variant, with its certificate and its margins as `(certify_row,
+    /// margins)` say.
+    fn simulate_opts(
+        &self,
+        arcs: &Resolved,
+        schedule: RunMode,
+        s: &Setting,
+        base_total_s: Option<f64>,
+        (certify_row, margins): (bool, bool),
+    ) -> (Status, Option<Outcome>, String) {
         let arcs = match arcs {
             Ok(a) => a,
             Err(e) => return (Status::Invalid, None, e.to_string()),
         };
         let opts = Options {
             schedule: schedule.schedule,
-            build_timeline: self.sweep.margins,
+            build_timeline: margins,
             servo_period_s: self.sweep.machine.servo_period_s,
             motion: schedule.motion,
             arc_ends: schedule.arc_ends,

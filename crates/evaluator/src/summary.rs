@@ -15,10 +15,12 @@
 //! - **sensitivity** of the total to each limit L at the base machine, by central finite
 //!   differences: `s_per_10_percent = (T(1.1 L) - T(L / 1.1)) / 2`, the change in total time for a
 //!   +10 % change of L (≈ ln(1.1) · dT/d ln L; negative: raising L saves time), and
-//!   `s_per_ln = dT/d ln L` itself. For a gantry limit (J, A, V), `T(1.1 L)` is taken as the
-//!   shortest of the totals at `1.1 L`, `L` and `L / 1.1`: a timeline within the lower limits is
-//!   also one within the higher, so the sensitivity is never positive even where a solver's
-//!   local optimum at `1.1 L` came out a little longer. A limit has **no effect** (`no_effect`) when every value of it
+//!   `s_per_ln = dT/d ln L` itself. For a gantry limit (J, A, V) each of the three settings
+//!   takes the shortest of the three deliveries feasible there: one found at a lower value of
+//!   the limit, or one whose peak use of the limit (the delivery's margins) stays within it. So
+//!   the sensitivity is never positive, and it is 0 for a limit none of them uses up to `L / 1.1`,
+//!   even where a solver's local optima at the three settings came out apart (free motion on the
+//!   bundled lung plan once reported −1.28 s per +10 % of a V it never used). A limit has **no effect** (`no_effect`) when every value of it
 //!   the summary evaluated with the other limits at the base machine (L / 1.1, L, 1.1 L and the
 //!   profile's values; from `evaluated_min` to `evaluated_max`) is feasible and gives the same
 //!   total within [`TIE_TOLERANCE`] (relative);
@@ -35,6 +37,8 @@ mod render;
 
 use rayon::prelude::*;
 use serde::Serialize;
+
+use arcsim_sequencer::Margins;
 
 use crate::run::{Evaluator, Row, Status};
 use crate::sweep::{Axis, Grid, Setting};
@@ -200,9 +204,22 @@ enum Extra {
 
 /// The extra settings of one entry with their totals (`None`: not feasible), in the order they
 /// were listed: the profiles' values axis by axis, then the nudges.
-struct ExtraTotals(Vec<(Extra, Option<f64>)>);
+/// The extra settings' totals, and the margins of those simulated with them (a gantry limit's
+/// nudges; same order).
+struct ExtraTotals(Vec<(Extra, Option<f64>)>, Vec<Option<Margins>>);
 
 impl ExtraTotals {
+    /// The margins of the delivery with `axis` nudged up or down, when simulated with them.
+    fn nudged_margins(&self, axis: Axis, up: bool) -> Option<Margins> {
+        self.0
+            .iter()
+            .zip(&self.1)
+            .find_map(|(&(extra, _), &m)| match extra {
+                Extra::Nudge { axis: a, up: u } if a == axis && u == up => m,
+                _ => None,
+            })
+    }
+
     /// The profiled values of `axis` and their totals.
     fn along(&self, axis: Axis) -> impl Iterator<Item = (f64, Option<f64>)> + '_ {
         self.0
@@ -219,6 +236,39 @@ impl ExtraTotals {
             Extra::Nudge { axis: a, up: u } if a == axis && u == up => total,
             _ => None,
         })
+    }
+}
+
+/// A delivery found at one value `at` of a gantry limit: its total (`None`: infeasible) and its
+/// peak use of that limit (in the limit's unit), when known.
+#[derive(Clone, Copy, Debug)]
+struct Found {
+    at: f64,
+    total_s: Option<f64>,
+    peak: Option<f64>,
+}
+
+/// The shortest delivery known to be feasible at limit value `y`: found at a value no higher
+/// (raising a limit admits every delivery a lower one did), or using no more of the limit than
+/// `y`. Solvers find local optima: by this law a limit that no delivery found uses up to its
+/// lowered value has the same time at all three settings, so its sensitivity is 0, and raising
+/// a limit never costs time.
+fn best_known_at(y: f64, found: &[Found]) -> Option<f64> {
+    found
+        .iter()
+        .filter(|f| f.at <= y || f.peak.is_some_and(|p| p <= y))
+        .filter_map(|f| f.total_s)
+        .min_by(f64::total_cmp)
+}
+
+/// A delivery's peak use of gantry limit `axis` as a fraction of it (the margins' `*_use`; the
+/// acceleration's counts braking against D, which the sweep scales with A).
+fn peak_use(axis: Axis, m: &Margins) -> Option<f64> {
+    match axis {
+        Axis::Jerk => Some(m.jerk_use.value),
+        Axis::Accel => Some(m.accel_use.value),
+        Axis::Speed => Some(m.speed_use.value),
+        _ => None,
     }
 }
 
@@ -421,7 +471,10 @@ impl Evaluator {
                 .collect(),
             sensitivity: sensitivity_axes
                 .iter()
-                .map(|&axis| self.sensitivity(axis, &extras, base_total))
+                .map(|&axis| {
+                    let base = (base_total, self.base_margins(plan, run));
+                    self.sensitivity(axis, &extras, base)
+                })
                 .collect(),
             target_total_s,
             cheapest,
@@ -465,22 +518,27 @@ impl Evaluator {
         on_evaluated: &(dyn Fn() + Sync),
     ) -> ExtraTotals {
         let base = self.sweep().base_setting();
-        let totals: Vec<Option<f64>> = extras
+        let done: Vec<(Option<f64>, Option<Margins>)> = extras
             .par_iter()
             .map(|&extra| {
                 let setting = self.extra_setting(extra);
                 if let Some(known) = known_total(&setting, &base, base_total, rows) {
-                    return known;
+                    return (known, None);
                 }
-                let total = self
-                    .simulate(plan, schedule, &setting, base_total)
-                    .1
-                    .map(|o| o.total_s);
+                // A gantry limit's nudges with their peak use of it (the sensitivity's law).
+                let outcome = match extra {
+                    Extra::Nudge { axis, .. } if axis.is_gantry_limit() => {
+                        self.simulate_measured(plan, schedule, &setting, base_total)
+                            .1
+                    }
+                    _ => self.simulate(plan, schedule, &setting, base_total).1,
+                };
                 on_evaluated();
-                total
+                (outcome.map(|o| o.total_s), outcome.and_then(|o| o.margins))
             })
             .collect();
-        ExtraTotals(extras.into_iter().zip(totals).collect())
+        let (totals, margins): (Vec<_>, Vec<_>) = done.into_iter().unzip();
+        ExtraTotals(extras.into_iter().zip(totals).collect(), margins)
     }
 
     /// The sensitivity of the total to `axis` at the base machine, from its nudges; no effect when
@@ -489,19 +547,28 @@ impl Evaluator {
         &self,
         axis: Axis,
         extras: &ExtraTotals,
-        base_total: Option<f64>,
+        (base_total, base_margins): (Option<f64>, Option<Margins>),
     ) -> Sensitivity {
-        let (mut up, down) = (extras.nudged(axis, true), extras.nudged(axis, false));
+        let b = self.sweep().base_value(axis).unwrap_or(f64::NAN);
+        let (mut up, mut down) = (extras.nudged(axis, true), extras.nudged(axis, false));
+        let mut base_total = base_total;
         if axis.is_gantry_limit() {
-            // A delivery found with a lower gantry limit is also one with a higher limit, so
-            // the time at `1.1 L` is at most the time at `L` and at `L / 1.1`.
-            up = [up, base_total, down]
-                .into_iter()
-                .flatten()
-                .min_by(f64::total_cmp);
+            // Each of the three settings gets the shortest delivery known to be feasible there.
+            let found = [
+                (b / FD_FACTOR, down, extras.nudged_margins(axis, false)),
+                (b, base_total, base_margins),
+                (b * FD_FACTOR, up, extras.nudged_margins(axis, true)),
+            ]
+            .map(|(at, total, m)| Found {
+                at,
+                total_s: total,
+                peak: m.and_then(|m| peak_use(axis, &m)).map(|u| u * at),
+            });
+            down = best_known_at(b / FD_FACTOR, &found);
+            base_total = best_known_at(b, &found);
+            up = best_known_at(b * FD_FACTOR, &found);
         }
         let diff = up.zip(down).map(|(p, m)| p - m);
-        let b = self.sweep().base_value(axis).unwrap_or(f64::NAN);
         // Every value of this limit evaluated with the others at the base machine.
         let mut evaluated = vec![(b / FD_FACTOR, down), (b, base_total), (b * FD_FACTOR, up)];
         evaluated.extend(extras.along(axis));
@@ -554,6 +621,41 @@ impl Evaluator {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_setting_takes_the_shortest_delivery_feasible_there() {
+        let f = |at, total: f64, peak| Found {
+            at,
+            total_s: Some(total),
+            peak,
+        };
+        // A limit nobody uses past 0.4: all three settings share the shortest delivery.
+        let unused = [
+            f(0.9, 101.0, Some(0.4)),
+            f(1.0, 100.0, Some(0.4)),
+            f(1.1, 100.5, None),
+        ];
+        for y in [0.9, 1.0, 1.1] {
+            assert_eq!(best_known_at(y, &unused), Some(100.0));
+        }
+        // A binding limit: the lower setting cannot borrow the base's delivery (it uses 1.0).
+        let binding = [
+            f(0.9, 110.0, Some(0.9)),
+            f(1.0, 100.0, Some(1.0)),
+            f(1.1, 102.0, Some(1.1)),
+        ];
+        assert_eq!(best_known_at(0.9, &binding), Some(110.0));
+        assert_eq!(best_known_at(1.0, &binding), Some(100.0));
+        // The higher setting came out longer (a solver's other local optimum): it takes the base's.
+        assert_eq!(best_known_at(1.1, &binding), Some(100.0));
+        // An infeasible setting's total is not a delivery.
+        let none = [Found {
+            at: 0.9,
+            total_s: None,
+            peak: None,
+        }];
+        assert_eq!(best_known_at(1.1, &none), None);
+    }
 
     #[test]
     fn long_axes_are_profiled_at_spread_positions() {

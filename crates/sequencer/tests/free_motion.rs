@@ -2,7 +2,7 @@
 //! never slower than constant speed, never faster than its certificate's bound, and the ATOM
 //! article's local-search result beaten.
 
-use crate::util::{check_limits_at, machine};
+use crate::util::{check_limits_at, edited_machine, machine};
 use arcsim_plan::generate::{generate, PlanKind};
 use arcsim_plan::{parse_machine, resolve, ArcPlan, Machine};
 use arcsim_sequencer::{
@@ -394,15 +394,6 @@ fn raising_a_gantry_limit_never_costs_more_than_noise() {
             }
         }
     }
-}
-
-/// A machine file of `scenarios/` with `edit` applied to its JSON.
-fn edited_machine(name: &str, edit: impl Fn(&mut serde_json::Value)) -> Machine {
-    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).expect("machine file")).expect("json");
-    edit(&mut v);
-    parse_machine(&v.to_string(), &path).expect("edited machine")
 }
 
 /// Free motion delivers `plan` on `m`, verified, never slower than constant speed and at least

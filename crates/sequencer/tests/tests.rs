@@ -1,5 +1,6 @@
 //! The integration tests of `arcsim-sequencer`, one module per file, linked into one test binary.
 
+mod free_acceptance;
 mod free_motion;
 mod free_optimality;
 mod limiter;

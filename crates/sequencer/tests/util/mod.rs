@@ -18,6 +18,15 @@ pub fn machine(name: &str) -> Machine {
 }
 
 /// The direction of travel at `t`: the sign of its piece's displacement (no piece reverses, so a
+/// A machine file of `scenarios/` with `edit` applied to its JSON.
+pub fn edited_machine(name: &str, edit: impl Fn(&mut serde_json::Value)) -> Machine {
+    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).expect("machine file")).expect("json");
+    edit(&mut v);
+    parse_machine(&v.to_string(), &path).expect("edited machine")
+}
+
 /// piece that moves at all moves one way); 0 for a piece that does not move.
 pub fn direction_at(tl: &Timeline, t: f64) -> f64 {
     tl.piece_at(t).map_or(0.0, |i| {
