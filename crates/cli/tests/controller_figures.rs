@@ -102,16 +102,16 @@ fn the_readme_s_log_example_gives_its_figures() {
     assert!(out.status.success(), "{}", text(&out).1);
     assert!(
         stdout.contains("controller: free motion")
-            && stdout.contains("18.0 times better")
-            && stdout.contains("fitted 91.99 s (+1.70 %)")
-            && stdout.contains("the fitted machine is +1.70 % off this log"),
+            && stdout.contains("37.6 times better")
+            && stdout.contains("fitted 91.23 s (+0.85 %)")
+            && stdout.contains("the fitted machine is +0.85 % off this log"),
         "{stdout}"
     );
     let readme = doc("README.md");
     for figure in [
         "158.23 s for a 90.45 s log",
-        "(18× better)",
-        "predicts 91.99 s (+1.7 %",
+        "(38× better)",
+        "predicts 91.23 s (+0.85 %",
         "ATOM predicts 67.8 s (43 %) too much",
     ] {
         assert!(readme.contains(figure), "README lacks {figure:?}");

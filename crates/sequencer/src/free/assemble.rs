@@ -433,11 +433,18 @@ impl Assembly<'_> {
                     .collect();
                 cuts.push(seg.duration);
                 let mut a = 0.0;
+                s = s.settled(dir * seg.jerk);
+                let first = self.out.pieces.len();
                 for c in cuts {
                     let d = c - a;
-                    s = s.settled(dir * seg.jerk);
-                    if d > eps {
-                        self.out.pieces.push(Piece {
+                    let cut_before = self.out.pieces.len() > first;
+                    match self.out.pieces.last_mut() {
+                        // A sliver after a cut belongs to the piece before it, of the same
+                        // segment: its motion stays in the timeline.
+                        Some(last) if d <= eps && cut_before => {
+                            last.duration_s += d;
+                        }
+                        _ if d > 0.0 => self.out.pieces.push(Piece {
                             t_start_s: tm + a,
                             duration_s: d,
                             angle_deg: s.pos,
@@ -445,7 +452,8 @@ impl Assembly<'_> {
                             accel_deg_per_s2: s.acc,
                             jerk_deg_per_s3: dir * seg.jerk,
                             kind: kind_at(tm + 0.5 * (a + c)),
-                        });
+                        }),
+                        _ => {}
                     }
                     s = s.after(d, dir * seg.jerk);
                     a = c;
