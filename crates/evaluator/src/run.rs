@@ -403,8 +403,7 @@ impl Evaluator {
         s: &Setting,
         base_total_s: Option<f64>,
     ) -> (Status, Option<Outcome>, String) {
-        let variants = self.resolve(&[(plan, *s)]);
-        self.simulate_variant(&variants[&key(plan, s)], schedule, s, base_total_s, false)
+        self.simulate_with(plan, schedule, s, base_total_s, self.sweep.margins)
     }
 
     /// [`Evaluator::simulate`] with the delivery's margins (its peak use of each limit), whether
@@ -416,14 +415,22 @@ impl Evaluator {
         s: &Setting,
         base_total_s: Option<f64>,
     ) -> (Status, Option<Outcome>, String) {
+        self.simulate_with(plan, schedule, s, base_total_s, true)
+    }
+
+    /// Any setting of a plan (its variant resolved if not cached), never the certificate, with
+    /// the margins if `margins`.
+    fn simulate_with(
+        &self,
+        plan: usize,
+        schedule: RunMode,
+        s: &Setting,
+        base_total_s: Option<f64>,
+        margins: bool,
+    ) -> (Status, Option<Outcome>, String) {
         let variants = self.resolve(&[(plan, *s)]);
-        self.simulate_opts(
-            &variants[&key(plan, s)],
-            schedule,
-            s,
-            base_total_s,
-            (false, true),
-        )
+        let arcs = &variants[&key(plan, s)];
+        self.simulate_opts(arcs, schedule, s, base_total_s, (false, margins))
     }
 
     /// `certify`: also the row's certificate (the sweep's rows; not the base

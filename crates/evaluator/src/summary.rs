@@ -441,6 +441,7 @@ impl Evaluator {
         let sweep = self.sweep();
         let entry = &sweep.schedule_grids[run];
         let base_total = self.base_total_s(plan, run);
+        let base_margins = self.base_margins(plan, run);
         let swept = swept_axes(&entry.grid, &sweep.base_setting());
         let sensitivity_axes = self.sensitivity_axes(&swept);
         let (extras, mine) = self.entry_extras(plan, run, rows);
@@ -471,10 +472,7 @@ impl Evaluator {
                 .collect(),
             sensitivity: sensitivity_axes
                 .iter()
-                .map(|&axis| {
-                    let base = (base_total, self.base_margins(plan, run));
-                    self.sensitivity(axis, &extras, base)
-                })
+                .map(|&axis| self.sensitivity(axis, &extras, (base_total, base_margins)))
                 .collect(),
             target_total_s,
             cheapest,

@@ -86,6 +86,13 @@ struct ArcSpec {
     upward_switches: usize,
 }
 
+impl ArcSpec {
+    /// Degrees from the first control point to the last.
+    fn span_deg(&self) -> f64 {
+        self.step_deg.abs() * (self.control_points - 1) as f64
+    }
+}
+
 struct Spec {
     arcs: Vec<ArcSpec>,
     layers_per_cp: (u32, u32),
@@ -217,7 +224,7 @@ impl Shape {
             let span = spec(kind)
                 .arcs
                 .iter()
-                .map(|a| a.step_deg.abs() * (a.control_points - 1) as f64)
+                .map(ArcSpec::span_deg)
                 .fold(f64::INFINITY, f64::min);
             if !(d.is_finite() && d >= MIN_SPACING_DEG && d <= span) {
                 return Err(ShapeError {
@@ -264,7 +271,7 @@ impl Shape {
     fn applied(&self, mut spec: Spec) -> Spec {
         if let Some(d) = self.spacing_deg {
             for a in &mut spec.arcs {
-                let span = a.step_deg.abs() * (a.control_points - 1) as f64;
+                let span = a.span_deg();
                 // A hair of slack so that a spacing dividing the span exactly reaches its end.
                 a.control_points = (span / d + 1e-9).floor() as usize + 1;
                 a.step_deg = d.copysign(a.step_deg);
