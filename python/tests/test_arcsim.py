@@ -510,6 +510,14 @@ def test_profiles_check_every_number():
     with pytest.raises(ValueError, match=r"period_s: expected a finite number, got nan"):
         batch(period_s=NAN)
     assert batch(distance=np.array([10, 20]))["ok"].all()  # integer arrays are numbers
+    # Outside the ranges a move is solved in: refused by name, never "a bug".
+    with pytest.raises(arcsim.ProfileError, match=r"jerk 1e-300 deg/s³ is outside the range a move is solved in \(0.001 to 10000 deg/s³\)"):
+        one(jerk=1e-300)
+    with pytest.raises(arcsim.ProfileError, match=r"distance 1e300 deg is outside"):
+        one(distance=1e300)
+    out = batch(distance=np.array([10.0, 1e300]))
+    assert out["ok"].tolist() == [True, False]
+    assert "distance 1e300 deg is outside" in out["error"][1]
 
 
 def test_sweep_checks_its_numbers():

@@ -24,7 +24,7 @@ pub struct Args {
     #[arg(long)]
     machine: PathBuf,
     /// Pairs of a plan and its delivery log: PLAN LOG [PLAN LOG ...].
-    #[arg(required = true, num_args = 2.., value_name = "PLAN LOG")]
+    #[arg(required = true, num_args = 2.., value_names = ["PLAN", "LOG"])]
     inputs: Vec<PathBuf>,
     /// Where to write the fitted machine (JSON).
     #[arg(short = 'o', long = "output", value_name = "FITTED.json")]

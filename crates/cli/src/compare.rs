@@ -255,7 +255,12 @@ pub fn summary(c: &Comparison, plan: &str, machine: &str) -> String {
         let _ = writeln!(
             s,
             "  layer {:4} (arc {}, control point {}, {:.1} deg, {} MeV): {:+.3} s",
-            w.index, w.arc, w.control_point, w.angle_deg, w.energy_mev, w.difference_s
+            w.index,
+            w.arc,
+            w.control_point,
+            crate::gantry_deg(w.angle_deg),
+            w.energy_mev,
+            w.difference_s
         );
     }
     for f in &c.motion_fits {
@@ -288,7 +293,7 @@ fn observed_lines(s: &mut String, o: &ObservedKinematics, c: &Comparison) {
         let _ = match p {
             Some(p) => writeln!(
                 s,
-                "  {what:<13} peak {:.4}, plateau {:.4} held {:.1} s ({}) against the limit {limit} {unit}",
+                "  {what:<13} peak {:.4}, plateau {:.4} for {:.1} s in all ({}) against the limit {limit} {unit}",
                 p.peak,
                 p.level,
                 p.held_s,

@@ -163,6 +163,12 @@ pub fn count(n: usize, noun: &str) -> String {
     }
 }
 
+/// A plan angle as the gantry shows it, in [0, 360): plans keep an arc's angles increasing (an
+/// arc through 0° goes on past 360°), but a reader looks for 3.8°, not 363.8°.
+pub fn gantry_deg(angle_deg: f64) -> f64 {
+    angle_deg.rem_euclid(360.0) + 0.0
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {

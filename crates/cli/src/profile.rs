@@ -232,12 +232,14 @@ fn print_text(out: &ProfileOut) -> String {
 fn write_samples(path: &Path, profile: &Profile, dt: f64) -> Result<(), CliError> {
     if !(dt.is_finite() && dt > 0.0) {
         return Err(CliError::usage(format!(
-            "--dt {dt}: expected a finite number > 0"
+            "--dt {}: expected a finite number > 0",
+            arcsim_plan::fmt_num(dt)
         )));
     }
     if profile.duration() / dt > 5e7 {
         return Err(CliError::usage(format!(
-            "--dt {dt} would write more than 5e7 samples"
+            "--dt {} would write more than 5e7 samples",
+            arcsim_plan::fmt_num(dt)
         )));
     }
     let table = csv_table(&SAMPLE_COLUMNS, profile.samples(dt));

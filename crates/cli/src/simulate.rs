@@ -86,7 +86,8 @@ pub struct Args {
     period: Option<f64>,
     /// Prove how close the delivery is to the fastest one: print (and write with --json) a lower
     /// bound and the gap to it. Constant motion: of every constant-speed schedule (tight; takes
-    /// seconds on a 180-layer plan). Free motion: of every free motion (loose: 5-20 % below).
+    /// seconds on a 180-layer plan). Free motion: of every free motion (loose: 0.5-22 % below
+    /// on the bundled plans and the ATOM cases, docs/model.md).
     #[arg(long)]
     certify: bool,
     /// Write the full result (summary, per-layer and per-transition rows, margins) as JSON.
@@ -385,12 +386,14 @@ fn speed_violations(s: &mut String, d: &Delivery) {
     }
 }
 
-/// Angle ranges as "10–30, 44–52 deg", at most four, then "+N more".
+/// Angle ranges as "10–30, 44–52 deg" (gantry angles, in [0, 360)), at most four, then
+/// "+N more".
 fn ranges_text(r: &[[f64; 2]]) -> String {
     let mut parts: Vec<String> = r
         .iter()
         .take(4)
-        .map(|[a, b]| {
+        .map(|&[a, b]| {
+            let (a, b) = (crate::gantry_deg(a), crate::gantry_deg(b));
             if (b - a).abs() < 1e-9 {
                 format!("{a:.1}")
             } else {
@@ -458,8 +461,8 @@ fn where_lost(s: &mut String, d: &Delivery) {
             arc,
             c.from_control_point,
             c.to_control_point,
-            c.from_angle_deg,
-            c.to_angle_deg,
+            crate::gantry_deg(c.from_angle_deg),
+            crate::gantry_deg(c.to_angle_deg),
             tr.t_start_s,
             c.duration_s,
             c.elst_s,
@@ -659,19 +662,20 @@ fn check_args(args: &Args) -> Result<(), CliError> {
     if !(args.dt.is_finite() && args.dt > 0.0) {
         return Err(CliError::usage(format!(
             "--dt {}: expected a finite number > 0",
-            args.dt
+            arcsim_plan::fmt_num(args.dt)
         )));
     }
     if !(args.log_period.is_finite() && args.log_period > 0.0) {
         return Err(CliError::usage(format!(
             "--log-period {}: expected a finite number of seconds > 0",
-            args.log_period
+            arcsim_plan::fmt_num(args.log_period)
         )));
     }
-    if !(args.angle_noise_deg.is_finite() && args.angle_noise_deg >= 0.0) {
+    if !(0.0..=arcsim_log::MAX_ANGLE_NOISE_DEG).contains(&args.angle_noise_deg) {
         return Err(CliError::usage(format!(
-            "--angle-noise-deg {}: expected a finite number of degrees ≥ 0",
-            args.angle_noise_deg
+            "--angle-noise-deg {}: expected a number of degrees from 0 to {}",
+            arcsim_plan::fmt_num(args.angle_noise_deg),
+            arcsim_log::MAX_ANGLE_NOISE_DEG
         )));
     }
     let inputs: Vec<&Path> = std::iter::once(args.plan.as_path())
@@ -697,7 +701,7 @@ fn check_sample_count(args: &Args, delivery: &Delivery) -> Result<(), CliError> 
         if tl.duration_s() / args.dt > 5e7 {
             return Err(CliError::usage(format!(
                 "--dt {} would write more than 5e7 samples",
-                args.dt
+                arcsim_plan::fmt_num(args.dt)
             )));
         }
     }
@@ -708,7 +712,7 @@ fn check_sample_count(args: &Args, delivery: &Delivery) -> Result<(), CliError> 
             Err(arcsim_log::VirtualLogError::TooManySamples { .. }) => {
                 return Err(CliError::usage(format!(
                     "--log-period {} would write more than 5e7 samples",
-                    args.log_period
+                    arcsim_plan::fmt_num(args.log_period)
                 )))
             }
             Err(e) => return Err(CliError::usage(format!("--log: {e}"))),

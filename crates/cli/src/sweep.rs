@@ -329,11 +329,22 @@ fn evaluate(
     }
     let seconds = started.elapsed().as_secs_f64();
     eprintln!(
-        "evaluated {} in {seconds:.2} s ({:.0} per second)",
+        "evaluated {} in {seconds:.2} s ({})",
         crate::count(done, "combination"),
-        done as f64 / seconds.max(1e-9)
+        rate(done, seconds)
     );
     Ok(rows)
+}
+
+/// How fast `done` evaluations in `seconds` went, readable at any speed: "120 per second", or
+/// "8.4 s each" below one a second (it printed "0 per second").
+fn rate(done: usize, seconds: f64) -> String {
+    let per_s = done as f64 / seconds.max(1e-9);
+    if per_s >= 1.0 || done == 0 {
+        format!("{per_s:.0} per second")
+    } else {
+        format!("{:.1} s each", seconds / done as f64)
+    }
 }
 
 /// The summary of `rows`, with a progress bar over the extra settings it simulates (one-limit
@@ -433,11 +444,14 @@ pub fn merge(args: MergeArgs) -> Result<(), CliError> {
         .map(|p| crate::input::read_text(p).map(|t| (crate::input::input_name(p), t)))
         .collect::<Result<Vec<_>, _>>()?;
     let merged = merge_csv(&inputs, sweep.as_ref().map(|s| s.combinations())).map_err(failed)?;
-    // With the sweep file, every row is read back against it (a shard of another sweep fails
-    // here) before anything is written; then the summary of the whole run.
+    // With the sweep file, every shard's rows are read back against it (a shard of another sweep
+    // fails here, named) before anything is written; then the summary of the whole run.
     let whole = match sweep {
         Some(sweep) => {
             let ev = Evaluator::new(sweep).map_err(failed)?;
+            for (name, text) in &inputs {
+                ev.rows_from_csv(name, text).map_err(failed)?;
+            }
             let rows = ev
                 .rows_from_csv(&args.out.display().to_string(), &merged)
                 .map_err(failed)?;
@@ -483,4 +497,15 @@ const MAX_THREADS: usize = 256;
 
 fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+#[cfg(test)]
+mod tests {
+    /// A rate below one a second reads as seconds per evaluation, not "0 per second".
+    #[test]
+    fn slow_rates_read_as_seconds_each() {
+        assert_eq!(super::rate(300, 2.5), "120 per second");
+        assert_eq!(super::rate(5, 42.0), "8.4 s each");
+        assert_eq!(super::rate(0, 0.0), "0 per second");
+    }
 }

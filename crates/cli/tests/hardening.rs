@@ -231,6 +231,12 @@ fn sweep_merge_leaves_no_bad_output() {
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(!merged.exists(), "a mixed merge was written");
+    // The shard of the other sweep is named, not the output.
+    assert!(
+        stderr(&o).contains(&format!("{}: line 2:", path_str(&s2))),
+        "{}",
+        stderr(&o)
+    );
     // An output that is one of the inputs is refused.
     let o = arcsim(&["sweep-merge", path_str(&s1), "--out", path_str(&s1)]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
@@ -265,6 +271,64 @@ fn sweep_merge_leaves_no_bad_output() {
         stderr(&o)
     );
     assert!(!merged.exists(), "an incomplete merge was written");
+
+    // A shard row with a result that is not a delivery time, or an unknown status, is refused
+    // by shard, line and column, with or without the sweep file (NaN and -5 s were merged,
+    // and -5 s became the sweep's fastest delivery).
+    run_shard(&a, "2/2", &t2);
+    let good = std::fs::read_to_string(&t2).expect("shard 2");
+    let header: Vec<&str> = good.lines().next().expect("header").split(',').collect();
+    for (column, value, want) in [
+        (
+            "total_s",
+            "NaN",
+            "column total_s: expected a finite number ≥ 0, found \"NaN\"",
+        ),
+        (
+            "total_s",
+            "-5",
+            "column total_s: expected a finite number ≥ 0, found \"-5\"",
+        ),
+        (
+            "status",
+            "bogus",
+            "column status: expected ok, infeasible, invalid or error",
+        ),
+    ] {
+        let at = header.iter().position(|c| *c == column).expect("column");
+        let lines: Vec<String> = good
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                let mut f: Vec<&str> = l.split(',').collect();
+                if i == 1 {
+                    f[at] = value;
+                }
+                f.join(",")
+            })
+            .collect();
+        std::fs::write(&t2, lines.join("\n") + "\n").expect("write");
+        for with_sweep in [false, true] {
+            let mut args = vec![
+                "sweep-merge",
+                path_str(&t1),
+                path_str(&t2),
+                "--out",
+                path_str(&merged),
+            ];
+            if with_sweep {
+                args.extend(["--sweep", path_str(&a)]);
+            }
+            let o = arcsim(&args);
+            assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+            let err = stderr(&o);
+            assert!(
+                err.contains(&format!("{}: line 2: {want}", path_str(&t2))),
+                "{err}"
+            );
+            assert!(!merged.exists(), "a bad merge was written");
+        }
+    }
 }
 
 #[cfg(unix)]
@@ -666,4 +730,143 @@ fn validate_and_simulate_agree_on_tiny_moves() {
         let o = arcsim(&args);
         assert!(o.status.success(), "{d} in {t} s: {}", stderr(&o));
     }
+}
+
+/// `profile` solves moves only inside its documented ranges: a jerk of 1e-300 was "planner
+/// self-check failed (a bug)" and a distance of 1e300 printed 300-digit durations; both exit 2
+/// naming the option and the range, in a short message. A batch row out of range is an error
+/// row, the other rows are solved.
+#[test]
+fn profile_refuses_values_outside_its_ranges() {
+    let base = [
+        "--v-start",
+        "0",
+        "--v-end",
+        "0",
+        "--accel",
+        "1",
+        "--vel",
+        "5",
+    ];
+    for (option, value, expected) in [
+        ("--jerk", "1e-300", "jerk 1e-300 deg/s³ is outside the range a move is solved in (0.001 to 10000 deg/s³)"),
+        ("--jerk", "1e300", "jerk 1e300 deg/s³ is outside"),
+        ("--distance", "1e300", "distance 1e300 deg is outside the range a move is solved in (1e-9 to 100000 deg), in magnitude, or 0"),
+        ("--period", "1e-7", "period 1e-7 s is outside"),
+        ("--min-duration", "1e9", "min-duration 1e9 s is outside"),
+    ] {
+        let mut args = vec!["profile", "--distance", "10", "--jerk", "1"];
+        args.extend(base);
+        match args.iter().position(|a| *a == option) {
+            Some(i) => args[i + 1] = value,
+            None => args.extend([option, value]),
+        }
+        let o = arcsim(&args);
+        assert_eq!(o.status.code(), Some(2), "{option} {value}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.contains(expected), "{option} {value}: {err}");
+        assert!(err.len() < 200 && !err.contains("a bug"), "{err}");
+        assert!(stdout(&o).is_empty(), "{}", stdout(&o));
+    }
+    let dir = temp_dir();
+    let batch = dir.join("moves.csv");
+    std::fs::write(
+        &batch,
+        "distance,v_start,v_end,jerk,accel,vel\n10,0,0,1,1,5\n10,0,0,1e-300,1,5\n",
+    )
+    .expect("write");
+    let o = arcsim(&["profile", "--batch", path_str(&batch)]);
+    let out = stdout(&o);
+    let rows: Vec<&str> = out.lines().collect();
+    assert_eq!(rows.len(), 3, "{out}");
+    assert!(rows[1].contains(",ok,"), "{out}");
+    assert!(
+        rows[2].contains("error") && rows[2].contains("jerk 1e-300"),
+        "{out}"
+    );
+}
+
+/// Tiny and huge numbers in errors print short: `--dt 1e-300` and `--spacing 1e-300` once
+/// printed three hundred digits.
+#[test]
+fn tiny_and_huge_numbers_print_short_in_errors() {
+    let dir = temp_dir();
+    let csv = dir.join("t.csv");
+    let plan = dir.join("p.json");
+    for (args, want) in [
+        (
+            vec![
+                "simulate",
+                "plans/prostate.json",
+                "--csv",
+                path_str(&csv),
+                "--dt",
+                "1e-300",
+            ],
+            "--dt 1e-300 would write more than 5e7 samples",
+        ),
+        (
+            vec![
+                "generate-plan",
+                "--kind",
+                "lung",
+                "--spacing",
+                "1e-300",
+                "-o",
+                path_str(&plan),
+            ],
+            "--spacing: 1e-300 deg is not allowed",
+        ),
+        (
+            vec![
+                "generate-plan",
+                "--kind",
+                "lung",
+                "--energy",
+                "0.0000001-1e300",
+                "-o",
+                path_str(&plan),
+            ],
+            "1e-7-1e300 MeV",
+        ),
+    ] {
+        let o = arcsim(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.contains(want) && err.len() < 300, "{args:?}: {err}");
+    }
+}
+
+/// `calibrate --help` names a plan and its log (it showed `<PLAN LOG> <PLAN LOG>...`).
+#[test]
+fn calibrate_help_names_a_plan_and_its_log() {
+    let o = arcsim(&["calibrate", "--help"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let help = stdout(&o);
+    assert!(help.contains("<PLAN> <LOG>..."), "{help}");
+    assert!(!help.contains("<PLAN LOG>"), "{help}");
+}
+
+/// An arc through 0° keeps increasing angles in the plan (181° … 539°); the summary prints them
+/// as the gantry shows them (177°, not 537°).
+#[test]
+fn angles_print_as_the_gantry_shows_them() {
+    let mut v: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("plans/prostate.json")).expect("plan"),
+    )
+    .expect("json");
+    for cp in v["arcs"][0]["control_points"]
+        .as_array_mut()
+        .expect("control points")
+    {
+        let a = cp["angle_deg"].as_f64().expect("angle");
+        cp["angle_deg"] = serde_json::json!(a + 180.0);
+    }
+    let plan = temp_dir().join("through-zero.json");
+    std::fs::write(&plan, v.to_string()).expect("write");
+    let o = arcsim(&["simulate", path_str(&plan)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("177.00 → 179.00"), "{out}");
+    assert!(!out.contains("537.00"), "{out}");
 }

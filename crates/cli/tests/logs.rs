@@ -103,10 +103,22 @@ fn bad_log_options_are_refused_before_anything_is_written() {
         ),
         ("--log-period", "nan", "--log-period NaN"),
         ("--angle-noise-deg", "-1", "--angle-noise-deg -1: expected"),
+        // Noise of 1e308 wrote infinite angles that `compare` then refused.
+        (
+            "--angle-noise-deg",
+            "1e308",
+            "--angle-noise-deg 1e308: expected a number of degrees from 0 to 10",
+        ),
         (
             "--log-period",
             "1e-9",
-            "--log-period 0.000000001 would write more than 5e7 samples",
+            "--log-period 1e-9 would write more than 5e7 samples",
+        ),
+        // Tiny and huge values are printed short (once 300 digits).
+        (
+            "--log-period",
+            "1e-300",
+            "--log-period 1e-300 would write more than 5e7 samples",
         ),
     ] {
         let out = arcsim(&[

@@ -15,7 +15,9 @@
 //! - **sensitivity** of the total to each limit L at the base machine, by central finite
 //!   differences: `s_per_10_percent = (T(1.1 L) - T(L / 1.1)) / 2`, the change in total time for a
 //!   +10 % change of L (≈ ln(1.1) · dT/d ln L; negative: raising L saves time), and
-//!   `s_per_ln = dT/d ln L` itself. For a gantry limit (J, A, V) each of the three settings
+//!   `s_per_ln = dT/d ln L` itself (an axis of whole numbers, the layers per spill, is evaluated
+//!   at L − 1 and L + 1 instead, which a machine can apply, and the difference scaled to +10 %
+//!   of L). For a gantry limit (J, A, V) each of the three settings
 //!   takes the shortest of the three deliveries feasible there: one found at a lower value of
 //!   the limit, or one whose peak use of the limit (the delivery's margins) stays within it. So
 //!   the sensitivity is never positive, and it is 0 for a limit none of them uses up to `L / 1.1`,
@@ -157,10 +159,10 @@ pub struct Sensitivity {
     /// machine (`evaluated_min` to `evaluated_max`) is feasible and gives the same total, within
     /// [`TIE_TOLERANCE`] (relative).
     pub no_effect: bool,
-    /// The lowest value of the limit evaluated with the others at the base machine (L / 1.1 or
-    /// the lowest profiled value).
+    /// The lowest value of the limit evaluated with the others at the base machine (L / 1.1, or
+    /// L − 1 for whole numbers, or the lowest profiled value).
     pub evaluated_min: f64,
-    /// The highest such value (1.1 L or the highest profiled value).
+    /// The highest such value (1.1 L, or L + 1 for whole numbers, or the highest profiled value).
     pub evaluated_max: f64,
 }
 
@@ -192,6 +194,18 @@ pub struct Change {
 
 /// Factor of the finite differences (±10 %).
 const FD_FACTOR: f64 = 1.1;
+
+/// The values a finite difference of `axis` at base value `b` evaluates, below and above it:
+/// `b / 1.1` and `1.1 b`, or for an axis of whole numbers the whole numbers next to `b` (not
+/// below 1): ±10 % of 5 layers per spill is 4.5 and 5.5, which a machine applies as 4 and 5, so
+/// the difference measured half a step and the summary printed "no effect (1–5.5 layers)".
+fn nudge_values(axis: Axis, b: f64) -> (f64, f64) {
+    if axis.is_whole() {
+        ((b - 1.0).max(1.0).min(b), b + 1.0)
+    } else {
+        (b / FD_FACTOR, b * FD_FACTOR)
+    }
+}
 
 /// A setting the summary evaluates besides the grid rows: the base machine with one limit changed.
 #[derive(Debug, Clone, Copy)]
@@ -498,7 +512,8 @@ impl Evaluator {
             Extra::Nudge { axis, up } => {
                 // Nudged axes have a positive base value ([`Evaluator::sensitivity_axes`]).
                 let b = sweep.base_value(axis).unwrap_or(1.0);
-                base.with(axis, if up { b * FD_FACTOR } else { b / FD_FACTOR })
+                let (lo, hi) = nudge_values(axis, b);
+                base.with(axis, if up { hi } else { lo })
             }
         }
     }
@@ -548,34 +563,47 @@ impl Evaluator {
         (base_total, base_margins): (Option<f64>, Option<Margins>),
     ) -> Sensitivity {
         let b = self.sweep().base_value(axis).unwrap_or(f64::NAN);
+        let (lo, hi) = nudge_values(axis, b);
         let (mut up, mut down) = (extras.nudged(axis, true), extras.nudged(axis, false));
         let mut base_total = base_total;
         if axis.is_gantry_limit() {
             // Each of the three settings gets the shortest delivery known to be feasible there.
             let found = [
-                (b / FD_FACTOR, down, extras.nudged_margins(axis, false)),
+                (lo, down, extras.nudged_margins(axis, false)),
                 (b, base_total, base_margins),
-                (b * FD_FACTOR, up, extras.nudged_margins(axis, true)),
+                (hi, up, extras.nudged_margins(axis, true)),
             ]
             .map(|(at, total, m)| Found {
                 at,
                 total_s: total,
                 peak: m.and_then(|m| peak_use(axis, &m)).map(|u| u * at),
             });
-            down = best_known_at(b / FD_FACTOR, &found);
+            down = best_known_at(lo, &found);
             base_total = best_known_at(b, &found);
-            up = best_known_at(b * FD_FACTOR, &found);
+            up = best_known_at(hi, &found);
         }
         let diff = up.zip(down).map(|(p, m)| p - m);
         // Every value of this limit evaluated with the others at the base machine.
-        let mut evaluated = vec![(b / FD_FACTOR, down), (b, base_total), (b * FD_FACTOR, up)];
+        let mut evaluated = vec![(lo, down), (b, base_total), (hi, up)];
         evaluated.extend(extras.along(axis));
         let (evaluated_min, evaluated_max) = min_max(evaluated.iter().map(|e| e.0));
+        // The change per unit of ln L over the span evaluated and for +10 %: (T(1.1 L) − T(L / 1.1))
+        // / 2 for ±10 %; for whole numbers, the difference across L ± 1 scaled to 10 %.
+        let (per_ln, per_10) = if axis.is_whole() {
+            let span = (hi / lo).ln();
+            let per_ln = diff.filter(|_| span > 0.0).map(|d| d / span);
+            (per_ln, per_ln.map(|s| s * FD_FACTOR.ln()))
+        } else {
+            (
+                diff.map(|d| d / (2.0 * FD_FACTOR.ln())),
+                diff.map(|d| d / 2.0),
+            )
+        };
         Sensitivity {
             axis,
             base_value: b,
-            s_per_ln: diff.map(|d| d / (2.0 * FD_FACTOR.ln())),
-            s_per_10_percent: diff.map(|d| d / 2.0),
+            s_per_ln: per_ln,
+            s_per_10_percent: per_10,
             no_effect: all_feasible_and_equal(evaluated.iter().map(|e| e.1)),
             evaluated_min,
             evaluated_max,

@@ -651,6 +651,26 @@ fn spill_charge_and_refill_are_swept_on_a_synchrotron() {
     assert_eq!(ok(&per[0]).total_s, ok(&all_rows(&plain)[0]).total_s);
     assert!(ok(&per[0]).breakdown.energy_switching_s > ok(&per[1]).breakdown.energy_switching_s);
     assert_eq!(column(&csv(&per), "spill_max_layers"), ["1", "5"]);
+    // The summary's finite difference of a whole-number axis is taken at L ± 1 (5 ± 10 % was
+    // 4.5 and 5.5, applied as 4 and 5: half a step, and "no effect (1–5.5 layers)"), and agrees
+    // with the totals simulated there.
+    let summary = ev.summarize(&per);
+    let layers = summary.entries[0]
+        .sensitivity
+        .iter()
+        .find(|s| s.axis == Axis::SpillMaxLayers)
+        .expect("layers per spill");
+    assert_eq!((layers.evaluated_min, layers.evaluated_max), (1.0, 6.0));
+    let at = |n: &str| {
+        let axes = format!(r#"{{"spill_max_layers": [{n}]}}"#);
+        let ev =
+            Evaluator::new(from_text_in(&text(mee, &axes), &dir).expect("sweep")).expect("prepare");
+        ok(&all_rows(&ev)[0]).total_s
+    };
+    let (t4, t6) = (at("4"), at("6"));
+    let want = (t6 - t4) / (6f64 / 4.0).ln() * 1.1f64.ln();
+    let got = layers.s_per_10_percent.expect("finite difference");
+    assert!((got - want).abs() <= 1e-9 * t4, "{got} vs {want}");
     for (machine, axes, want) in [
         (
             "machine-probeat-v5-like.json",

@@ -437,6 +437,24 @@ fn free_motion_entries_run_and_merge() {
     );
     let e = error_of(&bad);
     assert!(e.contains("schedules[0]") && e.contains("motion"), "{e}");
+    // A schedule that fixes the speeds with a motion that chooses them is refused at the entry
+    // (it once loaded and then failed on every row).
+    for schedule in ["step-and-shoot", "prescribed"] {
+        let bad = GOOD.replace(
+            "\"schedules\": [\"scan\"]",
+            &format!(
+                "\"schedules\": [\"scan\", {{\"schedule\": \"{schedule}\", \"motion\": \"free\"}}]"
+            ),
+        );
+        let e = error_of(&bad);
+        assert!(
+            e.contains("schedules[1].motion")
+                && e.contains(&format!(
+                    "expected the optimal or scan schedule with it, not {schedule}"
+                )),
+            "{e}"
+        );
+    }
 }
 
 /// The summary's sensitivities follow the problem's law: a delivery within a lowered limit is

@@ -394,6 +394,7 @@ pub fn calibrate(
     machine.uncertainty = uncertainty.any().then_some(uncertainty);
     describe(&mut machine, base, runs, &values);
     let residuals = residuals(base, &machine, runs, &matched, options)?;
+    let warnings = table_replaced(base, &machine).into_iter().collect();
     Ok(Calibration {
         machine,
         report: CalibrationReport {
@@ -404,9 +405,31 @@ pub fn calibrate(
             residuals,
             glitches_rejected: runs.iter().map(|r| r.log.glitches_rejected).sum(),
             controller: None,
-            warnings: Vec::new(),
+            warnings,
         },
     })
+}
+
+/// The warning when the base machine's ELST is a table by energy, which a calibration does not
+/// fit: the fitted machine carries a constant or polynomial model in its place (it once did so
+/// without a word).
+fn table_replaced(base: &Machine, fitted: &Machine) -> Option<String> {
+    let entries = match &base.elst {
+        ElstModel::ByEnergy {
+            up_s_by_energy,
+            down_s_by_energy,
+            ..
+        } => up_s_by_energy.len() + down_s_by_energy.len(),
+        ElstModel::ByEnergyPair { switch_s, .. } => switch_s.iter().map(Vec::len).sum(),
+        ElstModel::Constant { .. } | ElstModel::Polynomial { .. } => return None,
+    };
+    Some(format!(
+        "the base machine's ELST is a table ({}, {entries} entries), which a calibration does not \
+         fit: the fitted machine has a {} model in its place, fitted from the logs' switches \
+         (to keep the table, copy the base machine's `elst` into the fitted file)",
+        base.elst.kind(),
+        fitted.elst.kind()
+    ))
 }
 
 /// The second ELST pass's gaps: those whose switch a simulation on the first fit (`machine`)

@@ -100,6 +100,24 @@ impl ColumnMap {
             }
             map.names.push((f, name.to_string()));
         }
+        // One column per field: `t_s=A,mu=A` (or `mu=t_s`, leaving t_s on its own name) would
+        // read one column as two things.
+        for (i, a) in Field::ALL.iter().enumerate() {
+            if let Some(b) = Field::ALL[i + 1..]
+                .iter()
+                .find(|b| map.column(**b) == map.column(*a))
+            {
+                return Err(LogError::file(
+                    option,
+                    format!(
+                        "{} and {} would both read column \"{}\"; expected one column per field",
+                        a.name(),
+                        b.name(),
+                        map.column(*a)
+                    ),
+                ));
+            }
+        }
         Ok(map)
     }
 

@@ -50,7 +50,8 @@ pub use sample::{
     LONG_GAP_PERIODS,
 };
 pub use virtual_log::{
-    check_options, virtual_log, VirtualLogError, VirtualLogOptions, MAX_LOG_SAMPLES,
+    check_options, virtual_log, VirtualLogError, VirtualLogOptions, MAX_ANGLE_NOISE_DEG,
+    MAX_LOG_SAMPLES,
 };
 pub use write::to_csv;
 

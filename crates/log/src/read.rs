@@ -281,7 +281,7 @@ impl Row<'_> {
             other => {
                 return Err(self.error(
                     bc,
-                    format!("expected 1 (beam on) or 0 (off), found \"{other}\""),
+                    format!("expected 1 or true (beam on), 0 or false (off), found \"{other}\""),
                 ))
             }
         };

@@ -16,6 +16,10 @@ use crate::LogSample;
 /// Most samples a virtual log may have.
 pub const MAX_LOG_SAMPLES: f64 = 5e7;
 
+/// The largest angle noise a virtual log takes (deg, one standard deviation): encoders are good
+/// to hundredths of a degree, and a noise of 1e308 wrote infinite angles that `compare` refuses.
+pub const MAX_ANGLE_NOISE_DEG: f64 = 10.0;
+
 /// How a delivery is sampled.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VirtualLogOptions {
@@ -45,13 +49,13 @@ pub enum VirtualLogError {
     #[error("the delivery has no timeline to sample")]
     NoTimeline,
     /// The period is not a finite number > 0.
-    #[error("log period {0} s; expected a finite number > 0")]
+    #[error("log period {} s; expected a finite number > 0", arcsim_plan::fmt_num(*.0))]
     Period(f64),
-    /// The noise is not a finite number ≥ 0.
-    #[error("angle noise {0} deg; expected a finite number ≥ 0")]
+    /// The noise is not a finite number from 0 to [`MAX_ANGLE_NOISE_DEG`].
+    #[error("angle noise {} deg; expected a number from 0 to {MAX_ANGLE_NOISE_DEG} deg", arcsim_plan::fmt_num(*.0))]
     Noise(f64),
     /// The period would give too many samples.
-    #[error("a {period_s} s log period gives {count:.0} samples of a {duration_s} s delivery; expected at most {MAX_LOG_SAMPLES:.0}")]
+    #[error("a {} s log period gives {} samples of a {} s delivery; expected at most {MAX_LOG_SAMPLES:.0}", arcsim_plan::fmt_num(*.period_s), arcsim_plan::fmt_num(*.count), arcsim_plan::fmt_num(*.duration_s))]
     TooManySamples {
         /// The period asked for.
         period_s: f64,
@@ -126,7 +130,7 @@ pub fn check_options(duration_s: f64, opts: &VirtualLogOptions) -> Result<usize,
     if !(period.is_finite() && period > 0.0) {
         return Err(VirtualLogError::Period(period));
     }
-    if !(opts.angle_noise_deg.is_finite() && opts.angle_noise_deg >= 0.0) {
+    if !(0.0..=MAX_ANGLE_NOISE_DEG).contains(&opts.angle_noise_deg) {
         return Err(VirtualLogError::Noise(opts.angle_noise_deg));
     }
     let count = (duration_s / period).floor() + 2.0;

@@ -459,6 +459,15 @@ fn in_spill_switches_and_spill_waits_are_not_energy_switches() {
     for r in &cal.report.residuals {
         assert!(r.fitted_error_pct.abs() < 1.0, "{r:?}");
     }
+    // Its ELST is a table by energy, which the fit replaces with a constant model: said, as a
+    // warning (`--strict` refuses it), where it once happened without a word.
+    assert!(
+        cal.report.warnings.iter().any(|w| w.contains(
+            "the base machine's ELST is a table (by_energy, 4 entries), which a calibration does not fit: the fitted machine has a constant model in its place"
+        )),
+        "{:?}",
+        cal.report.warnings
+    );
 }
 
 /// Issue 44, finding 3: when the gantry lengthens every downward switch (one layer per control
@@ -501,6 +510,12 @@ fn an_elst_that_no_switch_shows_is_bounded_not_fitted() {
         same_s: 0.0,
     };
     let cal = calibrate(&base, &runs, ElstFit::Constant, &free()).expect("calibrates");
+    // A constant base model is fitted in place: no word of a table.
+    assert!(
+        !cal.report.warnings.iter().any(|w| w.contains("is a table")),
+        "{:?}",
+        cal.report.warnings
+    );
     let v = cal.report.value("elst.down_s").expect("elst.down_s");
     assert!(
         !v.determined && v.value <= shortest + 2.0 * PERIOD_S && v.note.contains("at most"),

@@ -56,7 +56,7 @@ fn every_field_is_checked_where_it_is() {
     let cases = [
         (GOOD.replace("10.2,1", "NaN,1"), "line 4: column gantry_angle_deg: expected a finite number (gantry angle in degrees), found \"NaN\""),
         (GOOD.replace("0.02,", "inf,"), "line 4: column t_s: expected a finite number"),
-        (GOOD.replace("10.1,1", "10.1,2"), "line 3: column beam_on: expected 1 (beam on) or 0 (off), found \"2\""),
+        (GOOD.replace("10.1,1", "10.1,2"), "line 3: column beam_on: expected 1 or true (beam on), 0 or false (off), found \"2\""),
         (GOOD.replace("150.2,0", "-3,0"), "line 3: column energy_mev: -3 MeV"),
         (GOOD.replace("150.2,1,", "150.2,1.5,"), "line 4: column spot: expected a spot index"),
         (GOOD.replace(",0.25", ",-0.25"), "line 4: column mu: -0.25 MU"),
@@ -69,6 +69,17 @@ fn every_field_is_checked_where_it_is() {
             "{e}\nwanted {want}"
         );
     }
+}
+
+/// `true` and `false` are what the error says they are: the same log as 1 and 0.
+#[test]
+fn beam_on_reads_true_and_false_as_its_error_says() {
+    let words = GOOD
+        .replace("10.1,1", "10.1,true")
+        .replace("10.3,0", "10.3,false");
+    assert_ne!(words, GOOD);
+    let (a, b) = (read(&words).expect("words"), read(GOOD).expect("digits"));
+    assert_eq!(a.samples, b.samples);
 }
 
 #[test]
@@ -115,6 +126,12 @@ fn another_csv_reads_through_a_column_mapping() {
         ("time=T", "unknown field \"time\""),
         ("t_s=", "names no column"),
         ("t_s=A,t_s=B", "mapped twice"),
+        // One source for two fields: refused, where it read the column twice.
+        (
+            "t_s=A,mu=A",
+            "t_s and mu would both read column \"A\"; expected one column per field",
+        ),
+        ("mu=t_s", "t_s and mu would both read column \"t_s\""),
     ] {
         let e = ColumnMap::parse(bad, "--columns")
             .expect_err(bad)

@@ -229,7 +229,7 @@ impl Shape {
             if !(d.is_finite() && d >= MIN_SPACING_DEG && d <= span) {
                 return Err(ShapeError {
                     option: "--spacing",
-                    given: format!("{d} deg"),
+                    given: format!("{} deg", crate::fmt_num(d)),
                     expected: format!(
                         "a spacing from {MIN_SPACING_DEG} deg to the {} arc's span, {span} deg",
                         kind.name()
@@ -253,7 +253,7 @@ impl Shape {
             if !(lo.is_finite() && hi.is_finite() && min <= lo && lo + 1.0 <= hi && hi <= max) {
                 return Err(ShapeError {
                     option: "--energy",
-                    given: format!("{lo}-{hi} MeV"),
+                    given: format!("{}-{} MeV", crate::fmt_num(lo), crate::fmt_num(hi)),
                     expected: format!(
                         "LOW-HIGH MeV with {min} <= LOW, LOW + 1 <= HIGH, HIGH <= {max}"
                     ),

@@ -200,9 +200,13 @@ fn search_grid(
     // A positive jerk along travel starts a rising speed.
     let acc_bound = |j: f64| lim.accel_bound(0.0, j);
     // The jerk of a speed change by `dv` over (t_a, t_b, t_a), if it keeps J and the acceleration.
-    let change = |dv: f64, t_a: f64, t_b: f64| -> Option<f64> {
+    // Without a change phase only a rounding's difference of the speeds involved is let pass:
+    // against V instead, a move of micro-degrees over hours (extreme speed 1e-9 °/s with V at
+    // 1e4 °/s) was "reached" without any jerk and the profile did not move at all.
+    let change = |dv: f64, t_a: f64, t_b: f64, c: f64| -> Option<f64> {
         if t_a <= 0.0 {
-            return (dv.abs() <= tol * scale && t_b <= 0.0).then_some(0.0);
+            let speeds = vs.abs().max(ve.abs()).max(c.abs());
+            return (dv.abs() <= tol * speeds && t_b <= 0.0).then_some(0.0);
         }
         let j = dv / (t_a * (t_a + t_b));
         (j.abs() <= lim.max_jerk * (1.0 + tol) && (j * t_a).abs() <= acc_bound(j) * (1.0 + tol))
@@ -242,7 +246,8 @@ fn search_grid(
                         {
                             continue;
                         }
-                        let (Some(j1), Some(j2)) = (change(c - vs, t1, t2), change(ve - c, t4, t5))
+                        let (Some(j1), Some(j2)) =
+                            (change(c - vs, t1, t2, c), change(ve - c, t4, t5, c))
                         else {
                             continue;
                         };

@@ -1,6 +1,6 @@
 //! Joining shard outputs into the table a single run writes.
 
-use super::read::records;
+use super::read::{check_results, records};
 use super::schema::{column_index, Layout, COLUMNS};
 use super::write::write_records;
 use crate::EvalError;
@@ -12,7 +12,9 @@ use crate::EvalError;
 /// header's); indices must not repeat and must be exactly `0..n`, where `n` is the sweep's
 /// combination count: `expected` when given (from the sweep file), and the `combinations`
 /// column of every row (which must agree with each other and with `expected`). A table without
-/// that column (an earlier header's) and no `expected` must cover `0..n` without gaps.
+/// that column (an earlier header's) and no `expected` must cover `0..n` without gaps. Every
+/// row's status must be one a table writes and, for a row that is ok, every result a finite
+/// number not below 0 (the certificate's gap may be).
 pub fn merge_csv(
     inputs: &[(String, String)],
     expected: Option<usize>,
@@ -97,6 +99,7 @@ impl<'a> Merge<'a> {
                 })
             };
             let index = count(index_column, "a row index (a count)")?.unwrap_or_default();
+            check_results(&header, &record, line).map_err(merr)?;
             if let Some(n) = count(size_column, "the sweep's number of combinations")? {
                 self.check_size(n, index, name, line).map_err(merr)?;
             }

@@ -22,7 +22,8 @@
 //!
 //! Every column is defined once, in `COLUMNS`: its name and how a row writes it and reads back
 //! into one. The writer, the reader and the merge all go through that list and the `csv` crate,
-//! so a table read back may have its columns in any order (found by their header name), quoted
+//! so a table read back may have its columns in any order (found by their header name), and
+//! quoted fields, a UTF-8 byte-order mark and CRLF line ends read as well.
 //!
 //! The files: `schema` (the columns and the headers), `write` (a row as a line), `merge` (shard
 //! outputs into one table), `read` (a table back into rows) and `lines` (line numbers of records,

@@ -83,10 +83,22 @@ impl Fields<'_> {
         self.error(format!("column {column}: expected {what}, found {found:?}"))
     }
 
+    /// A result's number: finite, and not below 0 except the certificate's gap (a merged shard
+    /// with `NaN` or `-5` s once became the sweep's fastest delivery).
     fn number(&self, column: &str, text: &str) -> Result<f64, String> {
-        text.trim()
+        let x = text
+            .trim()
             .parse::<f64>()
-            .map_err(|_| self.expected(column, "a number", text))
+            .map_err(|_| self.expected(column, "a number", text))?;
+        if !x.is_finite() || (x < 0.0 && column != "gap_s") {
+            let what = if column == "gap_s" {
+                "a finite number"
+            } else {
+                "a finite number ≥ 0"
+            };
+            return Err(self.expected(column, what, text));
+        }
+        Ok(x)
     }
 
     fn optional(&self, column: &str, text: &str) -> Result<Option<f64>, String> {
@@ -111,8 +123,9 @@ impl Evaluator {
     /// them).
     ///
     /// Columns are found by their name in the header, which must have the columns of
-    /// [`CSV_HEADER`] or the earlier [`CSV_HEADER_V2`] (its rows read back without a
-    /// certificate) or [`CSV_HEADER_V1`], in any order. A V1 table
+    /// [`CSV_HEADER`] or of one earlier header ([`CSV_HEADER_V5`] to [`CSV_HEADER_V1`]; a
+    /// column an earlier header lacks reads back as unknown, and V2 and V1 rows without a
+    /// certificate), in any order. A V1 table
     /// has no beam axes (its rows must be combinations that do not sweep them) and no split of
     /// the beam-on time: its rows read back with `spot_irradiation_s` and `scanning_s` NaN
     /// (unknown). Quoted fields, a UTF-8 byte-order mark and CRLF line ends read as well.
@@ -183,35 +196,58 @@ impl Evaluator {
         if !same {
             return Err(f.error(other_combination(&row)));
         }
-        // The results.
-        let mut outcome = unknown_outcome();
-        for (k, c) in COLUMNS.iter().enumerate() {
-            let Some(t) = f.get(k) else { continue };
-            match c.field {
-                Field::Status => {
-                    row.status = STATUSES
-                        .into_iter()
-                        .find(|s| s.name() == t.trim())
-                        .ok_or_else(|| f.expected(c.name, "ok, infeasible, invalid or error", t))?;
-                }
-                Field::Message => row.message = t.to_string(),
-                _ => {}
-            }
-        }
-        if row.status == Status::Ok {
-            for (k, c) in COLUMNS.iter().enumerate() {
-                let Some(t) = f.get(k) else { continue };
-                match c.field {
-                    Field::Number(_, set) => *set(&mut outcome) = f.number(c.name, t)?,
-                    Field::Optional(_, set) => *set(&mut outcome) = f.optional(c.name, t)?,
-                    Field::Count(_, set) => *set(&mut outcome) = f.count(c.name, t)?,
-                    _ => {}
-                }
-            }
-            row.outcome = Some(outcome);
-        }
+        (row.status, row.message, row.outcome) = results(f)?;
         Ok(row)
     }
+}
+
+/// The status, message and (for a row that is ok) the outcome of a table line, each field
+/// checked: a known status, every number finite and not negative.
+fn results(f: &Fields) -> Result<(Status, String, Option<Outcome>), String> {
+    let mut status = Status::Ok;
+    let mut message = String::new();
+    for (k, c) in COLUMNS.iter().enumerate() {
+        let Some(t) = f.get(k) else { continue };
+        match c.field {
+            Field::Status => {
+                status = STATUSES
+                    .into_iter()
+                    .find(|s| s.name() == t.trim())
+                    .ok_or_else(|| f.expected(c.name, "ok, infeasible, invalid or error", t))?;
+            }
+            Field::Message => message = t.to_string(),
+            _ => {}
+        }
+    }
+    if status != Status::Ok {
+        return Ok((status, message, None));
+    }
+    let mut outcome = unknown_outcome();
+    for (k, c) in COLUMNS.iter().enumerate() {
+        let Some(t) = f.get(k) else { continue };
+        match c.field {
+            Field::Number(_, set) => *set(&mut outcome) = f.number(c.name, t)?,
+            Field::Optional(_, set) => *set(&mut outcome) = f.optional(c.name, t)?,
+            Field::Count(_, set) => *set(&mut outcome) = f.count(c.name, t)?,
+            _ => {}
+        }
+    }
+    Ok((status, message, Some(outcome)))
+}
+
+/// Checks the results of line `line` of a table (`record` under `header`): as a read-back
+/// does, without a sweep to hold the combination against.
+pub(super) fn check_results(
+    header: &Header,
+    record: &StringRecord,
+    line: usize,
+) -> Result<(), String> {
+    results(&Fields {
+        header,
+        record,
+        line,
+    })
+    .map(|_| ())
 }
 
 /// Every status, as a table names them.

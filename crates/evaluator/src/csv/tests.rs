@@ -6,13 +6,16 @@ use super::write::{one_line, write_records};
 use super::*;
 use crate::sweep::Axis;
 
-/// A table of rows `rows` of a sweep of 5 (index, combinations, plan and schedule filled,
-/// the other fields empty).
+/// A table of rows `rows` of a sweep of 5 (index, combinations, plan and schedule filled, the
+/// status `error`, the other fields empty).
 fn file(rows: &[usize], end: &str) -> String {
     let mut s = format!("{CSV_HEADER}{end}");
-    let empty = ",".repeat(COLUMNS.len() - 4);
+    let status = column_index("status");
     for r in rows {
-        s.push_str(&format!("{r},5,p,scan{empty}{end}"));
+        let mut fields = vec![String::new(); COLUMNS.len()];
+        fields[..4].clone_from_slice(&[r.to_string(), "5".into(), "p".into(), "scan".into()]);
+        fields[status] = "error".into();
+        s.push_str(&format!("{}{end}", fields.join(",")));
     }
     s
 }
@@ -81,9 +84,13 @@ fn merge_sorts_and_checks() {
     // A table without the column (an earlier header's) still merges on its indices.
     let v3 = |rows: &[usize]| {
         let mut s = format!("{CSV_HEADER_V3}\n");
+        let names: Vec<&str> = CSV_HEADER_V3.split(',').collect();
+        let status = names.iter().position(|c| *c == "status").expect("status");
         for r in rows {
-            let rest = CSV_HEADER_V3.split(',').count() - 3;
-            s.push_str(&format!("{r},p,scan{}\n", ",".repeat(rest)));
+            let mut fields = vec![String::new(); names.len()];
+            fields[..3].clone_from_slice(&[r.to_string(), "p".into(), "scan".into()]);
+            fields[status] = "error".into();
+            s.push_str(&format!("{}\n", fields.join(",")));
         }
         s
     };

@@ -151,6 +151,19 @@ fn entry_motion(
             Motion::Constant
         }
     });
+    // A schedule the motion does not take (step-and-shoot or prescribed with free motion) would
+    // fail on every row of the sweep: refused here, at the entry.
+    if !motion.accepts_schedule(entry.schedule) {
+        return Err(EvalError::sweep(
+            file,
+            format!("{at}.motion"),
+            format!(
+                "{} chooses its own speeds: expected the optimal or scan schedule with it, not {}",
+                motion.describe(),
+                entry.schedule.name()
+            ),
+        ));
+    }
     if !motion.speed_changes_during_beam() && entry.arc_ends == ArcEnds::Free {
         return Err(EvalError::sweep(
             file,

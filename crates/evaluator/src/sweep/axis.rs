@@ -109,6 +109,11 @@ impl Axis {
         }
     }
 
+    /// Whether the axis takes whole numbers only (a machine applies it rounded down).
+    pub fn is_whole(self) -> bool {
+        matches!(self, Axis::SpillMaxLayers)
+    }
+
     /// Short symbol and unit for tables ("J", "deg/s^3").
     pub fn symbol(self) -> (&'static str, &'static str) {
         match self {

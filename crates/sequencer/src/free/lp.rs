@@ -6,7 +6,8 @@
 //! The rows of E are added along the arc and each variable touches only nearby rows, so the
 //! normal matrix E·D⁻¹·Eᵀ of a Newton step is banded: one step costs O(rows · band²), which is
 //! what makes a transcription with thousands of pieces cheap enough to solve many times per
-//! plan. Variables without bounds get a small primal regularisation.
+//! plan. Every variable's barrier weight gets a small primal regularisation (`REG_PRIMAL`), which
+//! keeps the normal matrix definite where a variable has no bounds.
 
 /// A linear programme in the form above, built variable by variable and row by row.
 #[derive(Clone, Debug, Default)]

@@ -197,8 +197,8 @@ struct State {
 }
 
 /// Solves one arc's free motion: the anchored moves built from the constant-speed schedule
-/// `speeds`, then the refinement of the better of them and that schedule ([`refine`]); the
-/// shorter result. `None` when neither gives a feasible delivery (the constant-speed timeline
+/// `speeds`, then both seeds (the anchored moves and the constant-speed timeline) refined
+/// ([`refine`]), side by side; the shortest of the anchored moves and the two refinements. `None` when neither gives a feasible delivery (the constant-speed timeline
 /// is then the answer; the caller also keeps it when it is shorter).
 pub(crate) fn solve_arc(
     p: &ArcProblem,
