@@ -750,8 +750,35 @@ fn monte_carlo(
     seed: u64,
     plan_path: &Path,
 ) -> Result<arcsim_evaluator::MachineMonteCarlo, CliError> {
-    arcsim_evaluator::machine_monte_carlo(plan, machine, opts, draws, seed)
-        .map_err(|e| CliError::failed(format!("{}: {e}", crate::input::input_name(plan_path))))
+    // A bar on a terminal, and once a few seconds have run, how long the rest will take (it
+    // started 1e5 draws of 36 h without a word).
+    let total = draws * arcsim_evaluator::monte_carlo_passes(machine);
+    let bar = crate::sweep::progress_bar(total)?;
+    let started = std::time::Instant::now();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let estimated = std::sync::atomic::AtomicBool::new(false);
+    let on_draw = || {
+        bar.inc(1);
+        let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        let elapsed = started.elapsed().as_secs_f64();
+        if elapsed >= crate::sweep::ESTIMATE_AFTER_S
+            && !estimated.swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            if let Some(line) = crate::sweep::estimate_line(n, total, elapsed, "simulation") {
+                bar.suspend(|| eprintln!("--monte-carlo {draws}: {line}"));
+            }
+        }
+    };
+    let mc = arcsim_evaluator::machine_monte_carlo_observed(
+        plan,
+        machine,
+        opts,
+        (draws, seed),
+        &on_draw,
+    )
+    .map_err(|e| CliError::failed(format!("{}: {e}", crate::input::input_name(plan_path))));
+    bar.finish_and_clear();
+    mc
 }
 
 fn monte_carlo_lines(m: &arcsim_evaluator::MachineMonteCarlo) -> String {

@@ -102,6 +102,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let ev = pool.install(|| Evaluator::new(sweep)).map_err(failed)?;
     let indices = shard.indices(ev.len());
     announce(&ev, shard, indices.len(), pool.current_num_threads());
+    check_memory(&ev, indices.len(), available_memory_bytes())?;
     save_partial_results_on_ctrl_c();
 
     let bar = progress_bar(indices.len())?;
@@ -243,6 +244,56 @@ fn announce(ev: &Evaluator, shard: Shard, to_run: usize, threads: usize) {
     );
 }
 
+/// Bytes one row held for the summary takes: the row itself and its plan label (a message
+/// where a row failed is short and rare).
+fn row_bytes(ev: &Evaluator) -> usize {
+    let label = ev.sweep().plans.iter().map(|p| p.label.len()).max();
+    std::mem::size_of::<Row>() + label.unwrap_or(0) + 16
+}
+
+/// The memory a sweep's rows may take: `ARCSIM_MEMORY_LIMIT_BYTES` when set (a cap of one's
+/// own, e.g. on a shared node), else what this machine has available (`MemAvailable` of
+/// `/proc/meminfo`), where it says.
+fn available_memory_bytes() -> Option<u64> {
+    if let Some(cap) = std::env::var("ARCSIM_MEMORY_LIMIT_BYTES")
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+    {
+        return Some(cap);
+    }
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses, before any work, a run whose rows (held for the summary) would not fit in
+/// `available` bytes: a sweep of 1e8 rows once started towards 69 GB. Shards hold only their
+/// own rows.
+fn check_memory(ev: &Evaluator, to_run: usize, available: Option<u64>) -> Result<(), CliError> {
+    let need = to_run as u64 * row_bytes(ev) as u64;
+    match available {
+        Some(have) if need > have => Err(CliError::usage(format!(
+            "{} would hold about {} of rows in memory for the summary; this machine has {} \
+             available: run it in shards (--shard K/N, each holds its own rows)",
+            crate::count(to_run, "combination"),
+            bytes_text(need),
+            bytes_text(have)
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// A byte count as "12.3 GB" or "450 MB".
+fn bytes_text(b: u64) -> String {
+    let b = b as f64;
+    if b >= 1e9 {
+        format!("{:.1} GB", b / 1e9)
+    } else {
+        format!("{:.0} MB", (b / 1e6).max(1.0))
+    }
+}
+
 /// The first Ctrl-C (or SIGTERM, SIGHUP) sets [`CANCEL`]: the run stops after the rows in progress
 /// and writes what it has. A second one aborts.
 fn save_partial_results_on_ctrl_c() {
@@ -258,7 +309,7 @@ fn save_partial_results_on_ctrl_c() {
 }
 
 /// A progress bar over `len` combinations on a terminal; hidden otherwise.
-fn progress_bar(len: usize) -> Result<ProgressBar, CliError> {
+pub(crate) fn progress_bar(len: usize) -> Result<ProgressBar, CliError> {
     if !std::io::stderr().is_terminal() {
         return Ok(ProgressBar::hidden());
     }
@@ -305,9 +356,21 @@ fn evaluate(
 ) -> Result<Vec<Row>, CliError> {
     let mut rows: Vec<Row> = Vec::new();
     let started = Instant::now();
+    let mut estimated = false;
+    let total = indices.len();
     let done = pool
         .install(|| {
             ev.run(indices, &CANCEL, |chunk| {
+                // Once the first rows have run for a few seconds: how long the rest will take,
+                // on standard error whether or not a progress bar shows (a job log too).
+                let elapsed = started.elapsed().as_secs_f64();
+                let so_far = rows.len() + chunk.len();
+                if !estimated && elapsed >= ESTIMATE_AFTER_S {
+                    estimated = true;
+                    if let Some(line) = estimate_line(so_far, total, elapsed, "row") {
+                        bar.suspend(|| eprintln!("{line}; Ctrl-C stops and keeps the rows done"));
+                    }
+                }
                 if let Some(f) = csv.as_mut() {
                     let path = f.path().to_path_buf();
                     let w = f.writer();
@@ -334,6 +397,39 @@ fn evaluate(
         rate(done, seconds)
     );
     Ok(rows)
+}
+
+/// Seconds of running after which a long run says how long the rest will take.
+pub(crate) const ESTIMATE_AFTER_S: f64 = 3.0;
+
+/// "about 2.5 h to go (…)" after `done` of `total` units (`noun`s) in `elapsed` seconds, when
+/// the rest is expected to take over a minute; `None` otherwise.
+pub(crate) fn estimate_line(done: usize, total: usize, elapsed: f64, noun: &str) -> Option<String> {
+    if done == 0 || done >= total {
+        return None;
+    }
+    let rest = elapsed / done as f64 * (total - done) as f64;
+    (rest > 60.0).then(|| {
+        format!(
+            "about {} to go at the pace of the first {} ({})",
+            duration_text(rest),
+            crate::count(done, noun),
+            rate(done, elapsed)
+        )
+    })
+}
+
+/// A duration as "45 s", "12 min", "3.4 h" or "2.1 days".
+fn duration_text(s: f64) -> String {
+    if s < 120.0 {
+        format!("{s:.0} s")
+    } else if s < 7200.0 {
+        format!("{:.0} min", s / 60.0)
+    } else if s < 172_800.0 {
+        format!("{:.1} h", s / 3600.0)
+    } else {
+        format!("{:.1} days", s / 86_400.0)
+    }
 }
 
 /// How fast `done` evaluations in `seconds` went, readable at any speed: "120 per second", or
@@ -507,5 +603,26 @@ mod tests {
         assert_eq!(super::rate(300, 2.5), "120 per second");
         assert_eq!(super::rate(5, 42.0), "8.4 s each");
         assert_eq!(super::rate(0, 0.0), "0 per second");
+    }
+
+    /// The estimate: the rest at the first rows' pace, said only when it is over a minute.
+    #[test]
+    fn a_long_sweep_says_how_long_it_will_take() {
+        let line = super::estimate_line(10, 100_010, 3.0, "row").expect("long");
+        assert_eq!(
+            line,
+            "about 8.3 h to go at the pace of the first 10 rows (3 per second)"
+        );
+        assert_eq!(super::estimate_line(10, 100, 3.0, "row"), None);
+        assert_eq!(super::estimate_line(0, 100, 3.0, "row"), None);
+        assert_eq!(super::duration_text(90.0), "90 s");
+        assert_eq!(super::duration_text(3.0 * 86_400.0), "3.0 days");
+    }
+
+    /// Byte counts read as GB or MB.
+    #[test]
+    fn byte_counts_read_short() {
+        assert_eq!(super::bytes_text(69_000_000_000), "69.0 GB");
+        assert_eq!(super::bytes_text(450_000_000), "450 MB");
     }
 }

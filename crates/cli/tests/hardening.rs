@@ -870,3 +870,127 @@ fn angles_print_as_the_gantry_shows_them() {
     assert!(out.contains("177.00 → 179.00"), "{out}");
     assert!(!out.contains("537.00"), "{out}");
 }
+
+/// A sweep whose rows would not fit in memory is refused before any work, with what it would
+/// take and the way out (shards): one of 1e8 rows once started towards 69 GB. The memory it may
+/// take is the machine's available memory, or `ARCSIM_MEMORY_LIMIT_BYTES` (here 1 GB, so the
+/// test does not depend on this machine's).
+#[test]
+fn a_sweep_beyond_memory_is_refused_before_the_work() {
+    let dir = temp_dir();
+    let range = serde_json::json!({ "from": 0.1, "to": 10.0, "steps": 10_000 });
+    let sweep = util::sweep_file(
+        &dir,
+        "huge",
+        "plans/prostate.json",
+        serde_json::json!({ "jerk_deg_per_s3": range, "accel_deg_per_s2": range }),
+    );
+    let started = Instant::now();
+    let o = bin()
+        .args(["sweep", path_str(&sweep)])
+        .env("ARCSIM_MEMORY_LIMIT_BYTES", "1000000000")
+        .output()
+        .expect("run");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("100000000 combinations would hold about")
+            && err.contains("GB of rows in memory for the summary; this machine has 1.0 GB available: run it in shards (--shard K/N"),
+        "{err}"
+    );
+    assert!(!err.contains("evaluated"), "{err}");
+    assert!(started.elapsed() < Duration::from_secs(30));
+    // About 700 bytes a row, as docs/commands.md says.
+    let gb: f64 = err
+        .split("would hold about ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .expect("GB figure");
+    assert!((60.0..=80.0).contains(&gb), "{gb} GB for 1e8 rows");
+}
+
+/// The first line of standard error of `child` that contains `want`, within `limit`; the child
+/// is killed either way.
+fn stderr_line(mut child: std::process::Child, want: &str, limit: Duration) -> Option<String> {
+    use std::io::BufRead;
+    let err = child.stderr.take().expect("stderr piped");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(err).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let deadline = Instant::now() + limit;
+    let mut found = None;
+    while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+        match rx.recv_timeout(left) {
+            Ok(line) if line.contains(want) => {
+                found = Some(line);
+                break;
+            }
+            Ok(_) => {}
+            Err(_) => break,
+        }
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    found
+}
+
+/// A long sweep and a long Monte Carlo say how long they will take once a few seconds have run,
+/// on standard error even without a terminal (a job's log): 1e5 draws of 36 h once started
+/// without a word.
+#[test]
+fn long_runs_say_how_long_they_will_take() {
+    let dir = temp_dir();
+    let jerks: Vec<f64> = (1..=400).map(|i| 0.1 + 0.01 * f64::from(i)).collect();
+    let accels: Vec<f64> = (1..=250).map(|i| 0.1 + 0.004 * f64::from(i)).collect();
+    let sweep = sweep_file(&dir, "long", &jerks, &accels);
+    let child = bin()
+        .args(["sweep", path_str(&sweep), "--threads", "1"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let line = stderr_line(
+        child,
+        "to go at the pace of the first",
+        Duration::from_secs(30),
+    );
+    let line = line.expect("a sweep of 100000 rows says how long it will take");
+    assert!(
+        line.starts_with("about ") && line.ends_with("; Ctrl-C stops and keeps the rows done"),
+        "{line}"
+    );
+
+    let mut v: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenarios/machine-atom.json")).expect("machine"),
+    )
+    .expect("json");
+    v["spread"] = serde_json::json!({"elst_up_sd_s": 0.1, "elst_down_sd_s": 0.05, "beam_time_sd_fraction": 0.0});
+    let machine = dir.join("spread.json");
+    std::fs::write(&machine, v.to_string()).expect("write");
+    let child = bin()
+        .args([
+            "simulate",
+            "plans/prostate.json",
+            "--machine",
+            path_str(&machine),
+            "--monte-carlo",
+            "100000",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let line = stderr_line(
+        child,
+        "--monte-carlo 100000: about",
+        Duration::from_secs(30),
+    );
+    let line = line.expect("1e5 draws say how long they will take");
+    assert!(line.contains("to go at the pace of the first"), "{line}");
+}

@@ -37,7 +37,10 @@ pub use csv::{
 };
 pub use error::EvalError;
 pub use mode::RunMode;
-pub use monte_carlo::{machine_monte_carlo, monte_carlo, MachineMonteCarlo, MonteCarlo, MAX_DRAWS};
+pub use monte_carlo::{
+    machine_monte_carlo, machine_monte_carlo_observed, monte_carlo, monte_carlo_passes,
+    MachineMonteCarlo, MonteCarlo, MAX_DRAWS,
+};
 pub use run::{Evaluator, Outcome, Row, Status};
 pub use shard::{IndexList, Shard, ShardIndices};
 pub use summary::{

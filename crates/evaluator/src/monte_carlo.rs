@@ -75,6 +75,7 @@ fn draws_of(
     opts: &Options,
     (draws, seed): (usize, u64),
     (spreads, parameters): (bool, bool),
+    on_draw: &(dyn Fn() + Sync),
 ) -> Result<MonteCarlo, SequenceError> {
     let draws = draws.clamp(1, MAX_DRAWS);
     let opts = Options {
@@ -101,10 +102,22 @@ fn draws_of(
             let arcs = arcsim_plan::resolve(plan, &drawn_machine)?;
             let limits = machine_limits(&drawn_machine)?;
             let drawn = spread.draw(&arcs, &mut || normal(&mut rng));
-            simulate_resolved(&drawn, &limits, &opts).map(|d| d.total_s)
+            let total = simulate_resolved(&drawn, &limits, &opts).map(|d| d.total_s);
+            on_draw();
+            total
         })
         .collect::<Result<Vec<f64>, SequenceError>>()?;
     Ok(summarise(totals_s, seed, spread))
+}
+
+/// How many simulations [`machine_monte_carlo`] runs per draw: 3 when the machine has both
+/// timing spreads and fitted values' uncertainty (together, then each alone), else 1.
+pub fn monte_carlo_passes(machine: &Machine) -> usize {
+    if machine.spread.is_some() && machine.uncertainty.is_some_and(|u| u.any()) {
+        3
+    } else {
+        1
+    }
 }
 
 /// The Monte Carlo of `plan` on a calibrated `machine`: its timing spreads and its fitted
@@ -117,12 +130,24 @@ pub fn machine_monte_carlo(
     draws: usize,
     seed: u64,
 ) -> Result<MachineMonteCarlo, SequenceError> {
+    machine_monte_carlo_observed(plan, machine, opts, (draws, seed), &|| {})
+}
+
+/// [`machine_monte_carlo`], calling `on_draw` after each simulation (of
+/// [`monte_carlo_passes`] × `draws`), from any thread: a progress display's hook.
+pub fn machine_monte_carlo_observed(
+    plan: &ArcPlan,
+    machine: &Machine,
+    opts: &Options,
+    (draws, seed): (usize, u64),
+    on_draw: &(dyn Fn() + Sync),
+) -> Result<MachineMonteCarlo, SequenceError> {
     let has_spreads = machine.spread.is_some();
     let has_parameters = machine.uncertainty.is_some_and(|u| u.any());
-    let both = draws_of(plan, machine, opts, (draws, seed), (true, true))?;
+    let both = draws_of(plan, machine, opts, (draws, seed), (true, true), on_draw)?;
     let (spreads_only_sd_s, parameters_only_sd_s, dominant) = if has_spreads && has_parameters {
-        let s = draws_of(plan, machine, opts, (draws, seed), (true, false))?.sd_s;
-        let p = draws_of(plan, machine, opts, (draws, seed), (false, true))?.sd_s;
+        let s = draws_of(plan, machine, opts, (draws, seed), (true, false), on_draw)?.sd_s;
+        let p = draws_of(plan, machine, opts, (draws, seed), (false, true), on_draw)?.sd_s;
         (
             Some(s),
             Some(p),

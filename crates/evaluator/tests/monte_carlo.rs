@@ -65,6 +65,17 @@ fn a_fitted_value_s_uncertainty_spreads_the_total_by_its_derivative() {
     );
     assert!(p > 2.0 * s, "systematic {p} against per-switch {s}");
     assert_eq!(mc.dominant, "parameters");
+    // Observed, every simulation is reported once (three passes of 200 draws here), from any
+    // thread, and the result is the same.
+    let seen = std::sync::atomic::AtomicUsize::new(0);
+    let observed =
+        arcsim_evaluator::machine_monte_carlo_observed(&plan, &machine, &opts, (200, 11), &|| {
+            seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        })
+        .expect("draws");
+    assert_eq!(arcsim_evaluator::monte_carlo_passes(&machine), 3);
+    assert_eq!(seen.into_inner(), 600);
+    assert_eq!(observed.both.totals_s, mc.both.totals_s);
     let both = mc.both.sd_s;
     assert!(
         (both / (s * s + p * p).sqrt() - 1.0).abs() < 0.2,
