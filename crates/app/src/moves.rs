@@ -67,8 +67,8 @@ struct Range {
     unit: &'static str,
     lo: f64,
     hi: f64,
-    /// Whether the magnitude is checked (a signed input; 0 allowed).
-    signed: bool,
+    /// Whether the range is of the magnitude (a signed input: a distance, a speed).
+    magnitude: bool,
 }
 
 impl MoveRequest {
@@ -83,21 +83,21 @@ impl MoveRequest {
         ("accel", "deg/s²", 1e-3, 1e4),
         ("decel", "deg/s²", 1e-3, 1e4),
         ("vel", "deg/s", 1e-3, 1e4),
-        ("distance", "deg", 1e-9, 1e5),
+        ("distance", "deg", 0.0, 1e5),
         ("v-start/v-end", "deg/s", 0.0, 1e4),
-        ("min-duration", "s", 0.0, 1e6),
+        ("min-duration", "s", 0.0, 1e13),
         ("period", "s", 1e-5, 10.0),
     ];
 
     /// Checks every input against [`Self::RANGES`] (non-finite values are left to the planner,
     /// which names them).
     pub fn check_ranges(&self) -> Result<(), MoveError> {
-        let r = |i: usize, name: &'static str, signed: bool| Range {
+        let r = |i: usize, name: &'static str, magnitude: bool| Range {
             name,
             unit: Self::RANGES[i].1,
             lo: Self::RANGES[i].2,
             hi: Self::RANGES[i].3,
-            signed,
+            magnitude,
         };
         let mut checks = vec![
             (r(0, "jerk", false), self.jerk_deg_per_s3),
@@ -111,35 +111,30 @@ impl MoveRequest {
             checks.push((r(2, "decel", false), d));
         }
         if let Some(t) = self.min_duration_s {
-            checks.push((r(6, "min-duration", true), t));
+            checks.push((r(6, "min-duration", false), t));
         }
         if let Some(p) = self.period_s {
             checks.push((r(7, "period", false), p));
         }
         for (range, value) in checks {
-            if !value.is_finite() {
+            let size = if range.magnitude { value.abs() } else { value };
+            // Zero (no distance, no minimum duration), negative limits and non-finite values
+            // are the planner's to name; a range refuses only finite numbers beyond it.
+            if !size.is_finite() || size <= 0.0 || (range.lo..=range.hi).contains(&size) {
                 continue;
             }
-            let size = if range.signed { value.abs() } else { value };
-            // Non-positive limits are the planner's "expected > 0" error; a signed zero is fine.
-            if size <= 0.0 {
-                continue;
-            }
-            if size < range.lo || size > range.hi {
-                return Err(MoveError::OutOfRange {
-                    name: range.name,
-                    value,
-                    unit: range.unit,
-                    range: (range.lo, range.hi),
-                    hint: match (range.signed, range.lo > 0.0) {
-                        (true, true) => ", in magnitude, or 0",
-                        (true, false) if value < 0.0 || range.name != "min-duration" => {
-                            ", in magnitude"
-                        }
-                        _ => "",
-                    },
-                });
-            }
+            let hint = match (range.magnitude, range.lo > 0.0) {
+                (true, true) => ", in magnitude, or 0",
+                (true, false) => ", in magnitude",
+                (false, _) => "",
+            };
+            return Err(MoveError::OutOfRange {
+                name: range.name,
+                value,
+                unit: range.unit,
+                range: (range.lo, range.hi),
+                hint,
+            });
         }
         Ok(())
     }
@@ -208,7 +203,8 @@ mod tests {
     fn every_move_inside_the_ranges_is_solved_or_infeasible() {
         let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
         let (llo, lhi) = range("jerk");
-        let (dlo, dhi) = range("distance");
+        // The distance has no lower end: log-uniform down to 1e-12 deg (and 0 below).
+        let (_, dhi) = range("distance");
         let (plo, phi) = range("period");
         let (_, thi) = range("min-duration");
         let mut solved = 0;
@@ -217,7 +213,7 @@ mod tests {
             let vel = rng.log_in(llo, lhi);
             let distance = match case % 7 {
                 0 => 0.0,
-                _ => rng.log_in(dlo, dhi) * if rng.next() < 0.3 { -1.0 } else { 1.0 },
+                _ => rng.log_in(1e-12, dhi) * if rng.next() < 0.3 { -1.0 } else { 1.0 },
             };
             let speed = |rng: &mut Rng| match (rng.next() * 4.0) as u32 {
                 0 => 0.0,

@@ -6,6 +6,7 @@ mod cli;
 mod controller_figures;
 mod csv_tables;
 mod docs_examples;
+mod edges;
 mod free_motion_oracle;
 mod hardening;
 mod log_tools;
