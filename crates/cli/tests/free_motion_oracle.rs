@@ -4,7 +4,8 @@
 //! by dense re-integration against every limit, window, irradiation time and ELST, and the test
 //! fails when that verified answer is shorter than arcsim's free-motion total by more than 0.05 %
 //! (more on the two plans of [`KNOWN_GAPS`]), or a case has no verified answer. Cases: the three ATOM article cases on the ATOM machine with
-//! rest and free arc ends, and the bundled plans on their default machine with rest ends.
+//! rest and free arc ends, and the bundled plans on their default machine with rest ends; and,
+//! in a test ignored for issue 45, three bundled plans on the faster machine.
 //!
 //! The script runs in a virtual environment under the target directory with CasADi (pinned) and
 //! numpy from the package index, two cases at a time: about 1.5 minutes on 2 cores (the 722-layer
@@ -35,13 +36,18 @@ fn skip_or_fail(why: &str) {
     arcsim_test_support::skip_or_fail("the free-motion oracle", why);
 }
 
-#[test]
-fn no_independent_optimiser_beats_free_motion() {
+/// Runs the oracle on `only` (its names; empty: its default cases) and returns its cases (the
+/// result JSON) and whether the script exited 0 or 1; `None` when it was skipped (no Python or
+/// package index outside CI).
+fn run_oracle(only: &[&str]) -> Option<(Vec<serde_json::Value>, bool)> {
     let _turn = crate::util::one_heavy_test_at_a_time();
     let repo = util::repo();
     let python = match util::python() {
         Ok(python) => python,
-        Err(e) => return skip_or_fail(&e),
+        Err(e) => {
+            skip_or_fail(&e);
+            return None;
+        }
     };
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("free-motion-oracle");
     let venv = work.join("venv");
@@ -50,27 +56,31 @@ fn no_independent_optimiser_beats_free_motion() {
     if !venv.join("bin/python").exists() {
         if let Err(e) = run(Command::new(&python).args(["-m", "venv"]).arg(&venv)) {
             let _ = std::fs::remove_dir_all(&venv);
-            return skip_or_fail(&e);
+            skip_or_fail(&e);
+            return None;
         }
     }
     let py = venv.join("bin/python");
     if let Err(e) = util::pip_install(&py, PACKAGES) {
-        return skip_or_fail(&e);
+        skip_or_fail(&e);
+        return None;
     }
 
-    let result = work.join("result.json");
+    let result = work.join(format!("result{}.json", only.join("+")));
     let _ = std::fs::remove_file(&result);
-    let out = Command::new(&py)
-        .arg(repo.join("tests/oracle/free_motion_ipopt.py"))
+    let mut cmd = Command::new(&py);
+    cmd.arg(repo.join("tests/oracle/free_motion_ipopt.py"))
         .arg("--arcsim")
         .arg(env!("CARGO_BIN_EXE_arcsim"))
         .arg("--repo")
         .arg(&repo)
         .arg("--out")
         .arg(&result)
-        .args(["--jobs", "2"])
-        .output()
-        .expect("run the oracle");
+        .args(["--jobs", "2"]);
+    if !only.is_empty() {
+        cmd.arg("--only").args(only);
+    }
+    let out = cmd.output().expect("run the oracle");
     let text = format!(
         "{}{}",
         String::from_utf8_lossy(&out.stdout),
@@ -82,8 +92,13 @@ fn no_independent_optimiser_beats_free_motion() {
             .unwrap_or_else(|e| panic!("the oracle wrote no result ({e}):\n{text}")),
     )
     .expect("oracle result JSON");
-    let cases = json["cases"].as_array().expect("cases");
-    assert_eq!(cases.len(), 10, "every case ran:\n{text}");
+    let cases = json["cases"].as_array().expect("cases").clone();
+    Some((cases, matches!(out.status.code(), Some(0 | 1))))
+}
+
+/// The cases where the oracle's verified answer is shorter than arcsim's by more than the gap
+/// allowed (`known`, else [`GAP`]), or that have no verified answer.
+fn beaten(cases: &[serde_json::Value], known: &[(&str, f64)]) -> Vec<String> {
     let mut failures = Vec::new();
     for c in cases {
         let name = format!(
@@ -92,7 +107,7 @@ fn no_independent_optimiser_beats_free_motion() {
             c["ends"].as_str().unwrap_or("?")
         );
         let arcsim = c["arcsim_total_s"].as_f64().expect("arcsim total");
-        let gap = KNOWN_GAPS
+        let gap = known
             .iter()
             .find(|(plan, _)| c["case"].as_str() == Some(plan))
             .map_or(GAP, |&(_, g)| g);
@@ -109,6 +124,20 @@ fn no_independent_optimiser_beats_free_motion() {
             Some(_) => {}
         }
     }
+    failures
+}
+
+#[test]
+fn no_independent_optimiser_beats_free_motion() {
+    let Some((cases, script_ran)) = run_oracle(&[]) else {
+        return;
+    };
+    assert_eq!(
+        cases.len(),
+        10,
+        "every case ran (the oracle's output is above)"
+    );
+    let failures = beaten(&cases, KNOWN_GAPS);
     // The oracle's log and table are printed above.
     assert!(
         failures.is_empty(),
@@ -117,8 +146,30 @@ fn no_independent_optimiser_beats_free_motion() {
     );
     // The script exits 1 when a case misses its own 0.05 % (the known gaps above); anything else
     // is a failure of the script itself.
-    assert!(
-        matches!(out.status.code(), Some(0 | 1)),
-        "the oracle failed (its output is above)"
+    assert!(script_ran, "the oracle failed (its output is above)");
+}
+
+/// The bundled lung, prostate and two-arc plans on the faster machine
+/// (`scenarios/machine-fast.json`), which the cases above do not cover. Measured 2026-12-06:
+/// prostate −0.048 %, two-arc −0.024 %, but lung −6.23 % (the oracle verifies 84.82 s against
+/// arcsim's 90.45 s): the refinement stops far from the optimum there.
+#[test]
+#[ignore = "issue 45: on machine-fast the bundled lung plan's free motion is 6.2 % longer than the independent optimiser's (90.45 s against 84.82 s); run with --ignored"]
+fn no_independent_optimiser_beats_free_motion_on_a_faster_machine() {
+    let only = ["lung-fast", "prostate-fast", "two-arc-fast"];
+    let Some((cases, script_ran)) = run_oracle(&only) else {
+        return;
+    };
+    assert_eq!(
+        cases.len(),
+        only.len(),
+        "every case ran (the oracle's output is above)"
     );
+    let failures = beaten(&cases, &[]);
+    assert!(
+        failures.is_empty(),
+        "free motion is not within reach of the independent optimiser:\n{}",
+        failures.join("\n")
+    );
+    assert!(script_ran, "the oracle failed (its output is above)");
 }
