@@ -11,16 +11,6 @@ use arcsim_test_support::temp_dir;
 
 use crate::util::{self, arcsim, bin, path_str, repo, stderr, stdout};
 
-/// A sweep file of the prostate plan with `scan` over the given jerks × accelerations.
-fn sweep_file(dir: &Path, name: &str, jerks: &[f64], accels: &[f64]) -> std::path::PathBuf {
-    util::sweep_file(
-        dir,
-        name,
-        "plans/prostate.json",
-        serde_json::json!({ "jerk_deg_per_s3": jerks, "accel_deg_per_s2": accels }),
-    )
-}
-
 /// `profile` solves moves only inside its documented ranges: a jerk of 1e-300 was "planner
 /// self-check failed (a bug)" and a distance of 1e300 printed 300-digit durations; both exit 2
 /// naming the option and the range, in a short message. A batch row out of range is an error
@@ -140,10 +130,7 @@ fn calibrate_help_names_a_plan_and_its_log() {
 /// as the gantry shows them (177°, not 537°).
 #[test]
 fn angles_print_as_the_gantry_shows_them() {
-    let mut v: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("plans/prostate.json")).expect("plan"),
-    )
-    .expect("json");
+    let mut v = util::repo_json("plans/prostate.json");
     for cp in v["arcs"][0]["control_points"]
         .as_array_mut()
         .expect("control points")
@@ -237,7 +224,7 @@ fn long_runs_say_how_long_they_will_take() {
     let dir = temp_dir();
     let jerks: Vec<f64> = (1..=400).map(|i| 0.1 + 0.01 * f64::from(i)).collect();
     let accels: Vec<f64> = (1..=250).map(|i| 0.1 + 0.004 * f64::from(i)).collect();
-    let sweep = sweep_file(&dir, "long", &jerks, &accels);
+    let sweep = util::prostate_sweep(&dir, "long", &jerks, &accels);
     let child = bin()
         .args(["sweep", path_str(&sweep), "--threads", "1"])
         .stdout(Stdio::null())
@@ -255,10 +242,7 @@ fn long_runs_say_how_long_they_will_take() {
         "{line}"
     );
 
-    let mut v: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("scenarios/machine-atom.json")).expect("machine"),
-    )
-    .expect("json");
+    let mut v = util::repo_json("scenarios/machine-atom.json");
     v["spread"] = serde_json::json!({"elst_up_sd_s": 0.1, "elst_down_sd_s": 0.05, "beam_time_sd_fraction": 0.0});
     let machine = dir.join("spread.json");
     std::fs::write(&machine, v.to_string()).expect("write");

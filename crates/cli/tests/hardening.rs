@@ -19,12 +19,7 @@ fn small_sweep(dir: &Path, name: &str, jerks: &[f64]) -> PathBuf {
 }
 
 fn sweep_file(dir: &Path, name: &str, jerks: &[f64], accels: &[f64]) -> PathBuf {
-    util::sweep_file(
-        dir,
-        name,
-        "plans/prostate.json",
-        serde_json::json!({ "jerk_deg_per_s3": jerks, "accel_deg_per_s2": accels }),
-    )
+    util::prostate_sweep(dir, name, jerks, accels)
 }
 
 #[test]
@@ -432,10 +427,7 @@ fn clearer_errors_for_careless_input() {
     );
 
     // Terminal escapes in a name are shown, not obeyed; huge numbers stay short.
-    let mut v: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("plans/prostate.json")).expect("plan"),
-    )
-    .expect("json");
+    let mut v = util::repo_json("plans/prostate.json");
     v["name"] = serde_json::json!("evil\u{1b}[2J\u{1b}[31mred");
     let named = dir.join("named.json");
     std::fs::write(&named, v.to_string()).expect("write");
@@ -456,10 +448,7 @@ fn clearer_errors_for_careless_input() {
 #[test]
 fn extreme_limits_are_refused_with_the_range() {
     let dir = temp_dir();
-    let mut m: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("scenarios/machine-atom.json")).expect("machine"),
-    )
-    .expect("json");
+    let mut m = util::repo_json("scenarios/machine-atom.json");
     m["gantry"]["max_jerk_deg_per_s3"] = serde_json::json!(1e7);
     let path = dir.join("m.json");
     std::fs::write(&path, m.to_string()).expect("write");

@@ -52,6 +52,22 @@ pub fn sweep_file(dir: &Path, name: &str, plan: &str, axes: serde_json::Value) -
     path
 }
 
+/// A sweep file of the bundled prostate plan with `scan` over the given jerks × accelerations.
+pub fn prostate_sweep(dir: &Path, name: &str, jerks: &[f64], accels: &[f64]) -> PathBuf {
+    sweep_file(
+        dir,
+        name,
+        "plans/prostate.json",
+        serde_json::json!({ "jerk_deg_per_s3": jerks, "accel_deg_per_s2": accels }),
+    )
+}
+
+/// A JSON file of the repository (`plans/…`, `scenarios/…`), parsed, to edit in a test.
+pub fn repo_json(rel: &str) -> serde_json::Value {
+    let text = std::fs::read_to_string(repo().join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
 /// Runs `cmd` to its end: its standard output and error as text, or (when it cannot start or
 /// fails) the command and that text as the error.
 pub fn run(cmd: &mut Command) -> Result<String, String> {
