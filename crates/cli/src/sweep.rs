@@ -545,12 +545,12 @@ pub fn merge(args: MergeArgs) -> Result<(), CliError> {
     let whole = match sweep {
         Some(sweep) => {
             let ev = Evaluator::new(sweep).map_err(failed)?;
+            // The shards' rows, in index order, are the merged table's: each is read once.
+            let mut rows = Vec::new();
             for (name, text) in &inputs {
-                ev.rows_from_csv(name, text).map_err(failed)?;
+                rows.extend(ev.rows_from_csv(name, text).map_err(failed)?);
             }
-            let rows = ev
-                .rows_from_csv(&args.out.display().to_string(), &merged)
-                .map_err(failed)?;
+            rows.sort_by_key(|r| r.index);
             let summary = summarize(&ev, &rows)?;
             Some((ev, rows, summary))
         }
