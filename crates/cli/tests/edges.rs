@@ -3,13 +3,12 @@
 //! printed past 360°, a help line, sweeps beyond memory, long runs that said nothing of their
 //! length.
 
-use std::path::Path;
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use arcsim_test_support::temp_dir;
 
-use crate::util::{self, arcsim, bin, path_str, repo, stderr, stdout};
+use crate::util::{self, arcsim, bin, path_str, stderr, stdout};
 
 /// `profile` solves moves only inside its documented ranges: a jerk of 1e-300 was "planner
 /// self-check failed (a bug)" and a distance of 1e300 printed 300-digit durations; both exit 2
