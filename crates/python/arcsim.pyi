@@ -130,6 +130,11 @@ class Delivery:
     def margins(self) -> Optional[Dict[str, Any]]: ...
     @property
     def lost_time(self) -> Dict[str, Any]: ...
+    @property
+    def switching(self) -> Dict[str, Any]:
+        """Energy switches by class (by_class) and band of energy step (by_step): count, elst_s,
+        time_s, lost_s; small_upward: the upward steps below 1 MeV with their control points and
+        cost_s (ELST beyond the quicker switch), as `arcsim simulate` prints them."""
     def certify(self) -> Dict[str, float]:
         """Constant-speed deliveries: a proven lower bound of every constant-speed schedule
         (lower_bound_s) and the gap to it (gap_s), as `simulate --certify`; ValueError for free
@@ -239,6 +244,19 @@ def simulate(
     """`arcsim simulate`: schedule "optimal", "scan", "prescribed", "step-and-shoot" or None
     (the machine's controller's); motion "free", "constant" or None (the machine's
     controller); period_s a servo period. Raises PlanError, SimulationError."""
+
+def resequence(
+    plan: Plan,
+    machine: Optional[Machine] = None,
+    schedule: Optional[str] = None,
+    motion: Optional[str] = None,
+    turn_arcs: bool = False,
+    search_layers: Optional[int] = None,
+) -> Tuple[Plan, Dict[str, Any]]:
+    """`arcsim resequence`: the plan with each control point's layers in the order the machine
+    delivers fastest (the same spots, MU, energies and control points, checked) and a report
+    (total_before_s, total_after_s, resequenced, moved_layers, switching_before/after,
+    candidates). The plan as given where no order is faster."""
 
 def schedule_arrays(
     irradiation_times_s: _Floats,

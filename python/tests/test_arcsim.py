@@ -64,6 +64,7 @@ def test_simulate_equals_the_cli(tmp_path, plan, schedule, motion):
     assert d.breakdown == expected["breakdown"]
     assert d.limiter_counts == expected["limiter_counts"]
     assert d.options == (schedule, expected["options"]["motion"], "rest")
+    assert d.switching == expected["switching"]
 
 
 def test_certify_equals_the_cli(tmp_path):
@@ -757,3 +758,25 @@ def test_compare_calibrate_and_monte_carlo(tmp_path):
         arcsim.simulate(runs[0][0], made_up).monte_carlo(3)
     with pytest.raises(ValueError, match="elst"):
         arcsim.calibrate(made_up, runs, elst="cubic")
+
+
+def test_resequence_equals_the_cli(tmp_path):
+    # Each control point's layers in ascending energy: re-sequencing has upward switches to remove.
+    plan = json.loads(Path("plans/lung.json").read_text())
+    for arc in plan["arcs"]:
+        for cp in arc["control_points"]:
+            cp["layers"].sort(key=lambda l: l["energy_mev"])
+    src = tmp_path / "ascending.json"
+    src.write_text(json.dumps(plan))
+    out, report_path = tmp_path / "out.json", tmp_path / "report.json"
+    code, stdout, err = cli("resequence", str(src), "-o", str(out), "--json", str(report_path))
+    assert code == 0, err
+    expected = json.loads(report_path.read_text())
+    got_plan, report = arcsim.resequence(arcsim.load_plan(str(src)))
+    assert report["resequenced"] and expected["resequenced"]
+    assert report["total_after_s"] == expected["total_after_s"] < expected["total_before_s"]
+    assert report["switching_after"] == expected["switching_after"]
+    assert json.loads(got_plan.to_json()) == json.loads(out.read_text())
+    # The written plan simulates to the reported total.
+    again = arcsim.simulate(arcsim.load_plan(str(out)))
+    assert again.total_s == report["total_after_s"]

@@ -66,6 +66,8 @@ pub struct ResultDocument<'a> {
     /// (`simulate --monte-carlo`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub monte_carlo: Option<serde_json::Value>,
+    /// The plan's energy switches by class and step, with the small upward steps and their cost.
+    pub switching: Option<arcsim_sequencer::Switching>,
 }
 
 /// Where a plan or machine came from: its name in messages (a path) and the SHA-256 of its bytes.
@@ -124,6 +126,14 @@ impl<'a> ResultDocument<'a> {
             spots: None,
             certificate: None,
             monte_carlo: None,
+            switching: arcsim_plan::resolve(plan, from.machine).ok().map(|arcs| {
+                arcsim_sequencer::Switching::of(
+                    &arcs,
+                    Some(delivery),
+                    &from.machine.elst,
+                    arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
+                )
+            }),
         }
     }
 

@@ -13,8 +13,10 @@ mod input;
 mod output;
 mod profile;
 mod report;
+mod resequence;
 mod simulate;
 mod sweep;
+mod switching;
 mod table;
 mod validate;
 mod viewer;
@@ -63,6 +65,9 @@ enum Command {
     Calibrate(calibrate::Args),
     /// Join the CSV outputs of `sweep --shard K/N` into the single-run table.
     SweepMerge(sweep::MergeArgs),
+    /// Deliver the same dose faster: the layers of each control point in the order the machine
+    /// delivers fastest (every spot, MU, energy and control point kept, checked before writing).
+    Resequence(resequence::Args),
 }
 
 /// `arcsim profile --help`: what the printed result means.
@@ -181,6 +186,7 @@ fn main() -> ExitCode {
         Command::SweepMerge(args) => sweep::merge(args),
         Command::Compare(args) => compare::run(args),
         Command::Calibrate(args) => calibrate::run(args),
+        Command::Resequence(args) => resequence::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

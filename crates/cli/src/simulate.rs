@@ -908,6 +908,15 @@ pub fn run(args: Args) -> Result<(), CliError> {
         None => None,
     };
     let mut text = summary(&delivery, &plan.name, &machine.name);
+    if let Ok(arcs) = arcsim_plan::resolve(&plan, &machine) {
+        let sw = arcsim_sequencer::Switching::of(
+            &arcs,
+            Some(&delivery),
+            &machine.elst,
+            arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
+        );
+        text.push_str(&crate::switching::lines(&sw));
+    }
     insert_controller_lines(&mut text, &controller, &delivery);
     if let Some(c) = &certificate {
         text.push_str(&certificate_lines(c, delivery.total_s, delivery.motion));

@@ -31,11 +31,16 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let control_points: usize = plan.arcs.iter().map(|a| a.control_points.len()).sum();
     let layers: Vec<_> = arcs.iter().flat_map(|a| &a.layers).collect();
     let beam_on: f64 = layers.iter().map(|l| l.irradiation_s).sum();
-    let switching: f64 = layers.iter().map(|l| l.switch_in_s).sum();
-    let upward = layers
-        .windows(2)
-        .filter(|w| w[1].energy_mev > w[0].energy_mev)
-        .count();
+    let switching_s: f64 = layers.iter().map(|l| l.switch_in_s).sum();
+    let switching = arcsim_sequencer::Switching::of(
+        &arcs,
+        None,
+        &machine.elst,
+        arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
+    );
+    let upward = switching
+        .class(arcsim_sequencer::SwitchKind::Up)
+        .map_or(0, |g| g.count);
     crate::output::println(&format!(
         "{}: valid ({})",
         crate::input::input_name(&args.plan),
@@ -49,8 +54,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         crate::count(upward, "upward energy switch")
     ));
     crate::output::println(&format!(
-        "  on machine \"{}\": beam-on time {beam_on:.1} s, energy switching {switching:.1} s",
+        "  on machine \"{}\": beam-on time {beam_on:.1} s, energy switching {switching_s:.1} s",
         machine.name
     ));
+    crate::output::print(&crate::switching::lines(&switching));
     Ok(())
 }

@@ -17,6 +17,7 @@ mod probe;
 mod profile_reversal;
 mod python;
 mod report;
+mod resequence;
 mod slurm;
 mod spots;
 mod sweep_beam;

@@ -17,6 +17,7 @@ mod inputs;
 mod log;
 mod logtools;
 mod profile;
+mod resequence;
 mod simulate;
 mod sweep;
 
@@ -81,6 +82,7 @@ fn arcsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(logtools::calibrate, m)?)?;
     m.add_class::<simulate::Delivery>()?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(resequence::resequence, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::schedule_arrays, m)?)?;
     m.add_class::<profile::Profile>()?;
     m.add_function(wrap_pyfunction!(profile::profile, m)?)?;

@@ -171,6 +171,22 @@ impl Delivery {
         serde_to_py(py, &self.delivery.lost_time)
     }
 
+    /// The energy switches by class and band of energy step (count, ELST, time taken and lost),
+    /// and the upward steps below 1 MeV with their control points and cost (dict; as `arcsim
+    /// simulate` prints them and writes them under `switching` in its JSON).
+    #[getter]
+    fn switching<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let arcs = arcsim_plan::resolve(&self.plan, &self.machine)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let switching = arcsim_sequencer::Switching::of(
+            &arcs,
+            Some(&self.delivery),
+            &self.machine.elst,
+            arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
+        );
+        serde_to_py(py, &switching)
+    }
+
     /// Schedule, motion and arc ends used, e.g. ("optimal", "free", "rest").
     #[getter]
     fn options(&self) -> (&'static str, &'static str, &'static str) {

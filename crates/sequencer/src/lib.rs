@@ -41,6 +41,7 @@ mod servo;
 mod simulate;
 mod spots;
 mod stops;
+mod switching;
 mod timeline;
 mod types;
 mod verify;
@@ -50,6 +51,9 @@ pub use lost::{GapClass, LostGroup, LostTime, LostTransition, SwitchKind};
 pub use progress::{Observer, Progress};
 pub use raise::{move_duration, raised_limits, LIMIT_RAISE_FACTOR};
 pub use spots::{spot_timeline, SpotRow};
+pub use switching::{
+    SmallUpwardStep, SwitchGroup, Switching, SMALL_UPWARD_STEP_MEV, STEP_BANDS_MEV,
+};
 pub use timeline::{GantryState, Piece, PieceKind, Timeline};
 pub use types::{
     ArcEnds, Breakdown, Delivery, LayerRow, Limiter, LimiterCounts, LimitsOut, Margin, Margins,

@@ -8,4 +8,5 @@ mod one_speed;
 mod properties;
 mod small_arcs;
 mod spots;
+mod switching;
 mod util;

@@ -1,0 +1,270 @@
+//! Issue 48: what the plan's energy order costs (the switching table of `simulate` and
+//! `validate`, the small upward steps located) and `arcsim resequence`, as a user runs them.
+
+use std::path::Path;
+
+use arcsim_test_support::temp_dir;
+use serde_json::Value;
+
+use crate::util::{arcsim, path_str, repo_json, stderr, stdout};
+
+/// Each control point's layers sorted by energy, ascending or descending.
+fn sorted(mut plan: Value, ascending: bool) -> Value {
+    for arc in plan["arcs"].as_array_mut().expect("arcs") {
+        for cp in arc["control_points"]
+            .as_array_mut()
+            .expect("control points")
+        {
+            let layers = cp["layers"].as_array_mut().expect("layers");
+            layers.sort_by(|a, b| {
+                let (a, b) = (a["energy_mev"].as_f64(), b["energy_mev"].as_f64());
+                let o = a.partial_cmp(&b).expect("energies");
+                if ascending {
+                    o
+                } else {
+                    o.reverse()
+                }
+            });
+        }
+    }
+    plan
+}
+
+fn write(dir: &Path, name: &str, v: &Value) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, v.to_string()).expect("write");
+    path_str(&p).to_string()
+}
+
+fn report(dir: &Path, args: &[&str]) -> Value {
+    let out = dir.join("report.json");
+    let mut all = vec!["resequence"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--json", path_str(&out)]);
+    let o = arcsim(&all);
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_str(&std::fs::read_to_string(&out).expect("report")).expect("json")
+}
+
+fn total(plan: &str) -> f64 {
+    let dir = temp_dir();
+    let json = dir.join("total.json");
+    let o = arcsim(&["simulate", plan, "--json", path_str(&json)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
+    v["total_s"].as_f64().expect("total_s")
+}
+
+/// A generated two-arc plan of 800–900 layers (2–4 per control point) with each control point's
+/// layers in ascending energy: re-sequencing recovers at least the time of the same plan in
+/// descending order; the written plan simulates to the reported total.
+#[test]
+fn resequencing_an_ascending_plan_recovers_the_descending_time() {
+    let dir = temp_dir();
+    let gen = dir.join("gen.json");
+    let o = arcsim(&[
+        "generate-plan",
+        "--kind",
+        "two-arc",
+        "--spacing",
+        "2.5",
+        "--layers",
+        "2-4",
+        "--energy",
+        "70-230",
+        "-o",
+        path_str(&gen),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(&gen).expect("plan")).expect("json");
+    let layers: usize = plan["arcs"]
+        .as_array()
+        .expect("arcs")
+        .iter()
+        .flat_map(|a| a["control_points"].as_array().expect("cps"))
+        .map(|cp| cp["layers"].as_array().expect("layers").len())
+        .sum();
+    assert!((800..=900).contains(&layers), "{layers} layers");
+    let up = write(&dir, "ascending.json", &sorted(plan.clone(), true));
+    let down = write(&dir, "descending.json", &sorted(plan, false));
+    let out = dir.join("out.json");
+    let r = report(&dir, &[&up, "-o", path_str(&out)]);
+    let descending = total(&down);
+    let after = r["total_after_s"].as_f64().expect("after");
+    let before = r["total_before_s"].as_f64().expect("before");
+    assert!(
+        after <= descending * (1.0 + 1e-9),
+        "re-sequenced {after} s, the descending plan {descending} s (ascending {before} s)"
+    );
+    assert!(
+        before - after > 100.0,
+        "only {} s recovered",
+        before - after
+    );
+    assert_eq!(total(path_str(&out)), after);
+    let ups = |k: &str| {
+        r[k]["by_class"]
+            .as_array()
+            .expect("classes")
+            .iter()
+            .find(|g| g["switch"] == "up")
+            .map_or(0, |g| g["count"].as_u64().unwrap_or(0))
+    };
+    assert!(ups("switching_after") < ups("switching_before") / 2, "{r}");
+}
+
+/// docs/commands.md's figures are what `resequence` reports on the plan its commands make, and on
+/// that plan with each control point's layers ascending.
+#[test]
+fn the_commands_doc_figures_are_what_resequence_reports() {
+    let dir = temp_dir();
+    let gen = dir.join("two-arc-large.json");
+    let o = arcsim(&[
+        "generate-plan",
+        "--kind",
+        "two-arc",
+        "--spacing",
+        "2.5",
+        "--layers",
+        "2-4",
+        "--energy",
+        "70-230",
+        "-o",
+        path_str(&gen),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&dir, &[path_str(&gen)]);
+    let f = |k: &str| r[k].as_f64().expect(k);
+    let plain = format!(
+        "saves {:.2} s ({:.2} → {:.2} s; {} layers\nmoved)",
+        f("total_before_s") - f("total_after_s"),
+        f("total_before_s"),
+        f("total_after_s"),
+        r["moved_layers"]
+    );
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(&gen).expect("plan")).expect("json");
+    let up = write(&dir, "ascending.json", &sorted(plan, true));
+    let r = report(&dir, &[&up]);
+    let f = |k: &str| r[k].as_f64().expect(k);
+    let ascending = format!(
+        "takes {:.2} s and\nre-sequencing brings it to {:.2} s",
+        f("total_before_s"),
+        f("total_after_s")
+    );
+    let doc = std::fs::read_to_string(crate::util::repo().join("docs/commands.md")).expect("doc");
+    let doc = doc.replace("\r\n", "\n");
+    assert!(doc.contains(&plain), "docs/commands.md should say: {plain}");
+    assert!(
+        doc.contains(&ascending),
+        "docs/commands.md should say: {ascending}"
+    );
+}
+
+/// A bundled plan is never slower: on each, re-sequencing keeps the plan or finds a shorter one,
+/// and says which.
+#[test]
+fn bundled_plans_are_never_slower() {
+    let dir = temp_dir();
+    for name in ["prostate", "lung", "two-arc", "head-neck"] {
+        let plan = format!("plans/{name}.json");
+        let r = report(&dir, &[&plan]);
+        let (b, a) = (
+            r["total_before_s"].as_f64().expect("b"),
+            r["total_after_s"].as_f64().expect("a"),
+        );
+        assert!(a <= b, "{name}: {a} > {b}");
+        assert_eq!(r["resequenced"].as_bool(), Some(a < b), "{name}");
+    }
+}
+
+/// Small upward steps (a layer a fraction of an MeV above the one before it): `validate` names
+/// them with their control points and cost, `simulate` prints the switching table and writes it,
+/// and re-sequencing removes those it can (here: all, each being inside a control point).
+#[test]
+fn small_upward_steps_are_named_costed_and_removed() {
+    let dir = temp_dir();
+    let mut plan = repo_json("plans/lung.json");
+    // Three two-layer control points: the second layer 0.4 MeV above the first.
+    let mut planted = Vec::new();
+    for (c, cp) in plan["arcs"][0]["control_points"]
+        .as_array_mut()
+        .expect("cps")
+        .iter_mut()
+        .enumerate()
+    {
+        let layers = cp["layers"].as_array_mut().expect("layers");
+        if layers.len() == 2 && planted.len() < 3 {
+            let e = layers[0]["energy_mev"].as_f64().expect("energy");
+            layers[1]["energy_mev"] = serde_json::json!(((e + 0.4) * 10.0).round() / 10.0);
+            planted.push(c);
+        }
+    }
+    assert_eq!(planted.len(), 3);
+    let path = write(&dir, "small-steps.json", &plan);
+    let o = arcsim(&["validate", &path]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("3 upward steps below 1 MeV: 15.00 s"),
+        "{text}"
+    );
+    for c in &planted {
+        assert!(
+            text.lines()
+                .any(|l| l.split_whitespace().take(4).collect::<Vec<_>>()
+                    == ["0", &c.to_string(), "→", &c.to_string()]),
+            "control point {c} not named:\n{text}"
+        );
+    }
+    let json = dir.join("sim.json");
+    let o = arcsim(&["simulate", &path, "--json", path_str(&json)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("energy switches by class and step"),
+        "{}",
+        stdout(&o)
+    );
+    let v: Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
+    assert_eq!(
+        v["switching"]["small_upward"].as_array().map(Vec::len),
+        Some(3)
+    );
+    assert_eq!(v["switching"]["small_upward_cost_s"].as_f64(), Some(15.0));
+    let r = report(&dir, &[&path]);
+    assert_eq!(
+        r["switching_before"]["small_upward"]
+            .as_array()
+            .map(Vec::len),
+        Some(3)
+    );
+    assert_eq!(
+        r["switching_after"]["small_upward"]
+            .as_array()
+            .map(Vec::len),
+        Some(0),
+        "{r}"
+    );
+}
+
+/// Outputs are checked before any work: the plan is never overwritten, DICOM write-back is
+/// refused with the reason.
+#[test]
+fn resequence_refuses_unsafe_or_unavailable_outputs() {
+    let dir = temp_dir();
+    let plan = write(&dir, "p.json", &repo_json("plans/lung.json"));
+    let o = arcsim(&["resequence", &plan, "-o", &plan]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let dcm = dir.join("p.dcm");
+    let o = arcsim(&["resequence", &plan, "-o", path_str(&dcm)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("DICOM RT Ion Plan back is not available"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dcm.exists());
+}

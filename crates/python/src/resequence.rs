@@ -1,0 +1,108 @@
+//! `resequence`: the same dose delivered faster, as `arcsim resequence` finds it.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use arcsim_app::{sha256_hex, SimulateRequest, Source};
+use arcsim_resequence::{check_same_dose, resequence as find, ArcFreedom, ResequenceOptions};
+use pyo3::prelude::*;
+use pyo3::types::PyAny;
+
+use crate::convert::serde_to_py;
+use crate::inputs::{Machine, Plan};
+use crate::simulate::{motion_of, schedule_opt};
+use crate::{PlanError, SimulationError};
+
+/// The plan with each control point's layers in the order the machine delivers fastest (every
+/// spot, MU, energy and control point kept, checked), and a report (dict: total_before_s,
+/// total_after_s, resequenced, moved_layers, switching before and after, candidates), as `arcsim
+/// resequence` prints and writes them. `turn_arcs` also tries arcs turned and reordered;
+/// `search_layers` is the search's budget in layers simulated (None: the CLI's default). The
+/// plan as given is returned where no order is faster. The GIL is released while it runs.
+#[pyfunction]
+#[pyo3(signature = (plan, machine=None, schedule=None, motion=None, turn_arcs=false, search_layers=None))]
+pub fn resequence<'py>(
+    py: Python<'py>,
+    plan: &Bound<'py, Plan>,
+    machine: Option<&Bound<'py, Machine>>,
+    schedule: Option<&str>,
+    motion: Option<&str>,
+    turn_arcs: bool,
+    search_layers: Option<usize>,
+) -> PyResult<(Plan, Bound<'py, PyAny>)> {
+    let plan = plan.get();
+    let builtin;
+    let machine = match machine {
+        Some(m) => m.get(),
+        None => {
+            builtin = Machine::builtin();
+            &builtin
+        }
+    };
+    let request = SimulateRequest {
+        schedule: schedule_opt(schedule)?,
+        motion: motion_of(motion)?,
+        arc_ends: arcsim_sequencer::ArcEnds::Rest,
+        period_s: None,
+    };
+    let (simulation, _, controller) = request.resolve(&plan.plan, &machine.machine);
+    let opts = ResequenceOptions {
+        simulation,
+        arcs: if turn_arcs {
+            ArcFreedom::Turn
+        } else {
+            ArcFreedom::Keep
+        },
+        search_layer_budget: search_layers.unwrap_or(arcsim_resequence::SEARCH_LAYER_BUDGET),
+        exhaustive: true,
+    };
+    let result = py.detach(|| {
+        catch_unwind(AssertUnwindSafe(|| {
+            find(&plan.plan, &machine.machine, &opts)
+        }))
+    });
+    let out = match result {
+        Ok(Ok(out)) => out,
+        Ok(Err(arcsim_resequence::ResequenceError::Original(
+            e @ arcsim_sequencer::SequenceError::Plan(_),
+        ))) => return Err(PlanError::new_err(e.to_string())),
+        Ok(Err(e)) => return Err(SimulationError::new_err(e.to_string())),
+        Err(_) => {
+            return Err(SimulationError::new_err(
+                "re-sequencing panicked (a bug in arcsim)",
+            ))
+        }
+    };
+    check_same_dose(&plan.plan, &out.plan)
+        .map_err(|e| SimulationError::new_err(format!("a bug: {e}")))?;
+    let switching = |p: &arcsim_plan::ArcPlan, d: &arcsim_sequencer::Delivery| {
+        arcsim_plan::resolve(p, &machine.machine).ok().map(|arcs| {
+            arcsim_sequencer::Switching::of(
+                &arcs,
+                Some(d),
+                &machine.machine.elst,
+                arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
+            )
+        })
+    };
+    let report = serde_json::json!({
+        "controller": controller,
+        "total_before_s": out.before.total_s,
+        "total_after_s": out.after.total_s,
+        "resequenced": out.chosen.is_some(),
+        "moved_layers": out.moved_layers,
+        "switching_before_s": out.switching_before_s,
+        "switching_after_s": out.switching_after_s,
+        "switching_before": switching(&plan.plan, &out.before),
+        "switching_after": switching(&out.plan, &out.after),
+        "candidates": out.candidates,
+    });
+    let json = arcsim_plan::to_json(&out.plan);
+    let resequenced = Plan {
+        plan: out.plan,
+        source: Source {
+            file: format!("resequence({})", plan.source.file),
+            sha256: sha256_hex(json.as_bytes()),
+        },
+    };
+    Ok((resequenced, serde_to_py(py, &report)?))
+}

@@ -1,0 +1,530 @@
+//! Candidates and the choice: for each arrangement of the arcs allowed (as planned, or each arc
+//! turned and the arcs reordered), the layer order of least switching time; every candidate
+//! simulated on the machine's controller; the shortest kept only where it is shorter than the
+//! plan as given, and only once it is proven to deliver the same dose.
+
+use arcsim_plan::{ArcPlan, Machine, RotationDirection};
+use arcsim_planner::Limits;
+use arcsim_sequencer::{machine_limits, simulate, Delivery, Options, SequenceError};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::{best_orders, best_orders_by, check_same_dose, order_cost_s, DoseChange, GantryCost};
+
+/// What may change besides the order of layers inside a control point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ArcFreedom {
+    /// Arcs as planned: their order and directions.
+    #[default]
+    Keep,
+    /// Each arc may be delivered the other way round (the same control points, the energy order
+    /// then judged the other way), and the arcs in another order: every direction for up to 4
+    /// arcs, every order for up to 3.
+    Turn,
+}
+
+/// How to re-sequence.
+#[derive(Clone, Debug)]
+pub struct ResequenceOptions {
+    /// The simulation that judges each candidate (the machine's controller).
+    pub simulation: Options,
+    /// What may change besides the layer order.
+    pub arcs: ArcFreedom,
+    /// The search's budget in layers simulated ([`SEARCH_LAYER_BUDGET`] by default; 0: none).
+    pub search_layer_budget: usize,
+    /// Where every order of an arrangement fits the budget, simulate them all (exact); else, and
+    /// when false, the orders found without simulating and a local search.
+    pub exhaustive: bool,
+}
+
+impl Default for ResequenceOptions {
+    fn default() -> Self {
+        ResequenceOptions {
+            simulation: Options::default(),
+            arcs: ArcFreedom::Keep,
+            search_layer_budget: SEARCH_LAYER_BUDGET,
+            exhaustive: true,
+        }
+    }
+}
+
+/// One arrangement tried, with its simulated total.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Candidate {
+    /// The original arc delivered in each place.
+    pub arc_order: Vec<usize>,
+    /// Per place: whether that arc is turned the other way.
+    pub reversed: Vec<bool>,
+    /// Σ switching time in this candidate's order (s).
+    pub switching_s: f64,
+    /// Its simulated total (s); `None` where it could not be delivered.
+    pub total_s: Option<f64>,
+    /// Why it could not be delivered.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+/// What re-sequencing found.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The plan to deliver: the shortest candidate, or the original where none is shorter.
+    pub plan: ArcPlan,
+    /// The original's delivery.
+    pub before: Delivery,
+    /// The chosen plan's delivery (the original's when nothing is shorter).
+    pub after: Delivery,
+    /// Σ switching time of the original order (s).
+    pub switching_before_s: f64,
+    /// Σ switching time of the chosen plan (s).
+    pub switching_after_s: f64,
+    /// Index in `candidates` of the one chosen; `None`: the original is kept.
+    pub chosen: Option<usize>,
+    /// Layers not at their place in their control point's list (chosen plan, its own arc
+    /// direction).
+    pub moved_layers: usize,
+    /// Every candidate, in the order tried.
+    pub candidates: Vec<Candidate>,
+}
+
+/// Why a plan could not be re-sequenced.
+#[derive(Debug, thiserror::Error)]
+pub enum ResequenceError {
+    /// The plan as given cannot be simulated.
+    #[error("{0}")]
+    Original(SequenceError),
+    /// A candidate failed the dose check (a bug: nothing is written).
+    #[error(
+        "a re-sequenced plan does not deliver the original's dose (a bug; nothing written): {0}"
+    )]
+    Dose(DoseChange),
+}
+
+/// `plan` with its arcs in `order` (original indices), each turned where `reversed` says.
+pub fn arrange(plan: &ArcPlan, order: &[usize], reversed: &[bool]) -> ArcPlan {
+    let mut out = plan.clone();
+    out.arcs = order
+        .iter()
+        .zip(reversed)
+        .filter_map(|(&i, &rev)| {
+            let mut arc = plan.arcs.get(i)?.clone();
+            if rev {
+                arc.control_points.reverse();
+                arc.direction = match arc.direction {
+                    RotationDirection::Cw => RotationDirection::Cc,
+                    RotationDirection::Cc => RotationDirection::Cw,
+                };
+            }
+            Some(arc)
+        })
+        .collect();
+    out
+}
+
+/// Every permutation of `0..n`, in lexicographic order.
+fn permutations(n: usize) -> Vec<Vec<usize>> {
+    if n == 0 {
+        return vec![Vec::new()];
+    }
+    let mut out = Vec::new();
+    for rest in permutations(n - 1) {
+        for at in 0..=rest.len() {
+            let mut p = rest.clone();
+            p.insert(at, n - 1);
+            out.push(p);
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The arrangements of `n` arcs `freedom` allows, the plan's own first.
+fn arrangements(n: usize, freedom: ArcFreedom) -> Vec<(Vec<usize>, Vec<bool>)> {
+    let identity: Vec<usize> = (0..n).collect();
+    if freedom == ArcFreedom::Keep || n == 0 {
+        return vec![(identity, vec![false; n])];
+    }
+    let orders = if n <= 3 {
+        permutations(n)
+    } else {
+        vec![identity]
+    };
+    let turns: Vec<Vec<bool>> = if n <= 4 {
+        (0..1usize << n)
+            .map(|m| (0..n).map(|i| m & (1 << i) != 0).collect())
+            .collect()
+    } else {
+        vec![vec![false; n], vec![true; n]]
+    };
+    let mut out = Vec::new();
+    for o in &orders {
+        for t in &turns {
+            out.push((o.clone(), t.clone()));
+        }
+    }
+    out
+}
+
+/// `plan` with each control point's layers in `orders`' order.
+fn reordered(plan: &ArcPlan, orders: &[Vec<Vec<usize>>]) -> (ArcPlan, usize) {
+    let mut out = plan.clone();
+    let mut moved = 0;
+    for (arc, arc_orders) in out.arcs.iter_mut().zip(orders) {
+        for (cp, order) in arc.control_points.iter_mut().zip(arc_orders) {
+            if order.len() != cp.layers.len() {
+                continue;
+            }
+            moved += order.iter().enumerate().filter(|(i, &l)| *i != l).count();
+            cp.layers = order.iter().map(|&l| cp.layers[l].clone()).collect();
+        }
+    }
+    (out, moved)
+}
+
+/// One candidate: its arrangement, plan, layers moved and simulation.
+struct Built {
+    order: Vec<usize>,
+    reversed: Vec<bool>,
+    plan: ArcPlan,
+    moved: usize,
+    delivery: Result<Delivery, SequenceError>,
+}
+
+/// The local search's budget: whole passes are run while their simulations, counted in layers
+/// simulated, fit in this (a 20-layer arc gets about a thousand simulations, an 800-layer plan
+/// none: there the orders found without simulating stand).
+pub const SEARCH_LAYER_BUDGET: usize = 20_000;
+
+/// Control points with more layers than this are left out of the local search (k! orders each).
+const SEARCH_MAX_LAYERS: usize = 5;
+
+type Orders = Vec<Vec<Vec<usize>>>;
+
+/// The `i`-th of every order of control points of `sizes` layers (mixed radix, the first
+/// control point fastest; each control point's orders as [`permutations`] lists them).
+fn nth_order(sizes: &[Vec<usize>], mut i: usize) -> Orders {
+    sizes
+        .iter()
+        .map(|arc| {
+            arc.iter()
+                .map(|&k| {
+                    let all = permutations(k);
+                    let pick = i % all.len();
+                    i /= all.len();
+                    all[pick].clone()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The orders of one arrangement found without simulating: least switching time; least estimated
+/// switch duration with each layer at the fastest speed its sub-window allows; and, for the
+/// plan's own arrangement, at the speeds the plan as given was flown at.
+fn orders_without_simulating(
+    arranged: &ArcPlan,
+    machine: &Machine,
+    limits: Limits,
+    as_given: Option<&Delivery>,
+) -> Vec<Orders> {
+    let mut out = vec![best_orders(arranged, &machine.elst)];
+    let fastest = |_: usize, _: usize| None;
+    if let Ok(cost) = GantryCost::new(arranged, machine, limits, &fastest) {
+        out.push(best_orders_by(arranged, &|a, b| cost.switch_s(a, b)));
+    }
+    if let Some(d) = as_given {
+        let offsets: Vec<usize> = arranged
+            .arcs
+            .iter()
+            .scan(0, |n, a| {
+                let at = *n;
+                *n += a.control_points.len();
+                Some(at)
+            })
+            .collect();
+        let flown = |g: usize, l: usize| {
+            let arc = offsets.iter().rposition(|&o| o <= g)?;
+            d.layers
+                .iter()
+                .find(|r| r.arc == arc && r.control_point == g - offsets[arc] && r.layer == l)
+                .map(|r| r.speed_deg_per_s)
+        };
+        if let Ok(cost) = GantryCost::new(arranged, machine, limits, &flown) {
+            out.push(best_orders_by(arranged, &|a, b| cost.switch_s(a, b)));
+        }
+    }
+    out.dedup();
+    out
+}
+
+/// First-improvement local search by simulation from `start`: the layers of one control point
+/// in every other order, then of two neighbouring control points together, kept where the whole
+/// plan's simulated total falls; passes until one improves nothing or the next would not fit the
+/// budget.
+fn local_search(
+    arranged: &ArcPlan,
+    machine: &Machine,
+    opts: &ResequenceOptions,
+    start: (Orders, Delivery),
+) -> (Orders, Delivery) {
+    let (mut orders, mut best) = start;
+    let layers: usize = best.layers.len().max(1);
+    let cps: Vec<(usize, usize, usize)> = arranged
+        .arcs
+        .iter()
+        .enumerate()
+        .flat_map(|(a, arc)| {
+            arc.control_points
+                .iter()
+                .enumerate()
+                .map(move |(c, cp)| (a, c, cp.layers.len()))
+        })
+        .filter(|&(_, _, k)| (2..=SEARCH_MAX_LAYERS).contains(&k))
+        .collect();
+    let fact = |k: usize| (1..=k).product::<usize>();
+    // Neighbourhoods: single control points, then neighbouring pairs (same arc).
+    let singles: Vec<Vec<(usize, usize, usize)>> = cps.iter().map(|&x| vec![x]).collect();
+    let pairs: Vec<Vec<(usize, usize, usize)>> = cps
+        .windows(2)
+        .filter(|w| w[0].0 == w[1].0 && w[1].1 == w[0].1 + 1)
+        .map(|w| w.to_vec())
+        .collect();
+    let mut budget = opts.search_layer_budget;
+    for moves in [singles, pairs] {
+        let pass_cost: usize = moves
+            .iter()
+            .map(|m| (m.iter().map(|&(_, _, k)| fact(k)).product::<usize>() - 1) * layers)
+            .sum();
+        while pass_cost > 0 && pass_cost <= budget {
+            budget -= pass_cost;
+            let mut improved = false;
+            for m in &moves {
+                let current: Vec<Vec<usize>> =
+                    m.iter().map(|&(a, c, _)| orders[a][c].clone()).collect();
+                let choices: Vec<Vec<Vec<usize>>> =
+                    m.iter().map(|&(_, _, k)| permutations(k)).collect();
+                let mut at = vec![0usize; m.len()];
+                'odometer: loop {
+                    let mut o = orders.clone();
+                    for (i, &(a, c, _)) in m.iter().enumerate() {
+                        o[a][c] = choices[i][at[i]].iter().map(|&j| current[i][j]).collect();
+                    }
+                    if o != orders {
+                        let (p, _) = reordered(arranged, &o);
+                        if let Ok(d) = simulate(&p, machine, &opts.simulation) {
+                            if d.total_s < best.total_s - 1e-9 {
+                                orders = o;
+                                best = d;
+                                improved = true;
+                            }
+                        }
+                    }
+                    let mut i = 0;
+                    loop {
+                        if i == m.len() {
+                            break 'odometer;
+                        }
+                        at[i] += 1;
+                        if at[i] < choices[i].len() {
+                            break;
+                        }
+                        at[i] = 0;
+                        i += 1;
+                    }
+                }
+            }
+            if !improved {
+                break;
+            }
+        }
+    }
+    (orders, best)
+}
+
+/// The candidates of one arrangement: the orders found without simulating, each simulated; then
+/// a local search by simulation from the shortest, as far as the budget allows.
+fn search(
+    plan: &ArcPlan,
+    machine: &Machine,
+    limits: Limits,
+    opts: &ResequenceOptions,
+    (order, reversed): (Vec<usize>, Vec<bool>),
+    as_given: Option<&Delivery>,
+) -> Vec<Built> {
+    let arranged = arrange(plan, &order, &reversed);
+    let sizes: Vec<Vec<usize>> = arranged
+        .arcs
+        .iter()
+        .map(|a| a.control_points.iter().map(|cp| cp.layers.len()).collect())
+        .collect();
+    let layers: usize = sizes.iter().flatten().sum();
+    let count = sizes
+        .iter()
+        .flatten()
+        .try_fold(1usize, |n, &k| n.checked_mul((1..=k).product::<usize>()));
+    if let Some(n) =
+        count.filter(|n| opts.exhaustive && n.saturating_mul(layers) <= opts.search_layer_budget)
+    {
+        // Every order, simulated; the shortest kept.
+        let best = (0..n)
+            .into_par_iter()
+            .filter_map(|i| {
+                let o = nth_order(&sizes, i);
+                let (p, moved) = reordered(&arranged, &o);
+                let d = simulate(&p, machine, &opts.simulation).ok()?;
+                Some((d.total_s, i, p, moved, d))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        return best
+            .into_iter()
+            .map(|(_, _, p, moved, d)| Built {
+                order: order.clone(),
+                reversed: reversed.clone(),
+                plan: p,
+                moved,
+                delivery: Ok(d),
+            })
+            .collect();
+    }
+    let found = orders_without_simulating(&arranged, machine, limits, as_given);
+    let simulated: Vec<(Orders, ArcPlan, usize, Result<Delivery, SequenceError>)> = found
+        .into_par_iter()
+        .map(|o| {
+            let (p, moved) = reordered(&arranged, &o);
+            let d = simulate(&p, machine, &opts.simulation);
+            (o, p, moved, d)
+        })
+        .collect();
+    let shortest = simulated
+        .iter()
+        .filter_map(|(o, _, _, d)| d.as_ref().ok().map(|d| (o, d)))
+        .min_by(|a, b| a.1.total_s.total_cmp(&b.1.total_s))
+        .map(|(o, d)| (o.clone(), d.clone()));
+    let mut out: Vec<Built> = simulated
+        .into_iter()
+        .map(|(_, p, moved, delivery)| Built {
+            order: order.clone(),
+            reversed: reversed.clone(),
+            plan: p,
+            moved,
+            delivery,
+        })
+        .collect();
+    if let Some(start) = shortest {
+        let before = start.1.total_s;
+        let (o, d) = local_search(&arranged, machine, opts, start);
+        if d.total_s < before {
+            let (p, moved) = reordered(&arranged, &o);
+            out.push(Built {
+                order,
+                reversed,
+                plan: p,
+                moved,
+                delivery: Ok(d),
+            });
+        }
+    }
+    out
+}
+
+/// Re-sequences `plan` on `machine` (see the module docs). The original is kept unless a
+/// candidate's simulated total is shorter; every candidate is proven dose-neutral first.
+pub fn resequence(
+    plan: &ArcPlan,
+    machine: &Machine,
+    opts: &ResequenceOptions,
+) -> Result<Outcome, ResequenceError> {
+    let before = simulate(plan, machine, &opts.simulation).map_err(ResequenceError::Original)?;
+    let limits = machine_limits(machine).map_err(ResequenceError::Original)?;
+    let searched: Vec<Vec<Built>> = arrangements(plan.arcs.len(), opts.arcs)
+        .into_par_iter()
+        .map(|(order, reversed)| {
+            let own = order.iter().enumerate().all(|(i, &a)| i == a) && !reversed.contains(&true);
+            search(
+                plan,
+                machine,
+                limits,
+                opts,
+                (order, reversed),
+                own.then_some(&before),
+            )
+        })
+        .collect();
+    let mut built: Vec<Built> = Vec::new();
+    for b in searched.into_iter().flatten() {
+        if !built.iter().any(|o| o.plan == b.plan) {
+            check_same_dose(plan, &b.plan).map_err(ResequenceError::Dose)?;
+            built.push(b);
+        }
+    }
+    let mut candidates = Vec::new();
+    let mut best: Option<(usize, f64)> = None;
+    for (i, b) in built.iter().enumerate() {
+        let (total_s, error) = match &b.delivery {
+            Ok(d) => (Some(d.total_s), None),
+            Err(e) => (None, Some(e.to_string())),
+        };
+        if let Some(t) = total_s {
+            if t < before.total_s - 1e-9 && best.is_none_or(|(_, b)| t < b) {
+                best = Some((i, t));
+            }
+        }
+        candidates.push(Candidate {
+            arc_order: b.order.clone(),
+            reversed: b.reversed.clone(),
+            switching_s: order_cost_s(&b.plan, &machine.elst),
+            total_s,
+            error,
+        });
+    }
+    let switching_before_s = order_cost_s(plan, &machine.elst);
+    let chosen = best.map(|(i, _)| i);
+    let (plan_out, after, moved_layers) = match chosen.map(|i| (i, &built[i])) {
+        Some((
+            i,
+            Built {
+                plan: p,
+                moved,
+                delivery: Ok(d),
+                ..
+            },
+        )) => {
+            let mut p = p.clone();
+            p.description = Some(description(plan, &candidates[i], *moved));
+            (p, d.clone(), *moved)
+        }
+        _ => (plan.clone(), before.clone(), 0),
+    };
+    Ok(Outcome {
+        switching_after_s: order_cost_s(&plan_out, &machine.elst),
+        plan: plan_out,
+        before,
+        after,
+        switching_before_s,
+        chosen,
+        moved_layers,
+        candidates,
+    })
+}
+
+/// The re-sequenced plan's description: the original's, and what changed.
+fn description(plan: &ArcPlan, c: &Candidate, moved: usize) -> String {
+    let mut what = format!("{moved} layers reordered inside their control points");
+    let turned: Vec<String> = c
+        .reversed
+        .iter()
+        .zip(&c.arc_order)
+        .filter(|(r, _)| **r)
+        .map(|(_, a)| a.to_string())
+        .collect();
+    if !turned.is_empty() {
+        what.push_str(&format!("; arcs turned: {}", turned.join(", ")));
+    }
+    if c.arc_order.windows(2).any(|w| w[0] > w[1]) {
+        let order: Vec<String> = c.arc_order.iter().map(|a| a.to_string()).collect();
+        what.push_str(&format!("; arcs in the order {}", order.join(", ")));
+    }
+    match &plan.description {
+        Some(d) => format!("{d} (re-sequenced by arcsim, same dose: {what})"),
+        None => format!("re-sequenced by arcsim, same dose: {what}"),
+    }
+}

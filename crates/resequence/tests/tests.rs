@@ -1,0 +1,5 @@
+//! The integration tests of `arcsim-resequence`, one module per file, linked into one test binary.
+
+mod brute_force;
+mod dose;
+mod util;
