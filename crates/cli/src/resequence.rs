@@ -202,26 +202,38 @@ pub fn run(args: Args) -> Result<(), CliError> {
         crate::output::println(&format!("wrote {}", path.display()));
     }
     if let Some(path) = &args.json {
-        let doc = serde_json::json!({
-            "format": "arcsim-resequence/1",
-            "plan": plan.name,
-            "machine": machine.name,
-            "controller": controller,
-            "total_before_s": out.before.total_s,
-            "total_after_s": out.after.total_s,
-            "resequenced": out.chosen.is_some(),
-            "moved_layers": out.moved_layers,
-            "switching_before_s": out.switching_before_s,
-            "switching_after_s": out.switching_after_s,
-            "breakdown_before": out.before.breakdown,
-            "breakdown_after": out.after.breakdown,
-            "switching_before": before,
-            "switching_after": after,
-            "candidates": out.candidates,
-        });
-        let text = serde_json::to_string_pretty(&doc)
-            .map_err(|e| CliError::failed(format!("--json: {e}")))?;
-        crate::output::write_file(path, text.as_bytes())?;
+        write_report(path, &plan, &machine, &controller, &out, (&before, &after))?;
     }
     Ok(())
+}
+
+/// `--json`: the before/after report (`arcsim-resequence/1`, docs/results.md).
+fn write_report(
+    path: &std::path::Path,
+    plan: &ArcPlan,
+    machine: &Machine,
+    controller: &arcsim_app::ControllerUsed,
+    out: &Outcome,
+    (before, after): (&Switching, &Switching),
+) -> Result<(), CliError> {
+    let doc = serde_json::json!({
+        "format": "arcsim-resequence/1",
+        "plan": plan.name,
+        "machine": machine.name,
+        "controller": controller,
+        "total_before_s": out.before.total_s,
+        "total_after_s": out.after.total_s,
+        "resequenced": out.chosen.is_some(),
+        "moved_layers": out.moved_layers,
+        "switching_before_s": out.switching_before_s,
+        "switching_after_s": out.switching_after_s,
+        "breakdown_before": out.before.breakdown,
+        "breakdown_after": out.after.breakdown,
+        "switching_before": before,
+        "switching_after": after,
+        "candidates": out.candidates,
+    });
+    let text =
+        serde_json::to_string_pretty(&doc).map_err(|e| CliError::failed(format!("--json: {e}")))?;
+    crate::output::write_file(path, text.as_bytes())
 }

@@ -901,22 +901,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         true => Some(certificate(&plan, &machine, &delivery, &args.plan)?),
         false => None,
     };
-    let monte_carlo = match args.monte_carlo {
-        Some(n) => Some(monte_carlo(
-            &plan, &machine, &opts, n, args.seed, &args.plan,
-        )?),
-        None => None,
-    };
+    let monte_carlo = (args.monte_carlo)
+        .map(|n| monte_carlo(&plan, &machine, &opts, n, args.seed, &args.plan))
+        .transpose()?;
     let mut text = summary(&delivery, &plan.name, &machine.name);
-    if let Ok(arcs) = arcsim_plan::resolve(&plan, &machine) {
-        let sw = arcsim_sequencer::Switching::of(
-            &arcs,
-            Some(&delivery),
-            &machine.elst,
-            arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
-        );
-        text.push_str(&crate::switching::lines(&sw));
-    }
+    text.push_str(&crate::switching::of_delivery(&plan, &machine, &delivery));
     insert_controller_lines(&mut text, &controller, &delivery);
     if let Some(c) = &certificate {
         text.push_str(&certificate_lines(c, delivery.total_s, delivery.motion));

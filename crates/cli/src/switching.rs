@@ -28,6 +28,24 @@ fn row(s: &mut String, class: &str, band: &str, g: &SwitchGroup) {
     );
 }
 
+/// The switching table of a delivery of `plan` on `machine` (empty if the plan does not resolve,
+/// which a simulated plan does).
+pub fn of_delivery(
+    plan: &arcsim_plan::ArcPlan,
+    machine: &arcsim_plan::Machine,
+    d: &arcsim_sequencer::Delivery,
+) -> String {
+    match arcsim_plan::resolve(plan, machine) {
+        Ok(arcs) => lines(&Switching::of(
+            &arcs,
+            Some(d),
+            &machine.elst,
+            arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
+        )),
+        Err(_) => String::new(),
+    }
+}
+
 /// The table of switches (a class's total, then its bands) and the small upward steps.
 pub fn lines(sw: &Switching) -> String {
     let mut s = String::new();
