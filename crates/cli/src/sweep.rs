@@ -139,10 +139,35 @@ pub fn run(args: Args) -> Result<(), CliError> {
             if let Some(line) = certificate_line(&rows) {
                 crate::output::print(&line);
             }
+            crate::output::print(&resequenced_lines(ev.sweep()));
             Ok(())
         }
         None => Err(interrupted(&args, rows.len(), indices.len())),
     }
+}
+
+/// With the sweep file's `resequence`: what re-sequencing does to each plan on the base machine,
+/// beside what the gantry's axes buy in the table above.
+fn resequenced_lines(sweep: &arcsim_evaluator::Sweep) -> String {
+    let mut s = String::new();
+    if sweep.resequenced.is_empty() {
+        return s;
+    }
+    s.push_str("re-sequenced (same dose; on the base machine, its controller):\n");
+    for r in &sweep.resequenced {
+        let saved = r.before_s - r.after_s;
+        s.push_str(&format!(
+            "  {}: {:.2} → {:.2} s ({:.2} s, {:.1} %; {} moved), rows \"{}\"\n",
+            crate::output::printable(&r.label),
+            r.before_s,
+            r.after_s,
+            saved,
+            100.0 * saved / r.before_s,
+            crate::count(r.moved_layers, "layer"),
+            crate::output::printable(&r.twin)
+        ));
+    }
+    s
 }
 
 /// With `"certify": true`, a line per motion: how many rows are certified and the largest gap

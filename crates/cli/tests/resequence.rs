@@ -268,3 +268,95 @@ fn resequence_refuses_unsafe_or_unavailable_outputs() {
     );
     assert!(!dcm.exists());
 }
+
+/// A sweep file's `resequence: [false, true]` runs each plan as given and re-sequenced, beside
+/// the gantry's axes: the twin's rows carry `(re-sequenced)`, its base-machine total is what
+/// `resequence` reports, and the sweep says what re-sequencing bought. `true` runs twins only;
+/// `[]` is refused naming the field.
+#[test]
+fn a_sweep_runs_plans_as_given_and_resequenced() {
+    let dir = temp_dir();
+    let up = write(
+        &dir,
+        "ascending.json",
+        &sorted(repo_json("plans/lung.json"), true),
+    );
+    let machine = crate::util::repo().join("scenarios/machine-atom.json");
+    let sweep = |name: &str, resequence: Value| {
+        let v = serde_json::json!({
+            "format": "arcsim-sweep/1", "name": "reseq", "plans": [up],
+            "machine": path_str(&machine),
+            "axes": {"jerk_deg_per_s3": [0.5, 1]},
+            "schedules": ["optimal"], "resequence": resequence
+        });
+        write(&dir, name, &v)
+    };
+    let csv = dir.join("rows.csv");
+    let o = arcsim(&[
+        "sweep",
+        &sweep("both.json", serde_json::json!([false, true])),
+        "--out",
+        path_str(&csv),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    // Rows are labelled by the plan's path relative to the sweep file.
+    let (label, twin) = ("ascending.json", "ascending.json (re-sequenced)");
+    assert_eq!(
+        text.lines().filter(|l| l.contains(twin)).count(),
+        2,
+        "{text}"
+    );
+    assert_eq!(
+        text.lines()
+            .filter(|l| l.contains(label) && !l.contains(twin))
+            .count(),
+        2
+    );
+    let r = report(&dir, &[&up]);
+    let after = r["total_after_s"].as_f64().expect("after");
+    let line = stdout(&o)
+        .lines()
+        .find(|l| l.trim_start().starts_with(&format!("{label}: ")))
+        .map(str::to_string)
+        .unwrap_or_else(|| panic!("no re-sequencing line:\n{}", stdout(&o)));
+    assert!(
+        line.contains(&format!("→ {after:.2} s")),
+        "{line} (resequence: {after})"
+    );
+    // The twin's row at the base machine (J 0.5) is that total.
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("{name}: {header:?}"))
+    };
+    let (plan_col, j_col, total_col) = (col("plan"), col("jerk_deg_per_s3"), col("total_s"));
+    let base = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .find(|f| f[plan_col].contains("re-sequenced") && f[j_col] == "0.5")
+        .expect("twin row at the base machine");
+    let total: f64 = base[total_col].parse().expect("total");
+    assert!((total - after).abs() <= 1e-9 * after, "{total} vs {after}");
+
+    let only = arcsim(&[
+        "sweep",
+        &sweep("only.json", serde_json::json!(true)),
+        "--out",
+        path_str(&dir.join("only.csv")),
+    ]);
+    assert!(only.status.success(), "{}", stderr(&only));
+    let text = std::fs::read_to_string(dir.join("only.csv")).expect("csv");
+    assert_eq!(
+        text.lines().skip(1).filter(|l| !l.contains(twin)).count(),
+        0,
+        "{text}"
+    );
+
+    let none = arcsim(&["sweep", &sweep("none.json", serde_json::json!([]))]);
+    assert_eq!(none.status.code(), Some(1), "{}", stderr(&none));
+    assert!(stderr(&none).contains("resequence"), "{}", stderr(&none));
+}

@@ -48,10 +48,10 @@ pub use summary::{
     Sensitivity, Step, Summary, PROFILE_MAX_POINTS, TIE_TOLERANCE,
 };
 pub use sweep::{
-    Axis, Defaults, Grid, ScheduleGrid, Setting, Sweep, SweepPlan, DOSE_RATE_SCALE_RANGE,
-    MAX_COMBINATIONS,
+    Axis, Defaults, Grid, ResequencedPlan, ScheduleGrid, Setting, Sweep, SweepPlan,
+    DOSE_RATE_SCALE_RANGE, MAX_COMBINATIONS, RESEQUENCED_SUFFIX,
 };
-pub use sweep_file::{parse_sweep_file, AxisSpec, Scale, Target, SWEEP_FORMAT};
+pub use sweep_file::{parse_sweep_file, AxisSpec, Resequence, Scale, Target, SWEEP_FORMAT};
 
 /// Format of the JSON results document ([`Results`]).
 pub const RESULTS_FORMAT: &str = "arcsim-sweep-results/1";

@@ -44,6 +44,30 @@ pub struct SweepFile {
     /// The time the summary's "cheapest change" must reach; default `{"saving_percent": 10}`.
     #[serde(default)]
     pub target: Option<Target>,
+    /// Re-sequencing as a what-if beside the gantry's axes: `[false, true]` runs every plan as
+    /// given and re-sequenced (`true` or `[true]`: re-sequenced only); default as given only.
+    #[serde(default)]
+    pub resequence: Option<Resequence>,
+}
+
+/// The sweep file's `resequence`: one value or a list of them.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum Resequence {
+    /// `true` or `false`.
+    One(bool),
+    /// `[false, true]` and the like.
+    Values(Vec<bool>),
+}
+
+impl Resequence {
+    /// (as given, re-sequenced): which of the two a plan is run as.
+    pub fn runs(&self) -> (bool, bool) {
+        match self {
+            Resequence::One(b) => (!b, *b),
+            Resequence::Values(v) => (v.contains(&false), v.contains(&true)),
+        }
+    }
 }
 
 /// Where a plan comes from.

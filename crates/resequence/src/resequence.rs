@@ -217,43 +217,67 @@ fn nth_order(sizes: &[Vec<usize>], mut i: usize) -> Orders {
         .collect()
 }
 
-/// The orders of one arrangement found without simulating: least switching time; least estimated
-/// switch duration with each layer at the fastest speed its sub-window allows; and, for the
-/// plan's own arrangement, at the speeds the plan as given was flown at.
-fn orders_without_simulating(
-    arranged: &ArcPlan,
-    machine: &Machine,
-    limits: Limits,
-    as_given: Option<&Delivery>,
-) -> Vec<Orders> {
+/// The orders of one arrangement found without simulating: least switching time, and least
+/// estimated switch duration with each layer at the fastest speed its sub-window allows.
+fn blind_orders(arranged: &ArcPlan, machine: &Machine, limits: Limits) -> Vec<Orders> {
     let mut out = vec![best_orders(arranged, &machine.elst)];
     let fastest = |_: usize, _: usize| None;
     if let Ok(cost) = GantryCost::new(arranged, machine, limits, &fastest) {
         out.push(best_orders_by(arranged, &|a, b| cost.switch_s(a, b)));
     }
-    if let Some(d) = as_given {
-        let offsets: Vec<usize> = arranged
-            .arcs
-            .iter()
-            .scan(0, |n, a| {
-                let at = *n;
-                *n += a.control_points.len();
-                Some(at)
-            })
-            .collect();
-        let flown = |g: usize, l: usize| {
-            let arc = offsets.iter().rposition(|&o| o <= g)?;
-            d.layers
-                .iter()
-                .find(|r| r.arc == arc && r.control_point == g - offsets[arc] && r.layer == l)
-                .map(|r| r.speed_deg_per_s)
-        };
-        if let Ok(cost) = GantryCost::new(arranged, machine, limits, &flown) {
-            out.push(best_orders_by(arranged, &|a, b| cost.switch_s(a, b)));
-        }
-    }
     out.dedup();
     out
+}
+
+/// The order of least estimated switch duration with each layer at the speed `d` (a delivery of
+/// `arranged` as it is) flew it at.
+fn flown_order(
+    arranged: &ArcPlan,
+    machine: &Machine,
+    limits: Limits,
+    d: &Delivery,
+) -> Option<Orders> {
+    let offsets: Vec<usize> = arranged
+        .arcs
+        .iter()
+        .scan(0, |n, a| {
+            let at = *n;
+            *n += a.control_points.len();
+            Some(at)
+        })
+        .collect();
+    let mut speed: std::collections::HashMap<(usize, usize), f64> = Default::default();
+    for r in &d.layers {
+        if let Some(o) = offsets.get(r.arc) {
+            speed.insert((o + r.control_point, r.layer), r.speed_deg_per_s);
+        }
+    }
+    let flown = |g: usize, l: usize| speed.get(&(g, l)).copied();
+    let cost = GantryCost::new(arranged, machine, limits, &flown).ok()?;
+    Some(best_orders_by(arranged, &|a, b| cost.switch_s(a, b)))
+}
+
+/// One arrangement's candidates, and the plan as given's delivery when it is the plan's own.
+type Searched = (Vec<Built>, Option<Result<Delivery, SequenceError>>);
+
+/// A candidate before it is labelled: its orders, plan, layers moved and simulation.
+type Simulated = (Orders, ArcPlan, usize, Result<Delivery, SequenceError>);
+
+/// `orders` of `arranged`, each simulated (in parallel).
+fn simulate_orders(
+    arranged: &ArcPlan,
+    machine: &Machine,
+    opts: &ResequenceOptions,
+    orders: Vec<Orders>,
+) -> Vec<Simulated> {
+    orders
+        .into_par_iter()
+        .map(|o| {
+            let (p, moved) = reordered(arranged, &o);
+            let d = simulate(&p, machine, &opts.simulation);
+            (o, p, moved, d)
+        })
+        .collect()
 }
 
 /// First-improvement local search by simulation from `start`: the layers of one control point
@@ -340,60 +364,47 @@ fn local_search(
     (orders, best)
 }
 
-/// The candidates of one arrangement: the orders found without simulating, each simulated; then
-/// a local search by simulation from the shortest, as far as the budget allows.
+/// The candidates of one arrangement: every order where they fit the budget; else the orders
+/// found without simulating, each simulated, then a local search by simulation from the
+/// shortest. For the plan's own arrangement (`own`), the plan as given is simulated beside the
+/// first candidates and the order estimated at its speeds is tried too; its delivery is returned.
 fn search(
     plan: &ArcPlan,
     machine: &Machine,
     limits: Limits,
     opts: &ResequenceOptions,
     (order, reversed): (Vec<usize>, Vec<bool>),
-    as_given: Option<&Delivery>,
-) -> Vec<Built> {
+    own: bool,
+) -> Searched {
     let arranged = arrange(plan, &order, &reversed);
-    let sizes: Vec<Vec<usize>> = arranged
-        .arcs
-        .iter()
-        .map(|a| a.control_points.iter().map(|cp| cp.layers.len()).collect())
-        .collect();
-    let layers: usize = sizes.iter().flatten().sum();
-    let count = sizes
-        .iter()
-        .flatten()
-        .try_fold(1usize, |n, &k| n.checked_mul((1..=k).product::<usize>()));
-    if let Some(n) =
-        count.filter(|n| opts.exhaustive && n.saturating_mul(layers) <= opts.search_layer_budget)
-    {
-        // Every order, simulated; the shortest kept.
-        let best = (0..n)
-            .into_par_iter()
-            .filter_map(|i| {
-                let o = nth_order(&sizes, i);
-                let (p, moved) = reordered(&arranged, &o);
-                let d = simulate(&p, machine, &opts.simulation).ok()?;
-                Some((d.total_s, i, p, moved, d))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        return best
-            .into_iter()
-            .map(|(_, _, p, moved, d)| Built {
-                order: order.clone(),
-                reversed: reversed.clone(),
-                plan: p,
-                moved,
-                delivery: Ok(d),
-            })
-            .collect();
+    let as_given = || own.then(|| simulate(plan, machine, &opts.simulation));
+    let built = |(p, moved, delivery): (ArcPlan, usize, Result<Delivery, SequenceError>)| Built {
+        order: order.clone(),
+        reversed: reversed.clone(),
+        plan: p,
+        moved,
+        delivery,
+    };
+    if let Some(n) = exhaustive_count(&arranged, opts) {
+        let (before, best) = rayon::join(as_given, || every_order(&arranged, machine, opts, n));
+        return (best.into_iter().map(built).collect(), before);
     }
-    let found = orders_without_simulating(&arranged, machine, limits, as_given);
-    let simulated: Vec<(Orders, ArcPlan, usize, Result<Delivery, SequenceError>)> = found
-        .into_par_iter()
-        .map(|o| {
-            let (p, moved) = reordered(&arranged, &o);
-            let d = simulate(&p, machine, &opts.simulation);
-            (o, p, moved, d)
-        })
-        .collect();
+    let (before, mut simulated) = rayon::join(as_given, || {
+        simulate_orders(
+            &arranged,
+            machine,
+            opts,
+            blind_orders(&arranged, machine, limits),
+        )
+    });
+    if let Some(o) = before
+        .as_ref()
+        .and_then(|d| d.as_ref().ok())
+        .and_then(|d| flown_order(&arranged, machine, limits, d))
+        .filter(|o| !simulated.iter().any(|s| s.0 == *o))
+    {
+        simulated.extend(simulate_orders(&arranged, machine, opts, vec![o]));
+    }
     let shortest = simulated
         .iter()
         .filter_map(|(o, _, _, d)| d.as_ref().ok().map(|d| (o, d)))
@@ -401,29 +412,54 @@ fn search(
         .map(|(o, d)| (o.clone(), d.clone()));
     let mut out: Vec<Built> = simulated
         .into_iter()
-        .map(|(_, p, moved, delivery)| Built {
-            order: order.clone(),
-            reversed: reversed.clone(),
-            plan: p,
-            moved,
-            delivery,
-        })
+        .map(|(_, p, moved, d)| built((p, moved, d)))
         .collect();
     if let Some(start) = shortest {
-        let before = start.1.total_s;
+        let first = start.1.total_s;
         let (o, d) = local_search(&arranged, machine, opts, start);
-        if d.total_s < before {
+        if d.total_s < first {
             let (p, moved) = reordered(&arranged, &o);
-            out.push(Built {
-                order,
-                reversed,
-                plan: p,
-                moved,
-                delivery: Ok(d),
-            });
+            out.push(built((p, moved, Ok(d))));
         }
     }
-    out
+    (out, before)
+}
+
+/// The number of orders of `arranged` when simulating them all fits the budget.
+fn exhaustive_count(arranged: &ArcPlan, opts: &ResequenceOptions) -> Option<usize> {
+    let sizes = || {
+        arranged
+            .arcs
+            .iter()
+            .flat_map(|a| &a.control_points)
+            .map(|cp| cp.layers.len())
+    };
+    let layers: usize = sizes().sum();
+    let count = sizes().try_fold(1usize, |n, k| n.checked_mul((1..=k).product::<usize>()))?;
+    (opts.exhaustive && count.saturating_mul(layers) <= opts.search_layer_budget).then_some(count)
+}
+
+/// Every one of the `n` orders of `arranged` simulated; the shortest (first of equals).
+fn every_order(
+    arranged: &ArcPlan,
+    machine: &Machine,
+    opts: &ResequenceOptions,
+    n: usize,
+) -> Option<(ArcPlan, usize, Result<Delivery, SequenceError>)> {
+    let sizes: Vec<Vec<usize>> = arranged
+        .arcs
+        .iter()
+        .map(|a| a.control_points.iter().map(|cp| cp.layers.len()).collect())
+        .collect();
+    (0..n)
+        .into_par_iter()
+        .filter_map(|i| {
+            let (p, moved) = reordered(arranged, &nth_order(&sizes, i));
+            let d = simulate(&p, machine, &opts.simulation).ok()?;
+            Some((d.total_s, i, p, moved, d))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+        .map(|(_, _, p, moved, d)| (p, moved, Ok(d)))
 }
 
 /// Re-sequences `plan` on `machine` (see the module docs). The original is kept unless a
@@ -433,22 +469,25 @@ pub fn resequence(
     machine: &Machine,
     opts: &ResequenceOptions,
 ) -> Result<Outcome, ResequenceError> {
-    let before = simulate(plan, machine, &opts.simulation).map_err(ResequenceError::Original)?;
     let limits = machine_limits(machine).map_err(ResequenceError::Original)?;
-    let searched: Vec<Vec<Built>> = arrangements(plan.arcs.len(), opts.arcs)
+    let searched: Vec<Searched> = arrangements(plan.arcs.len(), opts.arcs)
         .into_par_iter()
         .map(|(order, reversed)| {
             let own = order.iter().enumerate().all(|(i, &a)| i == a) && !reversed.contains(&true);
-            search(
-                plan,
-                machine,
-                limits,
-                opts,
-                (order, reversed),
-                own.then_some(&before),
-            )
+            search(plan, machine, limits, opts, (order, reversed), own)
         })
         .collect();
+    let mut before = None;
+    let mut found = Vec::new();
+    for (b, d) in searched {
+        found.push(b);
+        before = before.or(d);
+    }
+    let before = match before {
+        Some(d) => d.map_err(ResequenceError::Original)?,
+        None => simulate(plan, machine, &opts.simulation).map_err(ResequenceError::Original)?,
+    };
+    let searched = found;
     let mut built: Vec<Built> = Vec::new();
     for b in searched.into_iter().flatten() {
         if !built.iter().any(|o| o.plan == b.plan) {

@@ -64,6 +64,15 @@ fn every_order(plan: &ArcPlan) -> Vec<ArcPlan> {
     }
 }
 
+/// How many orders `plan` has (the product of its control points' k!), without building them.
+fn order_count(plan: &ArcPlan) -> usize {
+    plan.arcs
+        .iter()
+        .flat_map(|a| &a.control_points)
+        .map(|cp| (1..=cp.layers.len()).product::<usize>())
+        .fold(1usize, |n, k| n.saturating_mul(k))
+}
+
 /// Σ switching time, straight from the ELST model's `switch_time_s` (no layer overrides here).
 fn switching(plan: &ArcPlan, m: &Machine) -> f64 {
     let e: Vec<f64> = plan
@@ -89,13 +98,7 @@ fn the_dynamic_programme_finds_the_least_switching_time_of_all_orders() {
         let arcs = 1 + usize::from(case % 5 == 0);
         let cps = 1 + rng.below(6);
         let plan = small_plan(&mut rng, arcs, cps, &|r: &mut Rng| 1 + r.below(4));
-        let count: usize = plan
-            .arcs
-            .iter()
-            .flat_map(|a| &a.control_points)
-            .map(|cp| (1..=cp.layers.len()).product::<usize>())
-            .product();
-        if count > 20_000 {
+        if order_count(&plan) > 20_000 {
             continue;
         }
         let best = every_order(&plan)
@@ -145,10 +148,10 @@ fn brute_force_simulated(
         let mut rng = Rng::new(seed);
         let cps = 2 + rng.below(5); // 2–6 control points
         let plan = small_plan(&mut rng, 1, cps, &|r: &mut Rng| 2 + r.below(3)); // 2–4 layers
-        let all = every_order(&plan);
-        if all.len() > max_orders {
+        if order_count(&plan) > max_orders {
             continue;
         }
+        let all = every_order(&plan);
         tried += 1;
         let best = all
             .iter()
@@ -203,5 +206,5 @@ fn without_exhaustive_search_totals_stay_within_2_percent_of_every_order() {
 
 #[test]
 fn resequenced_free_motion_totals_are_within_0_1_percent_of_every_order() {
-    brute_force_simulated(Motion::Free, 100..112, 200, true, 1e-3);
+    brute_force_simulated(Motion::Free, 100..125, 150, true, 1e-3);
 }

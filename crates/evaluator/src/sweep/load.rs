@@ -48,6 +48,10 @@ impl Sweep {
         let runs = expand_runs(&spec, &machine, file)?;
         let mut inputs = vec![machine_path];
         let plans = load_plans(&spec, base_dir, file, load_plan, &mut inputs)?;
+        let (plans, resequenced) = match &spec.resequence {
+            Some(r) => super::plans::with_resequenced(plans, &machine, r.runs(), file)?,
+            None => (plans, Vec::new()),
+        };
         check_combinations(file, Some(plans.len()), runs.iter().map(|r| &r.grid))?;
         Ok(Sweep {
             name: spec.name,
@@ -60,6 +64,7 @@ impl Sweep {
             certify: spec.certify,
             target: spec.target.unwrap_or_default(),
             inputs,
+            resequenced,
         })
     }
 

@@ -157,6 +157,24 @@ pub struct Sweep {
     /// Every file the sweep file names and that was read (the machine, the plans, ATOM reference
     /// files), as joined to the sweep file's directory: a command must not write over them.
     pub inputs: Vec<PathBuf>,
+    /// With the sweep file's `resequence`: what re-sequencing did to each plan on the base
+    /// machine (its twin's rows are labelled `LABEL (re-sequenced)`).
+    pub resequenced: Vec<ResequencedPlan>,
+}
+
+/// A plan re-sequenced for a sweep, on the base machine under its controller.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResequencedPlan {
+    /// The plan's label as given.
+    pub label: String,
+    /// The label of its re-sequenced twin's rows.
+    pub twin: String,
+    /// The plan as given on the base machine (s).
+    pub before_s: f64,
+    /// Re-sequenced (s): equal to `before_s` where no faster order was found.
+    pub after_s: f64,
+    /// Layers moved inside their control points.
+    pub moved_layers: usize,
 }
 
 /// The axes, in the order of [`Axis::ALL`] (also the order of the summary's columns).
@@ -197,6 +215,7 @@ mod plans;
 
 pub(crate) use axes::check_combinations;
 pub use axes::DOSE_RATE_SCALE_RANGE;
+pub use plans::RESEQUENCED_SUFFIX;
 
 #[cfg(test)]
 mod tests;

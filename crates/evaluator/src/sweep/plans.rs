@@ -83,6 +83,79 @@ pub(super) fn load_plans(
     Ok(plans)
 }
 
+/// The label suffix of a re-sequenced plan's rows.
+pub const RESEQUENCED_SUFFIX: &str = " (re-sequenced)";
+
+/// `plans` as the sweep file's `resequence` asks: (as given, re-sequenced) say which to keep;
+/// each re-sequenced twin is found on `machine` under its controller (in parallel) and follows
+/// its plan.
+pub(super) fn with_resequenced(
+    plans: Vec<SweepPlan>,
+    machine: &arcsim_plan::Machine,
+    (as_given, resequenced): (bool, bool),
+    file: &str,
+) -> Result<(Vec<SweepPlan>, Vec<super::ResequencedPlan>), EvalError> {
+    if !as_given && !resequenced {
+        return Err(EvalError::sweep(
+            file,
+            "resequence",
+            "expected true, false or a list holding at least one of them",
+        ));
+    }
+    if !resequenced {
+        return Ok((plans, Vec::new()));
+    }
+    let controller = machine.controller_or_assumed();
+    let mut simulation = arcsim_sequencer::Options {
+        motion: controller.motion,
+        schedule: controller.schedule,
+        servo_period_s: machine.servo_period_s,
+        ..arcsim_sequencer::Options::default()
+    };
+    if simulation.servo_period_s.is_some() && controller.motion.continuous_time_only().is_some() {
+        simulation.motion = arcsim_sequencer::Motion::Constant;
+    }
+    let opts = arcsim_resequence::ResequenceOptions {
+        simulation,
+        ..arcsim_resequence::ResequenceOptions::default()
+    };
+    use rayon::prelude::*;
+    let found: Vec<Result<arcsim_resequence::Outcome, String>> = plans
+        .par_iter()
+        .map(|p| arcsim_resequence::resequence(&p.plan, machine, &opts).map_err(|e| e.to_string()))
+        .collect();
+    let mut out = Vec::new();
+    let mut report = Vec::new();
+    for (i, (p, f)) in plans.into_iter().zip(found).enumerate() {
+        let f = f.map_err(|message| {
+            EvalError::sweep(
+                file,
+                "resequence",
+                format!(
+                    "plan {i} (\"{}\"): cannot be re-sequenced: {message}",
+                    p.label
+                ),
+            )
+        })?;
+        let twin = format!("{}{RESEQUENCED_SUFFIX}", p.label);
+        report.push(super::ResequencedPlan {
+            label: p.label.clone(),
+            twin: twin.clone(),
+            before_s: f.before.total_s,
+            after_s: f.after.total_s,
+            moved_layers: f.moved_layers,
+        });
+        if as_given {
+            out.push(p);
+        }
+        out.push(SweepPlan {
+            label: twin,
+            plan: f.plan,
+        });
+    }
+    Ok((out, report))
+}
+
 /// Where a plan source is: the sweep file's directory, its name, and the source's field.
 struct At<'a> {
     base_dir: &'a Path,
