@@ -254,9 +254,10 @@ def resequence(
     search_layers: Optional[int] = None,
 ) -> Tuple[Plan, Dict[str, Any]]:
     """`arcsim resequence`: the plan with each control point's layers in the order the machine
-    delivers fastest (the same spots, MU, energies and control points, checked) and a report
-    (total_before_s, total_after_s, resequenced, moved_layers, switching_before/after,
-    candidates). The plan as given where no order is faster."""
+    delivers fastest (the same spots, MU, energies and control points, checked) and the report
+    `resequence --json` writes (total_before_s, total_after_s, resequenced, moved_layers,
+    breakdown_before/after, switching_before/after, candidates). The plan as given where no
+    order is faster."""
 
 def schedule_arrays(
     irradiation_times_s: _Floats,

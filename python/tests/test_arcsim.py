@@ -773,9 +773,9 @@ def test_resequence_equals_the_cli(tmp_path):
     assert code == 0, err
     expected = json.loads(report_path.read_text())
     got_plan, report = arcsim.resequence(arcsim.load_plan(str(src)))
-    assert report["resequenced"] and expected["resequenced"]
-    assert report["total_after_s"] == expected["total_after_s"] < expected["total_before_s"]
-    assert report["switching_after"] == expected["switching_after"]
+    assert report == expected
+    assert report["resequenced"]
+    assert report["total_after_s"] < report["total_before_s"]
     assert json.loads(got_plan.to_json()) == json.loads(out.read_text())
     # The written plan simulates to the reported total.
     again = arcsim.simulate(arcsim.load_plan(str(out)))

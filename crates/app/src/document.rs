@@ -126,14 +126,7 @@ impl<'a> ResultDocument<'a> {
             spots: None,
             certificate: None,
             monte_carlo: None,
-            switching: arcsim_plan::resolve(plan, from.machine).ok().map(|arcs| {
-                arcsim_sequencer::Switching::of(
-                    &arcs,
-                    Some(delivery),
-                    &from.machine.elst,
-                    arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
-                )
-            }),
+            switching: switching_of(plan, from.machine, delivery),
         }
     }
 
@@ -159,4 +152,51 @@ impl<'a> ResultDocument<'a> {
     pub fn to_json(&self) -> Result<String, serde_json::Error> {
         serde_json::to_string_pretty(self)
     }
+}
+
+/// The format of a re-sequencing report.
+pub const RESEQUENCE_FORMAT: &str = "arcsim-resequence/1";
+
+/// The switching of a delivery of `plan` on `machine` (`None` if the plan does not resolve,
+/// which a simulated plan does).
+pub fn switching_of(
+    plan: &ArcPlan,
+    machine: &Machine,
+    delivery: &Delivery,
+) -> Option<arcsim_sequencer::Switching> {
+    arcsim_plan::resolve(plan, machine).ok().map(|arcs| {
+        arcsim_sequencer::Switching::of(
+            &arcs,
+            Some(delivery),
+            &machine.elst,
+            arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
+        )
+    })
+}
+
+/// The `arcsim-resequence/1` report of re-sequencing `plan` on `machine` under `controller`, as
+/// `resequence --json` writes it and Python's `resequence` returns it (docs/results.md).
+pub fn resequence_report(
+    plan: &ArcPlan,
+    machine: &Machine,
+    controller: &crate::ControllerUsed,
+    out: &arcsim_resequence::Outcome,
+) -> serde_json::Value {
+    serde_json::json!({
+        "format": RESEQUENCE_FORMAT,
+        "plan": plan.name,
+        "machine": machine.name,
+        "controller": controller,
+        "total_before_s": out.before.total_s,
+        "total_after_s": out.after.total_s,
+        "resequenced": out.chosen.is_some(),
+        "moved_layers": out.moved_layers,
+        "switching_before_s": out.switching_before_s,
+        "switching_after_s": out.switching_after_s,
+        "breakdown_before": out.before.breakdown,
+        "breakdown_after": out.after.breakdown,
+        "switching_before": switching_of(plan, machine, &out.before),
+        "switching_after": switching_of(&out.plan, machine, &out.after),
+        "candidates": out.candidates,
+    })
 }

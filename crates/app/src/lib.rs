@@ -12,14 +12,18 @@
 //!   `prescribed`/`step-and-shoot`), the notes they give rise to and the [`ControllerUsed`];
 //! - [`check_period`]: a servo period's range and plausibility;
 //! - [`ResultDocument`]: the `arcsim-result/1` JSON document of a simulation;
-//! - [`MoveRequest`]: one planner move with `arcsim profile`'s options.
+//! - [`MoveRequest`]: one planner move with `arcsim profile`'s options;
+//! - [`resequence_report`]: the `arcsim-resequence/1` report of a re-sequencing.
 
 mod document;
 mod inputs;
 mod moves;
 mod request;
 
-pub use document::{OptionsOut, Provenance, ResultDocument, Source, RESULT_FORMAT};
+pub use document::{
+    resequence_report, switching_of, OptionsOut, Provenance, ResultDocument, Source,
+    RESEQUENCE_FORMAT, RESULT_FORMAT,
+};
 pub use inputs::{
     builtin_machine, machine_from_text, plan_from_bytes_warned, read_plan_file,
     read_plan_file_warned, sha256_hex, AppError, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,

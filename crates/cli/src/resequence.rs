@@ -202,7 +202,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         crate::output::println(&format!("wrote {}", path.display()));
     }
     if let Some(path) = &args.json {
-        write_report(path, &plan, &machine, &controller, &out, (&before, &after))?;
+        write_report(path, &plan, &machine, &controller, &out)?;
     }
     Ok(())
 }
@@ -214,25 +214,8 @@ fn write_report(
     machine: &Machine,
     controller: &arcsim_app::ControllerUsed,
     out: &Outcome,
-    (before, after): (&Switching, &Switching),
 ) -> Result<(), CliError> {
-    let doc = serde_json::json!({
-        "format": "arcsim-resequence/1",
-        "plan": plan.name,
-        "machine": machine.name,
-        "controller": controller,
-        "total_before_s": out.before.total_s,
-        "total_after_s": out.after.total_s,
-        "resequenced": out.chosen.is_some(),
-        "moved_layers": out.moved_layers,
-        "switching_before_s": out.switching_before_s,
-        "switching_after_s": out.switching_after_s,
-        "breakdown_before": out.before.breakdown,
-        "breakdown_after": out.after.breakdown,
-        "switching_before": before,
-        "switching_after": after,
-        "candidates": out.candidates,
-    });
+    let doc = arcsim_app::resequence_report(plan, machine, controller, out);
     let text =
         serde_json::to_string_pretty(&doc).map_err(|e| CliError::failed(format!("--json: {e}")))?;
     crate::output::write_file(path, text.as_bytes())

@@ -35,15 +35,7 @@ pub fn of_delivery(
     machine: &arcsim_plan::Machine,
     d: &arcsim_sequencer::Delivery,
 ) -> String {
-    match arcsim_plan::resolve(plan, machine) {
-        Ok(arcs) => lines(&Switching::of(
-            &arcs,
-            Some(d),
-            &machine.elst,
-            arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
-        )),
-        Err(_) => String::new(),
-    }
+    arcsim_app::switching_of(plan, machine, d).map_or_else(String::new, |sw| lines(&sw))
 }
 
 /// The table of switches (a class's total, then its bands) and the small upward steps.

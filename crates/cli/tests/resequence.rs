@@ -46,6 +46,28 @@ fn report(dir: &Path, args: &[&str]) -> Value {
     serde_json::from_str(&std::fs::read_to_string(&out).expect("report")).expect("json")
 }
 
+/// `generate-plan --kind two-arc --spacing 2.5 --layers 2-4 --energy 70-230` (docs/commands.md's
+/// plan) written in `dir`: its path and its JSON.
+fn generated_two_arc(dir: &Path) -> (std::path::PathBuf, Value) {
+    let gen = dir.join("two-arc-large.json");
+    let o = arcsim(&[
+        "generate-plan",
+        "--kind",
+        "two-arc",
+        "--spacing",
+        "2.5",
+        "--layers",
+        "2-4",
+        "--energy",
+        "70-230",
+        "-o",
+        path_str(&gen),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plan = serde_json::from_str(&std::fs::read_to_string(&gen).expect("plan")).expect("json");
+    (gen, plan)
+}
+
 fn total(plan: &str) -> f64 {
     let dir = temp_dir();
     let json = dir.join("total.json");
@@ -62,23 +84,7 @@ fn total(plan: &str) -> f64 {
 #[test]
 fn resequencing_an_ascending_plan_recovers_the_descending_time() {
     let dir = temp_dir();
-    let gen = dir.join("gen.json");
-    let o = arcsim(&[
-        "generate-plan",
-        "--kind",
-        "two-arc",
-        "--spacing",
-        "2.5",
-        "--layers",
-        "2-4",
-        "--energy",
-        "70-230",
-        "-o",
-        path_str(&gen),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let plan: Value =
-        serde_json::from_str(&std::fs::read_to_string(&gen).expect("plan")).expect("json");
+    let (_, plan) = generated_two_arc(&dir);
     let layers: usize = plan["arcs"]
         .as_array()
         .expect("arcs")
@@ -120,21 +126,7 @@ fn resequencing_an_ascending_plan_recovers_the_descending_time() {
 #[test]
 fn the_commands_doc_figures_are_what_resequence_reports() {
     let dir = temp_dir();
-    let gen = dir.join("two-arc-large.json");
-    let o = arcsim(&[
-        "generate-plan",
-        "--kind",
-        "two-arc",
-        "--spacing",
-        "2.5",
-        "--layers",
-        "2-4",
-        "--energy",
-        "70-230",
-        "-o",
-        path_str(&gen),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (gen, plan) = generated_two_arc(&dir);
     let r = report(&dir, &[path_str(&gen)]);
     let f = |k: &str| r[k].as_f64().expect(k);
     let plain = format!(
@@ -144,8 +136,6 @@ fn the_commands_doc_figures_are_what_resequence_reports() {
         f("total_after_s"),
         r["moved_layers"]
     );
-    let plan: Value =
-        serde_json::from_str(&std::fs::read_to_string(&gen).expect("plan")).expect("json");
     let up = write(&dir, "ascending.json", &sorted(plan, true));
     let r = report(&dir, &[&up]);
     let f = |k: &str| r[k].as_f64().expect(k);

@@ -13,9 +13,9 @@ use crate::simulate::{motion_of, schedule_opt};
 use crate::{PlanError, SimulationError};
 
 /// The plan with each control point's layers in the order the machine delivers fastest (every
-/// spot, MU, energy and control point kept, checked), and a report (dict: total_before_s,
-/// total_after_s, resequenced, moved_layers, switching before and after, candidates), as `arcsim
-/// resequence` prints and writes them. `turn_arcs` also tries arcs turned and reordered;
+/// spot, MU, energy and control point kept, checked), and the report `arcsim resequence --json`
+/// writes (dict: total_before_s, total_after_s, resequenced, moved_layers, breakdowns and
+/// switching before and after, candidates). `turn_arcs` also tries arcs turned and reordered;
 /// `search_layers` is the search's budget in layers simulated (None: the CLI's default). The
 /// plan as given is returned where no order is faster. The GIL is released while it runs.
 #[pyfunction]
@@ -74,28 +74,7 @@ pub fn resequence<'py>(
     };
     check_same_dose(&plan.plan, &out.plan)
         .map_err(|e| SimulationError::new_err(format!("a bug: {e}")))?;
-    let switching = |p: &arcsim_plan::ArcPlan, d: &arcsim_sequencer::Delivery| {
-        arcsim_plan::resolve(p, &machine.machine).ok().map(|arcs| {
-            arcsim_sequencer::Switching::of(
-                &arcs,
-                Some(d),
-                &machine.machine.elst,
-                arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
-            )
-        })
-    };
-    let report = serde_json::json!({
-        "controller": controller,
-        "total_before_s": out.before.total_s,
-        "total_after_s": out.after.total_s,
-        "resequenced": out.chosen.is_some(),
-        "moved_layers": out.moved_layers,
-        "switching_before_s": out.switching_before_s,
-        "switching_after_s": out.switching_after_s,
-        "switching_before": switching(&plan.plan, &out.before),
-        "switching_after": switching(&out.plan, &out.after),
-        "candidates": out.candidates,
-    });
+    let report = arcsim_app::resequence_report(&plan.plan, &machine.machine, &controller, &out);
     let json = arcsim_plan::to_json(&out.plan);
     let resequenced = Plan {
         plan: out.plan,

@@ -176,14 +176,7 @@ impl Delivery {
     /// simulate` prints them and writes them under `switching` in its JSON).
     #[getter]
     fn switching<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let arcs = arcsim_plan::resolve(&self.plan, &self.machine)
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-        let switching = arcsim_sequencer::Switching::of(
-            &arcs,
-            Some(&self.delivery),
-            &self.machine.elst,
-            arcsim_sequencer::SMALL_UPWARD_STEP_MEV,
-        );
+        let switching = arcsim_app::switching_of(&self.plan, &self.machine, &self.delivery);
         serde_to_py(py, &switching)
     }
 
