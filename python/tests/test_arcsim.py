@@ -780,3 +780,59 @@ def test_resequence_equals_the_cli(tmp_path):
     # The written plan simulates to the reported total.
     again = arcsim.simulate(arcsim.load_plan(str(out)))
     assert again.total_s == report["total_after_s"]
+
+
+def _layers_in_force(beam):
+    """Per layer control point of a beam (pydicom), in order: (energy, weights, positions), the
+    energy resolved through inheritance as DICOM defines it."""
+    out, energy = [], None
+    for cp in beam.IonControlPointSequence:
+        energy = float(cp.NominalBeamEnergy) if "NominalBeamEnergy" in cp else energy
+        weights = tuple(float(w) for w in cp.ScanSpotMetersetWeights)
+        if sum(weights) > 0:
+            out.append((energy, weights, tuple(float(p) for p in cp.ScanSpotPositionMap)))
+    return out
+
+
+def test_a_dicom_plan_written_back_reads_in_pydicom(tmp_path):
+    import pydicom
+
+    src = "plans/dicom/multi.dcm"
+    cli_out = tmp_path / "cli.dcm"
+    code, _, err = cli("resequence", src, "-o", str(cli_out))
+    assert code == 0, err
+    plan, report = arcsim.resequence(arcsim.load_plan(src))
+    assert report["resequenced"] and report["moved_layers"] > 0
+    py_out = tmp_path / "py.dcm"
+    uid = arcsim.write_resequenced_dicom(plan, src, str(py_out))
+    given, by_cli, by_py = (pydicom.dcmread(p) for p in (src, cli_out, py_out))
+    assert by_py.SOPInstanceUID == uid
+    assert by_py.file_meta.MediaStorageSOPInstanceUID == uid
+    assert len({given.SOPInstanceUID, by_cli.SOPInstanceUID, uid}) == 3
+    assert by_cli.IonBeamSequence == by_py.IonBeamSequence
+    ref = by_py.ReferencedRTPlanSequence[-1]
+    assert ref.ReferencedSOPInstanceUID == given.SOPInstanceUID
+    assert ref.RTPlanRelationship == "PREDECESSOR"
+    assert by_py.ApprovalStatus == "UNAPPROVED"
+    # Every beam keeps its layers (energy, weights, positions) as a multiset, in the order of the
+    # re-sequenced plan; the cumulative weights are the running sums of the new order.
+    energies = [
+        layer["energy_mev"]
+        for arc in json.loads(plan.to_json())["arcs"]
+        for cp in arc["control_points"]
+        for layer in cp["layers"]
+    ]
+    written_energies = []
+    for old, new in zip(given.IonBeamSequence, by_py.IonBeamSequence):
+        assert sorted(_layers_in_force(old)) == sorted(_layers_in_force(new))
+        written_energies += [e for e, _, _ in _layers_in_force(new)]
+        total = 0.0
+        for i, cp in enumerate(new.IonControlPointSequence):
+            assert int(cp.ControlPointIndex) == i
+            assert abs(float(cp.CumulativeMetersetWeight) - total) < 1e-6
+            total += sum(float(w) for w in cp.ScanSpotMetersetWeights)
+        assert abs(total - float(new.FinalCumulativeMetersetWeight)) < 1e-6
+    assert written_energies == energies
+    # A plan that is not a reorder of the original is refused.
+    with pytest.raises(arcsim.PlanError, match="arcsim JSON"):
+        arcsim.write_resequenced_dicom(arcsim.load_plan("plans/lung.json"), src, str(tmp_path / "x.dcm"))

@@ -100,20 +100,28 @@ fn print_import_warnings((plan, warnings): (ArcPlan, Vec<String>)) -> ArcPlan {
 /// [`load_plan`], with the SHA-256 of the bytes read (to tell edited files apart in results). The
 /// warnings of a DICOM import go to standard error.
 pub fn load_plan_hashed(path: &Path) -> Result<(ArcPlan, String), CliError> {
-    let dicom_extension = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"));
+    load_plan_with_bytes(path).map(|(plan, bytes)| (plan, sha256_hex(&bytes)))
+}
+
+/// [`load_plan`], with the bytes read (a DICOM plan's file, to write a changed plan back).
+pub fn load_plan_with_bytes(path: &Path) -> Result<(ArcPlan, Vec<u8>), CliError> {
+    let dicom_extension = is_dicom_name(path);
     let bytes = read_input(path)?;
-    let digest = sha256_hex(&bytes);
     arcsim_app::plan_from_bytes_warned(
         &input_name(path),
         stem(path).as_deref(),
         dicom_extension,
         &bytes,
     )
-    .map(|imported| (print_import_warnings(imported), digest))
+    .map(|imported| (print_import_warnings(imported), bytes))
     .map_err(|e| CliError::failed(e.to_string()))
+}
+
+/// Whether `path` ends in `.dcm` or `.dicom` (any case).
+pub fn is_dicom_name(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"))
 }
 
 /// Loads the machine file at `path` (`-`: standard input), or the built-in ATOM machine when

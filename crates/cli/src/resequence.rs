@@ -12,7 +12,7 @@ use arcsim_resequence::{
 };
 use arcsim_sequencer::{Delivery, Motion, Schedule, SwitchKind, Switching, SMALL_UPWARD_STEP_MEV};
 
-use crate::input::{input_name, load_machine, load_plan, plan_error};
+use crate::input::{input_name, is_dicom_name, load_machine, load_plan_with_bytes, plan_error};
 use crate::simulate::{parse_motion, ScheduleArg};
 use crate::CliError;
 
@@ -37,8 +37,10 @@ pub struct Args {
     /// local search by simulation otherwise (0: only the orders found without simulating).
     #[arg(long, value_name = "LAYERS", default_value_t = SEARCH_LAYER_BUDGET)]
     search: usize,
-    /// Write the re-sequenced plan (arcsim JSON).
-    #[arg(short, long, value_name = "PLAN.json")]
+    /// Write the re-sequenced plan: arcsim JSON, or for a DICOM input and a `.dcm` name, a
+    /// DICOM RT Ion Plan (the original with its layers reordered, a new SOPInstanceUID referencing
+    /// it, unapproved).
+    #[arg(short, long, value_name = "PLAN.json|PLAN.dcm")]
     output: Option<PathBuf>,
     /// Write the before/after report (JSON).
     #[arg(long, value_name = "OUT")]
@@ -117,14 +119,12 @@ fn report(out: &Outcome, before: &Switching, after: &Switching) -> String {
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
-    if let Some(out) = &args.output {
-        let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("");
-        if ext.eq_ignore_ascii_case("dcm") || ext.eq_ignore_ascii_case("dicom") {
-            return Err(CliError::usage(format!(
-                "--output {}: the re-sequenced plan is written as arcsim JSON; writing a DICOM RT Ion Plan back is not available yet",
-                out.display()
-            )));
-        }
+    let dicom_out = args.output.as_deref().filter(|p| is_dicom_name(p));
+    if let (Some(out), true) = (dicom_out, args.turn_arcs) {
+        return Err(CliError::usage(format!(
+            "--output {} with --turn-arcs: a DICOM plan is written back only with layers reordered inside their control points (a beam's direction and the beams' order stay); drop --turn-arcs or write arcsim JSON",
+            out.display()
+        )));
     }
     let inputs: Vec<&std::path::Path> = std::iter::once(args.plan.as_path())
         .chain(args.machine.as_deref())
@@ -136,7 +136,14 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ("--json", args.json.as_deref()),
         ],
     )?;
-    let plan = load_plan(&args.plan)?;
+    let (plan, plan_bytes) = load_plan_with_bytes(&args.plan)?;
+    if let (Some(out), false) = (dicom_out, arcsim_dicom::has_dicom_magic(&plan_bytes)) {
+        return Err(CliError::usage(format!(
+            "--output {}: a DICOM plan is written back from a DICOM input; {} is arcsim JSON (write the re-sequenced plan as .json)",
+            out.display(),
+            input_name(&args.plan)
+        )));
+    }
     let machine = load_machine(args.machine.as_deref())?;
     let request = arcsim_app::SimulateRequest {
         schedule: args.schedule.map(Schedule::from),
@@ -198,12 +205,39 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     crate::output::print(&text);
     if let Some(path) = &args.output {
-        crate::output::write_file(path, to_json(&out.plan).as_bytes())?;
-        crate::output::println(&format!("wrote {}", path.display()));
+        write_plan(path, dicom_out.is_some(), &plan_bytes, &out)?;
     }
     if let Some(path) = &args.json {
         write_report(path, &plan, &machine, &controller, &out)?;
     }
+    Ok(())
+}
+
+/// `--output`: the re-sequenced plan as arcsim JSON, or written back into the DICOM RT Ion Plan
+/// it came from (`original`).
+fn write_plan(
+    path: &std::path::Path,
+    dicom: bool,
+    original: &[u8],
+    out: &Outcome,
+) -> Result<(), CliError> {
+    if !dicom {
+        crate::output::write_file(path, to_json(&out.plan).as_bytes())?;
+        crate::output::println(&format!("wrote {}", path.display()));
+        return Ok(());
+    }
+    let written = arcsim_dicom::write_resequenced(original, &out.plan)
+        .map_err(|e| CliError::failed(format!("{}: {e}", path.display())))?;
+    crate::output::write_file(path, &written.bytes)?;
+    crate::output::println(&format!(
+        "wrote {} (DICOM RT Ion Plan, SOPInstanceUID {}, referencing {}; unapproved, for review)",
+        path.display(),
+        written.sop_instance_uid,
+        written
+            .original_sop_instance_uid
+            .as_deref()
+            .unwrap_or("no SOPInstanceUID")
+    ));
     Ok(())
 }
 

@@ -1,5 +1,5 @@
 //! The Python package end to end: builds the wheel with maturin into a fresh virtual environment
-//! (maturin, numpy, pandas, pytest and dask from the package index), then runs the pytest suite
+//! (maturin, numpy, pandas, pytest, dask and pydicom from the package index), then runs the pytest suite
 //! `python/tests` against this build of the `arcsim` command. Without Python or the package
 //! index the test says so and passes, except under CI (`CI` set), where that is a failure.
 
@@ -12,7 +12,15 @@ use crate::util::run;
 use arcsim_test_support::{dicom, temp_file};
 
 /// What the environment installs: the versions the package is built and tested with.
-const PACKAGES: &[&str] = &["maturin==1.16.0", "numpy", "pandas", "pytest", "dask[bag]"];
+// pydicom reads the DICOM plans arcsim writes back, as a reader independent of dicom-rs.
+const PACKAGES: &[&str] = &[
+    "maturin==1.16.0",
+    "numpy",
+    "pandas",
+    "pytest",
+    "dask[bag]",
+    "pydicom",
+];
 
 fn skip_or_fail(why: &str) {
     arcsim_test_support::skip_or_fail("the Python tests", why);

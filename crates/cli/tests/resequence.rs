@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use arcsim_test_support::temp_dir;
+use arcsim_test_support::{dicom, temp_dir};
 use serde_json::Value;
 
 use crate::util::{arcsim, path_str, repo_json, stderr, stdout};
@@ -252,11 +252,63 @@ fn resequence_refuses_unsafe_or_unavailable_outputs() {
     let o = arcsim(&["resequence", &plan, "-o", path_str(&dcm)]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("DICOM RT Ion Plan back is not available"),
+        stderr(&o).contains("written back from a DICOM input"),
         "{}",
         stderr(&o)
     );
     assert!(!dcm.exists());
+    let original = dir.join("multi.dcm");
+    std::fs::write(&original, dicom::multi_layer_arc_plan().to_bytes()).expect("write");
+    let o = arcsim(&[
+        "resequence",
+        path_str(&original),
+        "--turn-arcs",
+        "-o",
+        path_str(&dcm),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("drop --turn-arcs"), "{}", stderr(&o));
+    assert!(!dcm.exists());
+}
+
+/// The bundled DICOM plan re-sequenced and written back as DICOM: the file imports to exactly
+/// the plan written as JSON by the same run; docs/commands.md's figures are what it reports.
+#[test]
+fn a_dicom_plan_is_written_back_as_dicom() {
+    let dir = temp_dir();
+    let original = crate::util::repo().join("plans/dicom/multi.dcm");
+    let (dcm, json) = (dir.join("fast.dcm"), dir.join("fast.json"));
+    let r = report(&dir, &[path_str(&original), "-o", path_str(&dcm)]);
+    assert!(r["moved_layers"].as_u64().is_some_and(|n| n > 0), "{r}");
+    let f = |k: &str| r[k].as_f64().expect(k);
+    let figures = format!(
+        "goes from {:.2} to {:.2} s ({} layers moved)",
+        f("total_before_s"),
+        f("total_after_s"),
+        r["moved_layers"]
+    );
+    let doc = std::fs::read_to_string(crate::util::repo().join("docs/commands.md")).expect("doc");
+    assert!(
+        doc.replace("\r\n", "\n")
+            .replace('\n', " ")
+            .contains(&figures),
+        "docs/commands.md should say: {figures}"
+    );
+    let o = arcsim(&["resequence", path_str(&original), "-o", path_str(&json)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let back = dir.join("back.json");
+    let o = arcsim(&["import", path_str(&dcm), "-o", path_str(&back)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let read = |p: &Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(p).expect("read")).expect("json")
+    };
+    assert_eq!(read(&back)["arcs"], read(&json)["arcs"]);
+    assert_ne!(read(&back)["arcs"], {
+        let o = dir.join("as-given.json");
+        let out = arcsim(&["import", path_str(&original), "-o", path_str(&o)]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        read(&o)["arcs"].clone()
+    });
 }
 
 /// A sweep file's `resequence: [false, true]` runs each plan as given and re-sequenced, beside

@@ -1,5 +1,6 @@
 #![warn(missing_docs)]
-//! DICOM RT Ion Plan import into arcsim arc plans (`arcsim-plan/1`).
+//! DICOM RT Ion Plan import into arcsim arc plans (`arcsim-plan/1`), and the write-back of a
+//! re-sequenced plan.
 //!
 //! [`read_rt_ion_plan`] reads an RT Ion Plan file (SOP class 1.2.840.10008.5.1.4.1.1.481.8) with
 //! dicom-object and converts it into an [`ArcPlan`]; [`is_dicom_file`] recognises a DICOM file by its
@@ -58,12 +59,17 @@
 //!
 //! The result is checked with [`arcsim_plan::validate_plan`]; see `docs/dicom-import.md`.
 //!
+//! [`write_resequenced`] writes a plan whose layers were reordered inside their control points
+//! (`arcsim resequence`) back as an RT Ion Plan: the original file with the layers' control points
+//! in the new order, a new SOPInstanceUID referencing the original, unapproved.
+//!
 //! A file whose sequences nest deeper than [`MAX_NESTING`] (64) levels is refused before it is parsed
 //! (dicom-object parses nested sequences recursively: thousands of levels would overflow the stack).
 
 mod convert;
 mod error;
 mod read;
+mod write;
 
 use std::path::Path;
 
@@ -76,6 +82,7 @@ pub use read::{
     has_dicom_magic, is_dicom_file, CUMULATIVE_WEIGHT_TOLERANCE, MAX_NESTING, MAX_PAINTINGS,
     MAX_SPOTS, RT_ION_PLAN_STORAGE, RT_PLAN_STORAGE,
 };
+pub use write::{write_resequenced, ResequencedDicom, WriteError, RELATIONSHIP_TO_ORIGINAL};
 
 /// Name given to a plan whose file has neither RTPlanLabel nor RTPlanName (and no file name).
 pub const DEFAULT_PLAN_NAME: &str = "dicom-rt-ion-plan";

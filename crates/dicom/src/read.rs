@@ -9,8 +9,8 @@
 //! - [`plan`]: the plan's beams and their BeamMeterset; [`control_points`]: one beam's control points
 //!   and spots.
 
-mod access;
-mod attr;
+pub(crate) mod access;
+pub(crate) mod attr;
 mod control_points;
 mod file;
 mod ion_plan;

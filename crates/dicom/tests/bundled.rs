@@ -31,3 +31,19 @@ fn the_bundled_dicom_plan_imports_as_one_arc_of_180_layers() {
         .sum();
     assert_eq!(layers, 180);
 }
+
+/// `plans/dicom/multi.dcm`, the plan the re-sequencing walk-through writes back, is the fixture
+/// `dicom::multi_layer_arc_plan()`.
+#[test]
+fn the_bundled_multi_layer_plan_is_the_fixture() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../plans/dicom/multi.dcm");
+    if std::env::var_os("ARCSIM_WRITE_BUNDLED").is_some() {
+        std::fs::write(&path, dicom::multi_layer_arc_plan().to_bytes()).expect("written");
+    }
+    let committed = std::fs::read(&path).expect("plans/dicom/multi.dcm is readable");
+    assert!(
+        committed == dicom::multi_layer_arc_plan().to_bytes(),
+        "plans/dicom/multi.dcm differs from dicom::multi_layer_arc_plan(); regenerate it with \
+         ARCSIM_WRITE_BUNDLED=1 cargo test -p arcsim-dicom bundled"
+    );
+}

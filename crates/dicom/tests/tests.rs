@@ -2,3 +2,4 @@
 
 mod bundled;
 mod import;
+mod write_back;

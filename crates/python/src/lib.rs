@@ -83,6 +83,7 @@ fn arcsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<simulate::Delivery>()?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(resequence::resequence, m)?)?;
+    m.add_function(wrap_pyfunction!(resequence::write_resequenced_dicom, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::schedule_arrays, m)?)?;
     m.add_class::<profile::Profile>()?;
     m.add_function(wrap_pyfunction!(profile::profile, m)?)?;

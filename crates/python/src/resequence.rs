@@ -85,3 +85,26 @@ pub fn resequence<'py>(
     };
     Ok((resequenced, serde_to_py(py, &report)?))
 }
+
+/// Writes `plan`, re-sequenced from the DICOM RT Ion Plan file `original` (its layers reordered
+/// inside their control points, as `resequence` without `turn_arcs` returns it), back as a DICOM
+/// RT Ion Plan at `path`, as `arcsim resequence ORIGINAL -o PATH.dcm` does: the original with its
+/// layers' control points in the new order, a new SOPInstanceUID referencing the original,
+/// ApprovalStatus UNAPPROVED. The file is read back before it is written. Returns the new
+/// SOPInstanceUID. Raises PlanError when `plan` is not `original`'s layers reordered, OSError when
+/// a file cannot be read or written.
+#[pyfunction]
+pub fn write_resequenced_dicom(
+    plan: &Bound<'_, Plan>,
+    original: std::path::PathBuf,
+    path: std::path::PathBuf,
+) -> PyResult<String> {
+    let os = |p: &std::path::Path, e: std::io::Error| {
+        pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", p.display()))
+    };
+    let bytes = std::fs::read(&original).map_err(|e| os(&original, e))?;
+    let written = arcsim_dicom::write_resequenced(&bytes, &plan.get().plan)
+        .map_err(|e| PlanError::new_err(format!("{}: {e}", original.display())))?;
+    std::fs::write(&path, &written.bytes).map_err(|e| os(&path, e))?;
+    Ok(written.sop_instance_uid)
+}

@@ -34,7 +34,7 @@ pub(super) fn required<T>(value: Option<T>, attr: Attr, at: Location) -> Result<
 }
 
 /// The items of a sequence attribute; None when absent or empty.
-pub(super) fn items(obj: &InMemDicomObject, attr: Attr) -> Option<&[InMemDicomObject]> {
+pub(crate) fn items(obj: &InMemDicomObject, attr: Attr) -> Option<&[InMemDicomObject]> {
     obj.get(attr.tag)
         .and_then(|e| e.items())
         .filter(|i| !i.is_empty())
@@ -102,7 +102,7 @@ fn shorten(text: &str) -> String {
 }
 
 /// A single-valued number.
-pub(super) fn float_at(obj: &InMemDicomObject, attr: Attr, at: Location) -> Result<Option<f64>> {
+pub(crate) fn float_at(obj: &InMemDicomObject, attr: Attr, at: Location) -> Result<Option<f64>> {
     single(obj, attr, at)?
         .map(|p| {
             p.to_float64()

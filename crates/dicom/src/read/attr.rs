@@ -41,4 +41,6 @@ attrs! {
     SCAN_SPOT_POSITION_MAP = "ScanSpotPositionMap",
     SCAN_SPOT_METERSET_WEIGHTS = "ScanSpotMetersetWeights",
     NUMBER_OF_PAINTINGS = "NumberOfPaintings",
+    CUMULATIVE_METERSET_WEIGHT = "CumulativeMetersetWeight",
+    CUMULATIVE_DOSE_REFERENCE_COEFFICIENT = "CumulativeDoseReferenceCoefficient",
 }

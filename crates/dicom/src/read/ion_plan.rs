@@ -31,6 +31,8 @@ pub(crate) struct IonPlan {
 /// One ion beam, with control-point attributes already inherited.
 #[derive(Debug, Clone)]
 pub(crate) struct IonBeam {
+    /// Index of the beam's item in IonBeamSequence (the file's order, not BeamNumber's).
+    pub item: usize,
     pub number: i64,
     pub name: Option<String>,
     pub kind: BeamKind,

@@ -264,6 +264,7 @@ fn read_beam(
     }
     let meterset = beam_meterset(groups, index, number)?;
     Ok(BeamRead::Treatment(IonBeam {
+        item: index,
         number,
         name: text(item, BEAM_NAME),
         kind,
