@@ -176,6 +176,7 @@ fn native_layer(layer: &IonLayer, mu_per_weight: f64) -> EnergyLayer {
         }),
         irradiation_time_s: None,
         switching_time_s: None,
+        window_share: None,
     }
 }
 

@@ -87,6 +87,7 @@ pub fn atom_case_plan(json_text: &str, case_name: &str) -> Result<ArcPlan, PlanE
                 spots: None,
                 irradiation_time_s: Some(case.irradiation_times_s[i]),
                 switching_time_s: i.checked_sub(1).map(|k| case.energy_switch_times_s[k]),
+                window_share: None,
             }],
         })
         .collect();

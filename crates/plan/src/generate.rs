@@ -340,6 +340,7 @@ fn build(kind: PlanKind, seed: u64, shape: &Shape) -> ArcPlan {
                             spots: Some(spots(&mut rng, spec.time_s, spec.style)),
                             irradiation_time_s: None,
                             switching_time_s: None,
+                            window_share: None,
                         })
                         .collect(),
                 })

@@ -20,6 +20,7 @@ mod resolve;
 pub mod spill;
 mod spread;
 mod validate;
+mod windows;
 mod zero;
 
 pub use atom::{atom_case_plan, ATOM_PLACEHOLDER_MIN_ENERGY_MEV};
@@ -49,6 +50,7 @@ pub use spill::{BeamSequence, ContinueSpillIf, LayerBeam, SpillModel, SpotAcross
 pub use spread::{FitUncertainty, TimingSpread};
 pub use validate::{
     validate_plan, ENERGY_RANGE_MEV, MAX_ANGLE_DEG, MAX_LAYER_TIME_S, MAX_PAINTINGS,
-    MAX_SPEED_DEG_PER_S, MAX_SPOTS_PER_LAYER, MAX_SPOT_MU, MAX_SPOT_POSITION_MM,
+    MAX_SPEED_DEG_PER_S, MAX_SPOTS_PER_LAYER, MAX_SPOT_MU, MAX_SPOT_POSITION_MM, MAX_WINDOW_SHARE,
 };
+pub use windows::{layer_windows, LayerWindow};
 pub use zero::{unsigned_zero, without_zero_sign};

@@ -97,6 +97,11 @@ pub struct EnergyLayer {
     /// Seconds for the switch INTO this layer; overrides the machine's ELST.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub switching_time_s: Option<f64>,
+    /// This layer's share of its control point's window (a positive weight): the window is split
+    /// in proportion to the layers' shares, in delivery order. Every layer of a control point
+    /// gives one or none does (equal sub-windows). See [`crate::layer_windows`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window_share: Option<f64>,
 }
 
 /// The spots of a layer: a count and either every spot's MU or the layer's total MU.

@@ -8,15 +8,17 @@ use crate::machine::validate_machine;
 use crate::model::{ArcPlan, Machine, ResolvedArc, ResolvedLayer};
 use crate::spill::BeamSequence;
 use crate::validate::validate_plan;
+use crate::windows::layer_windows;
 
 /// Validates plan and machine, then lists each arc's layers in delivery order with their window
 /// centre and width, irradiation time and incoming switching time. Errors list every problem found.
 ///
-/// Several layers at one control point split its window into equal sub-windows, in delivery order
-/// along the rotation direction, each layer centred in its own. The switch into the first layer of
-/// an arc after the first comes from the last layer of the previous arc; a layer that continues
-/// the previous layer's spill (a synchrotron's multi-energy extraction) switches in the spill
-/// model's `in_spill_switching_time_s` instead of the ELST.
+/// Several layers at one control point split its window into sub-windows ([`layer_windows`]: equal,
+/// or in proportion to the layers' `window_share`s), in delivery order along the rotation
+/// direction, each layer centred in its own. The switch into the first layer of an arc after the
+/// first comes from the last layer of the previous arc; a layer that continues the previous
+/// layer's spill (a synchrotron's multi-energy extraction) switches in the spill model's
+/// `in_spill_switching_time_s` instead of the ELST.
 pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, PlanError> {
     let plan_source = format!("plan \"{}\"", plan.name);
     let mut issues = validate_plan(plan, &plan_source);
@@ -38,10 +40,10 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
             if cp.window_deg.is_none() {
                 check_default_window(&mut issues, &plan_source, arc, a, c, window);
             }
-            let sub_window = window / cp.layers.len() as f64;
-            for (l, layer) in cp.layers.iter().enumerate() {
+            let windows = layer_windows(cp, window);
+            for ((l, layer), sub) in cp.layers.iter().enumerate().zip(&windows) {
                 let at = At::layer(a, c, l);
-                let offset = -window / 2.0 + sub_window * (l as f64 + 0.5);
+                let offset = sub.offset_deg(window);
                 let beam = match sequence.next_layer_time(a, layer) {
                     Ok(beam) => beam,
                     Err(SpotTimingError::NoPositions) => {
@@ -87,7 +89,7 @@ pub fn resolve(plan: &ArcPlan, machine: &Machine) -> Result<Vec<ResolvedArc>, Pl
                     control_point: c,
                     layer: l,
                     angle_deg: cp.angle_deg + sign * offset,
-                    window_deg: sub_window,
+                    window_deg: sub.width_deg,
                     energy_mev: layer.energy_mev,
                     irradiation_s,
                     spot_irradiation_s: beam.spot_irradiation_s,

@@ -23,6 +23,9 @@ pub const MAX_SPOTS_PER_LAYER: u32 = 1_000_000;
 pub const MAX_PAINTINGS: u32 = 1000;
 /// Largest accepted spot coordinate, mm: far beyond any field size (about ±200 mm).
 pub const MAX_SPOT_POSITION_MM: f64 = 1e4;
+/// Largest accepted `window_share` of a layer: shares are relative weights, and a million to one
+/// is far beyond any useful split (it keeps the sum of a control point's shares finite).
+pub const MAX_WINDOW_SHARE: f64 = 1e6;
 use crate::beam::MAX_SPOT_DELIVERIES;
 
 /// Slack when comparing a window with the control-point spacing, so 1.0 vs 0.9999999999 is not an error.
@@ -121,6 +124,7 @@ pub fn validate_plan(plan: &ArcPlan, source: &str) -> Vec<PlanIssue> {
                 }
             }
             v.control_point(a, c, cp, spacing[c], spacing.get(c + 1).copied().flatten());
+            v.window_shares(a, c, cp);
             for (l, layer) in cp.layers.iter().enumerate() {
                 v.layer(At::layer(a, c, l), layer, !first_layer_seen);
                 first_layer_seen = true;
@@ -238,6 +242,43 @@ impl Validator<'_> {
                 "layers",
                 "the control point has no layers; expected at least one",
             );
+        }
+    }
+
+    /// Every layer of `cp` gives a `window_share` or none does; each one given is a positive
+    /// weight of at most [`MAX_WINDOW_SHARE`].
+    fn window_shares(&mut self, a: usize, c: usize, cp: &ControlPoint) {
+        let given: Vec<usize> = (0..cp.layers.len())
+            .filter(|&l| cp.layers[l].window_share.is_some())
+            .collect();
+        if let (Some(&with), Some(without)) = (
+            given.first(),
+            (0..cp.layers.len()).find(|l| !given.contains(l)),
+        ) {
+            self.push(
+                At::layer(a, c, without),
+                "window_share",
+                format!(
+                    "layer {with} of this control point gives a window_share and this layer does not; expected a share on every layer of the control point (its window is split in proportion to them) or on none (equal sub-windows)"
+                ),
+            );
+        }
+        let shares = cp.layers.iter().enumerate();
+        for (l, x) in shares.filter_map(|(l, layer)| Some((l, layer.window_share?))) {
+            let at = At::layer(a, c, l);
+            let what = "a share of the window (a weight)";
+            self.number(at, "window_share", x, true, what);
+            if x.is_finite() && x > MAX_WINDOW_SHARE {
+                self.push(
+                    at,
+                    "window_share",
+                    format!(
+                        "{} is above the largest accepted share, {} (shares are relative weights: scale them down together)",
+                        fmt_num(x),
+                        fmt_num(MAX_WINDOW_SHARE)
+                    ),
+                );
+            }
         }
     }
 

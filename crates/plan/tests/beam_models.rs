@@ -265,6 +265,7 @@ fn per_mu_is_the_sum_of_spot_times_and_switches() {
         spots: Some(s),
         irradiation_time_s: None,
         switching_time_s: None,
+        window_share: None,
     };
     let t = layer_beam_time(&layer, &BeamModel::PerMu(b)).expect("timed");
     assert_eq!(t.total_s(), direct);

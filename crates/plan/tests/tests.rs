@@ -8,3 +8,4 @@ mod machine_resolve;
 mod opentps;
 mod spills;
 mod validation;
+mod window_shares;

@@ -238,6 +238,7 @@ impl Plan {
                     (Some(s), k) if k > 0 => Some(s[k - 1]),
                     _ => None,
                 },
+                window_share: None,
             };
             match cps.last_mut() {
                 Some(cp) if cp.angle_deg == angles[k] => cp.layers.push(layer),

@@ -3,3 +3,4 @@
 mod brute_force;
 mod dose;
 mod util;
+mod window_shares;
