@@ -6,13 +6,13 @@
 use std::fmt::Write;
 use std::path::PathBuf;
 
-use arcsim_plan::{resolve, to_json, ArcPlan, Machine};
+use arcsim_plan::{to_json, ArcPlan, Machine};
 use arcsim_resequence::{
     check_same_dose, resequence, ArcFreedom, Outcome, ResequenceOptions, SEARCH_LAYER_BUDGET,
 };
 use arcsim_sequencer::{Delivery, Motion, Schedule, SwitchKind, Switching, SMALL_UPWARD_STEP_MEV};
 
-use crate::input::{input_name, is_dicom_name, load_machine, load_plan_with_bytes, plan_error};
+use crate::input::{input_name, is_dicom_name, load_machine, load_plan_with_bytes};
 use crate::simulate::{parse_motion, ScheduleArg};
 use crate::CliError;
 
@@ -45,17 +45,6 @@ pub struct Args {
     /// Write the before/after report (JSON).
     #[arg(long, value_name = "OUT")]
     json: Option<PathBuf>,
-}
-
-/// The switching of a plan's delivery.
-fn switching(plan: &ArcPlan, machine: &Machine, d: &Delivery) -> Result<Switching, CliError> {
-    let arcs = resolve(plan, machine).map_err(plan_error)?;
-    Ok(Switching::of(
-        &arcs,
-        Some(d),
-        &machine.elst,
-        SMALL_UPWARD_STEP_MEV,
-    ))
 }
 
 fn count_and_time(sw: &Switching, k: SwitchKind) -> (usize, f64) {
@@ -174,8 +163,37 @@ pub fn run(args: Args) -> Result<(), CliError> {
             input_name(&args.plan)
         ))
     })?;
-    let before = switching(&plan, &machine, &out.before)?;
-    let after = switching(&out.plan, &machine, &out.after)?;
+    let text = summary(&args, &plan, &machine, &controller, &out)?;
+    crate::output::print(&text);
+    if let Some(path) = &args.output {
+        write_plan(path, dicom_out.is_some(), &plan_bytes, &out)?;
+    }
+    if let Some(path) = &args.json {
+        write_report(path, &plan, &machine, &controller, &out)?;
+    }
+    Ok(())
+}
+
+/// What `resequence` prints: the plan, the controller, the before/after table and the verdict.
+fn summary(
+    args: &Args,
+    plan: &ArcPlan,
+    machine: &Machine,
+    controller: &arcsim_app::ControllerUsed,
+    out: &Outcome,
+) -> Result<String, CliError> {
+    let switching = |p: &ArcPlan, d: &Delivery| {
+        arcsim_app::switching_of(p, machine, d).ok_or_else(|| {
+            CliError::failed(format!(
+                "{}: the plan does not resolve on the machine (a bug)",
+                input_name(&args.plan)
+            ))
+        })
+    };
+    let (before, after) = (
+        switching(plan, &out.before)?,
+        switching(&out.plan, &out.after)?,
+    );
 
     let mut text = format!(
         "plan {} on {}, {} simulated\n{}\n",
@@ -184,7 +202,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         crate::count(out.candidates.len(), "candidate order"),
         controller.line()
     );
-    text.push_str(&report(&out, &before, &after));
+    text.push_str(&report(out, &before, &after));
     match out.chosen {
         Some(_) => {
             let saved = out.before.total_s - out.after.total_s;
@@ -203,14 +221,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             );
         }
     }
-    crate::output::print(&text);
-    if let Some(path) = &args.output {
-        write_plan(path, dicom_out.is_some(), &plan_bytes, &out)?;
-    }
-    if let Some(path) = &args.json {
-        write_report(path, &plan, &machine, &controller, &out)?;
-    }
-    Ok(())
+    Ok(text)
 }
 
 /// `--output`: the re-sequenced plan as arcsim JSON, or written back into the DICOM RT Ion Plan

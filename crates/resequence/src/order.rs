@@ -161,6 +161,14 @@ pub fn best_orders_by(plan: &ArcPlan, cost: &SwitchCost) -> Vec<Vec<Vec<usize>>>
         }
         let mut next = vec![f64::INFINITY; k];
         let mut choice = vec![(usize::MAX, usize::MAX); k];
+        // between[f * n + pl]: the switch from the previous control point's last layer pl into
+        // layer f here, once per pair (it does not depend on this control point's last layer).
+        let between: Vec<f64> = previous.map_or_else(Vec::new, |pc| {
+            let (n, last_place) = (paths[pc].k, paths[pc].k - 1);
+            (0..k * n)
+                .map(|i| cost((pc, i % n, last_place), (c, i / n, 0)))
+                .collect()
+        });
         for l in 0..k {
             for f in 0..k {
                 let inside = p.cost[f * k + l];
@@ -174,10 +182,10 @@ pub fn best_orders_by(plan: &ArcPlan, cost: &SwitchCost) -> Vec<Vec<Vec<usize>>>
                             choice[l] = (f, usize::MAX);
                         }
                     }
-                    Some(pc) => {
-                        let last_place = paths[pc].k - 1;
+                    Some(_) => {
+                        let n = value.len();
                         for (pl, v) in value.iter().enumerate() {
-                            let total = v + cost((pc, pl, last_place), (c, f, 0)) + inside;
+                            let total = v + between[f * n + pl] + inside;
                             if total < next[l] {
                                 next[l] = total;
                                 choice[l] = (f, pl);

@@ -137,6 +137,19 @@ fn permutations(n: usize) -> Vec<Vec<usize>> {
     out
 }
 
+/// The `pick`-th permutation of `0..k` in lexicographic order ([`permutations`]'s), decoded
+/// from its factorial-base digits without listing the others.
+fn nth_permutation(k: usize, mut pick: usize) -> Vec<usize> {
+    let mut pool: Vec<usize> = (0..k).collect();
+    let mut out = Vec::with_capacity(k);
+    for left in (1..=k).rev() {
+        let block: usize = (1..left).product();
+        out.push(pool.remove(pick / block));
+        pick %= block;
+    }
+    out
+}
+
 /// The arrangements of `n` arcs `freedom` allows, the plan's own first.
 fn arrangements(n: usize, freedom: ArcFreedom) -> Vec<(Vec<usize>, Vec<bool>)> {
     let identity: Vec<usize> = (0..n).collect();
@@ -199,6 +212,23 @@ const SEARCH_MAX_LAYERS: usize = 5;
 
 type Orders = Vec<Vec<Vec<usize>>>;
 
+/// How many times the order estimated at the flown speeds is re-estimated from the delivery it
+/// gave, while each is shorter than the last (each round is one simulation).
+const FLOWN_ROUNDS: usize = 3;
+
+/// Every control point's layers in their own order.
+fn identity_orders(plan: &ArcPlan) -> Orders {
+    plan.arcs
+        .iter()
+        .map(|a| {
+            a.control_points
+                .iter()
+                .map(|cp| (0..cp.layers.len()).collect())
+                .collect()
+        })
+        .collect()
+}
+
 /// The `i`-th of every order of control points of `sizes` layers (mixed radix, the first
 /// control point fastest; each control point's orders as [`permutations`] lists them).
 fn nth_order(sizes: &[Vec<usize>], mut i: usize) -> Orders {
@@ -207,34 +237,23 @@ fn nth_order(sizes: &[Vec<usize>], mut i: usize) -> Orders {
         .map(|arc| {
             arc.iter()
                 .map(|&k| {
-                    let all = permutations(k);
-                    let pick = i % all.len();
-                    i /= all.len();
-                    all[pick].clone()
+                    let count: usize = (1..=k).product();
+                    let pick = i % count;
+                    i /= count;
+                    nth_permutation(k, pick)
                 })
                 .collect()
         })
         .collect()
 }
 
-/// The orders of one arrangement found without simulating: least switching time, and least
-/// estimated switch duration with each layer at the fastest speed its sub-window allows.
-fn blind_orders(arranged: &ArcPlan, machine: &Machine, limits: Limits) -> Vec<Orders> {
-    let mut out = vec![best_orders(arranged, &machine.elst)];
-    let fastest = |_: usize, _: usize| None;
-    if let Ok(cost) = GantryCost::new(arranged, machine, limits, &fastest) {
-        out.push(best_orders_by(arranged, &|a, b| cost.switch_s(a, b)));
-    }
-    out.dedup();
-    out
-}
-
 /// The order of least estimated switch duration with each layer at the speed `d` (a delivery of
-/// `arranged` as it is) flew it at.
+/// `arranged` with its layers in `orders`) flew it at.
 fn flown_order(
     arranged: &ArcPlan,
     machine: &Machine,
     limits: Limits,
+    orders: &Orders,
     d: &Delivery,
 ) -> Option<Orders> {
     let offsets: Vec<usize> = arranged
@@ -248,8 +267,12 @@ fn flown_order(
         .collect();
     let mut speed: std::collections::HashMap<(usize, usize), f64> = Default::default();
     for r in &d.layers {
-        if let Some(o) = offsets.get(r.arc) {
-            speed.insert((o + r.control_point, r.layer), r.speed_deg_per_s);
+        let layer = orders
+            .get(r.arc)
+            .and_then(|a| a.get(r.control_point))
+            .and_then(|c| c.get(r.layer));
+        if let (Some(o), Some(&l)) = (offsets.get(r.arc), layer) {
+            speed.insert((o + r.control_point, l), r.speed_deg_per_s);
         }
     }
     let flown = |g: usize, l: usize| speed.get(&(g, l)).copied();
@@ -312,6 +335,7 @@ fn local_search(
         .filter(|w| w[0].0 == w[1].0 && w[1].1 == w[0].1 + 1)
         .map(|w| w.to_vec())
         .collect();
+    let perms: Vec<Vec<Vec<usize>>> = (0..=SEARCH_MAX_LAYERS).map(permutations).collect();
     let mut budget = opts.search_layer_budget;
     for moves in [singles, pairs] {
         let pass_cost: usize = moves
@@ -324,8 +348,7 @@ fn local_search(
             for m in &moves {
                 let current: Vec<Vec<usize>> =
                     m.iter().map(|&(a, c, _)| orders[a][c].clone()).collect();
-                let choices: Vec<Vec<Vec<usize>>> =
-                    m.iter().map(|&(_, _, k)| permutations(k)).collect();
+                let choices: Vec<&Vec<Vec<usize>>> = m.iter().map(|&(_, _, k)| &perms[k]).collect();
                 let mut at = vec![0usize; m.len()];
                 'odometer: loop {
                     let mut o = orders.clone();
@@ -364,10 +387,12 @@ fn local_search(
     (orders, best)
 }
 
-/// The candidates of one arrangement: every order where they fit the budget; else the orders
-/// found without simulating, each simulated, then a local search by simulation from the
-/// shortest. For the plan's own arrangement (`own`), the plan as given is simulated beside the
-/// first candidates and the order estimated at its speeds is tried too; its delivery is returned.
+/// The candidates of one arrangement: every order where they fit the budget; else the order of
+/// least switching time, then the order of least estimated switch duration at the speeds the
+/// shortest delivery so far flew (re-estimated from each shorter one, [`FLOWN_ROUNDS`]), each
+/// simulated, then a local search by simulation from the shortest. For the plan's own
+/// arrangement (`own`), the plan as given is simulated beside the first candidate and counts as
+/// a delivery to estimate speeds from; its delivery is returned.
 fn search(
     plan: &ArcPlan,
     machine: &Machine,
@@ -394,16 +419,48 @@ fn search(
             &arranged,
             machine,
             opts,
-            blind_orders(&arranged, machine, limits),
+            vec![best_orders(&arranged, &machine.elst)],
         )
     });
-    if let Some(o) = before
-        .as_ref()
-        .and_then(|d| d.as_ref().ok())
-        .and_then(|d| flown_order(&arranged, machine, limits, d))
-        .filter(|o| !simulated.iter().any(|s| s.0 == *o))
-    {
-        simulated.extend(simulate_orders(&arranged, machine, opts, vec![o]));
+    // The orders estimated at the speeds each delivery so far flew (the plan as given's and
+    // the first candidate's), simulated; then again from the shortest of each round while it
+    // is shorter than every delivery before it.
+    let mut frontier: Vec<(Orders, Delivery)> = simulated
+        .iter()
+        .filter_map(|(o, _, _, d)| d.as_ref().ok().map(|d| (o.clone(), d.clone())))
+        .chain(
+            before
+                .as_ref()
+                .and_then(|d| d.as_ref().ok())
+                .map(|d| (identity_orders(&arranged), d.clone())),
+        )
+        .collect();
+    let mut shortest_s = frontier
+        .iter()
+        .map(|(_, d)| d.total_s)
+        .fold(f64::INFINITY, f64::min);
+    for _ in 0..FLOWN_ROUNDS {
+        let mut next: Vec<Orders> = frontier
+            .iter()
+            .filter_map(|(o, d)| flown_order(&arranged, machine, limits, o, d))
+            .collect();
+        next.sort();
+        next.dedup();
+        next.retain(|o| !simulated.iter().any(|s| s.0 == *o));
+        if next.is_empty() {
+            break;
+        }
+        let round = simulate_orders(&arranged, machine, opts, next);
+        frontier = round
+            .iter()
+            .filter_map(|(o, _, _, d)| d.as_ref().ok().map(|d| (o, d)))
+            .min_by(|a, b| a.1.total_s.total_cmp(&b.1.total_s))
+            .filter(|(_, d)| d.total_s < shortest_s - 1e-9)
+            .map(|(o, d)| (o.clone(), d.clone()))
+            .into_iter()
+            .collect();
+        shortest_s = frontier.first().map_or(shortest_s, |(_, d)| d.total_s);
+        simulated.extend(round);
     }
     let shortest = simulated
         .iter()
@@ -487,9 +544,8 @@ pub fn resequence(
         Some(d) => d.map_err(ResequenceError::Original)?,
         None => simulate(plan, machine, &opts.simulation).map_err(ResequenceError::Original)?,
     };
-    let searched = found;
     let mut built: Vec<Built> = Vec::new();
-    for b in searched.into_iter().flatten() {
+    for b in found.into_iter().flatten() {
         if !built.iter().any(|o| o.plan == b.plan) {
             check_same_dose(plan, &b.plan).map_err(ResequenceError::Dose)?;
             built.push(b);
@@ -565,5 +621,19 @@ fn description(plan: &ArcPlan, c: &Candidate, moved: usize) -> String {
     match &plan.description {
         Some(d) => format!("{d} (re-sequenced by arcsim, same dose: {what})"),
         None => format!("re-sequenced by arcsim, same dose: {what}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{nth_permutation, permutations};
+
+    #[test]
+    fn the_nth_permutation_is_the_nth_listed() {
+        for k in 0..=5 {
+            for (i, p) in permutations(k).iter().enumerate() {
+                assert_eq!(&nth_permutation(k, i), p, "k {k}, i {i}");
+            }
+        }
     }
 }
