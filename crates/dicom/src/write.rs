@@ -107,6 +107,7 @@ pub fn write_resequenced(
                 .map(move |(c, _)| (b.item, c))
         })
         .collect();
+    check_beams_kept(&given, &order, &sources)?;
     let mut per_beam: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for &j in &order {
         let &(b, c) = sources
@@ -211,6 +212,37 @@ fn layer_order(given: &ArcPlan, resequenced: &ArcPlan) -> Result<Vec<usize>, Wri
         }
     }
     Ok(order)
+}
+
+/// A control point made of several beams' layers (static beams at one angle) keeps each beam's
+/// layers where they were: DICOM delivers the beams one after the other, so a layer cannot
+/// change places with another beam's.
+fn check_beams_kept(
+    given: &ArcPlan,
+    order: &[usize],
+    sources: &[(usize, usize)],
+) -> Result<(), WriteError> {
+    let beam_of = |j: usize| sources.get(j).map(|s| s.0);
+    let mut start = 0;
+    for (a, arc) in given.arcs.iter().enumerate() {
+        for (c, cp) in arc.control_points.iter().enumerate() {
+            let range = start..start + cp.layers.len();
+            let was: Vec<_> = range.clone().map(beam_of).collect();
+            let now: Vec<_> = order[range].iter().map(|&j| beam_of(j)).collect();
+            if was != now {
+                return Err(WriteError::NotAReorder {
+                    arc: a,
+                    control_point: Some(c),
+                    problem: "its layers come from several beams (static beams at one angle) and \
+                              a layer changed places with another beam's, which the beams' \
+                              order in DICOM cannot express"
+                        .into(),
+                });
+            }
+            start += cp.layers.len();
+        }
+    }
+    Ok(())
 }
 
 /// New SOPInstanceUID (data set and meta group), the reference to the original, unapproved.

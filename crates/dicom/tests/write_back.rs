@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 
 use arcsim_dicom::{read_rt_ion_plan_from_bytes, write_resequenced, WriteError};
 use arcsim_plan::ArcPlan;
-use arcsim_test_support::dicom::{self, PlanSpec};
+use arcsim_test_support::dicom::{self, BeamSpec, PlanSpec};
 use dicom_core::header::Header;
 use dicom_core::value::DataSetSequence;
 use dicom_core::{DataElement, Tag, VR};
@@ -401,4 +401,48 @@ fn the_original_transfer_syntax_is_kept() {
         let back = read_rt_ion_plan_from_bytes(&written.bytes).expect("reads back");
         assert_eq!(back.arcs, target.arcs, "{ts}");
     }
+}
+
+/// Static beams at one angle make one control point of several beams' layers: reordering inside
+/// a beam is written, a layer moved before another beam's is refused with the reason.
+#[test]
+fn layers_of_static_beams_at_one_angle_stay_with_their_beam() {
+    let layer = |energy: f64, i: usize| dicom::Layer {
+        angle: 90.0,
+        energy,
+        weights: dicom::weights_of(i),
+    };
+    let beams = vec![
+        BeamSpec::from_layers(
+            1,
+            "STATIC",
+            "NONE",
+            100.0,
+            &[layer(120.0, 0), layer(150.0, 1)],
+        ),
+        BeamSpec::from_layers(
+            2,
+            "STATIC",
+            "NONE",
+            100.0,
+            &[layer(130.0, 2), layer(160.0, 3)],
+        ),
+    ];
+    let original = PlanSpec::ion("STATIC2", beams).to_bytes();
+    let plan = read_rt_ion_plan_from_bytes(&original).expect("fixture imports");
+    assert_eq!(plan.arcs[0].control_points.len(), 1);
+    assert_eq!(plan.arcs[0].control_points[0].layers.len(), 4);
+    // Inside each beam: written.
+    let mut inside = plan.clone();
+    inside.arcs[0].control_points[0].layers.swap(0, 1);
+    inside.arcs[0].control_points[0].layers.swap(2, 3);
+    let written = write_resequenced(&original, &inside).expect("written back");
+    assert_eq!(written.beams_reordered, 2);
+    let back = read_rt_ion_plan_from_bytes(&written.bytes).expect("reads back");
+    assert_eq!(back.arcs, inside.arcs);
+    // Across beams: refused, naming why.
+    let mut across = plan.clone();
+    across.arcs[0].control_points[0].layers.swap(1, 2);
+    let e = write_resequenced(&original, &across).expect_err("refused");
+    assert!(e.to_string().contains("another beam's"), "{e}");
 }
