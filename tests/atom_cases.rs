@@ -1,7 +1,7 @@
 //! Acceptance on the three clinical cases of the ATOM article (Wase et al. 2024), read from the
-//! plans in `plans/atom/` (ATOM's own layer speeds are their prescribed speeds). When
-//! `../shared/reference/atom-article-cases.json` is beside the repository, the plans are checked
-//! against it; `ARCSIM_WRITE_ATOM_PLANS=1` rewrites them from it.
+//! plans in `plans/atom/` (ATOM's own layer speeds are their prescribed speeds). The plans are
+//! checked against the article's data in `reference/atom-article-cases.json`;
+//! `ARCSIM_WRITE_ATOM_PLANS=1` rewrites them from it.
 
 use arcsim_plan::{atom_case_plan, load_plan, parse_machine, to_json, ArcPlan};
 use arcsim_sequencer::{simulate, simulate_with_speeds, Options, Schedule};
@@ -50,14 +50,11 @@ fn reference_plan(text: &str, json: &serde_json::Value, name: &str) -> ArcPlan {
     plan
 }
 
-/// The committed plans are the reference data, exactly (fails under CI without the reference).
+/// The committed plans are the reference data, exactly.
 #[test]
 fn committed_plans_equal_the_reference_data() {
-    let Some(text) =
-        arcsim_test_support::atom_reference("the check of plans/atom/ against the reference data")
-    else {
-        return;
-    };
+    let text =
+        arcsim_test_support::atom_reference("the check of plans/atom/ against the reference data");
     let json: serde_json::Value = serde_json::from_str(&text).expect("reference JSON");
     for (name, _) in ATOM_TOTALS_S {
         let plan = reference_plan(&text, &json, name);

@@ -23,7 +23,7 @@ import pytest
 import arcsim
 
 BIN = os.environ.get("ARCSIM_BIN", "target/debug/arcsim")
-ATOM_REFERENCE = Path("../shared/reference/atom-article-cases.json")
+ATOM_REFERENCE = Path("reference/atom-article-cases.json")
 
 
 def cli(*args):
@@ -539,10 +539,6 @@ def test_sweep_checks_its_numbers():
 
 
 def test_schedule_arrays_atom_cases():
-    if not ATOM_REFERENCE.exists():
-        if os.environ.get("CI"):
-            pytest.fail(f"CI: {ATOM_REFERENCE} is missing")
-        pytest.skip(f"{ATOM_REFERENCE} not found")
     ref = json.loads(ATOM_REFERENCE.read_text())
     for case in ref["cases"]:
         total, speeds = arcsim.schedule_arrays(

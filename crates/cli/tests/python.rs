@@ -22,8 +22,8 @@ const PACKAGES: &[&str] = &[
     "pydicom",
 ];
 
-fn skip_or_fail(why: &str) {
-    arcsim_test_support::skip_or_fail("the Python tests", why);
+fn cannot_run(why: &str) -> ! {
+    arcsim_test_support::cannot_run("the Python tests", why)
 }
 
 fn wheel_in(dir: &Path) -> Option<PathBuf> {
@@ -39,7 +39,7 @@ fn python_package_passes_its_pytest_suite() {
     let repo = util::repo();
     let python = match util::python() {
         Ok(python) => python,
-        Err(e) => return skip_or_fail(&e),
+        Err(e) => cannot_run(&e),
     };
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("python");
     let venv = work.join("venv");
@@ -48,12 +48,12 @@ fn python_package_passes_its_pytest_suite() {
     let _ = std::fs::remove_dir_all(&venv);
     std::fs::create_dir_all(&work).expect("work dir");
     if let Err(e) = run(Command::new(&python).args(["-m", "venv"]).arg(&venv)) {
-        return skip_or_fail(&e);
+        cannot_run(&e);
     }
     let bin = venv.join("bin");
     let pip = |args: &[&str]| util::pip_install(&bin.join("python"), args);
     if let Err(e) = pip(PACKAGES) {
-        return skip_or_fail(&e);
+        cannot_run(&e);
     }
     // The wheel, built from this checkout with the dev profile (so it shares its dependencies'
     // build with `cargo build`; maturin's `cargo rustc` would build a test harness with the

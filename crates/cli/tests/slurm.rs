@@ -6,7 +6,7 @@ use crate::util;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use arcsim_test_support::{skip_or_fail, temp_dir};
+use arcsim_test_support::{cannot_run, temp_dir};
 
 use crate::util::{path_str, repo, sweep_file, text};
 
@@ -42,7 +42,7 @@ fn sbatch(script: &str, task: Option<usize>, sweep: &Path, out_dir: &Path) -> Ou
 fn job_array_and_merge_give_the_single_run() {
     let _turn = crate::util::one_heavy_test_at_a_time();
     if !have_bash() {
-        return skip_or_fail("the SLURM script test", "bash is not available");
+        cannot_run("the SLURM script test", "bash is not available");
     }
     let dir = temp_dir();
     let out_dir = dir.join("out");
@@ -118,7 +118,7 @@ fn job_array_and_merge_give_the_single_run() {
 #[test]
 fn array_task_outside_the_shards_fails_clearly() {
     if !have_bash() {
-        return skip_or_fail("the SLURM script test", "bash is not available");
+        cannot_run("the SLURM script test", "bash is not available");
     }
     let dir = temp_dir();
     let out_dir = dir.join("out");

@@ -14,13 +14,6 @@ use arcsim_evaluator::{
 };
 use arcsim_test_support::temp_dir;
 
-/// Whether `../shared/reference/atom-article-cases.json` is beside the repository (the
-/// `atom_case` plan source reads it); CI must have it.
-fn have_atom_reference() -> bool {
-    arcsim_test_support::atom_reference("the `atom_case` check against the reference data")
-        .is_some()
-}
-
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -204,18 +197,14 @@ fn bad_sweep_files_get_located_errors() {
         let e = error_of(&text);
         assert!(e.starts_with(expected), "expected «{expected}», got «{e}»");
     }
-    let e = error_of(&GOOD.replace("\"../plans/prostate.json\"", "{\"atom_case\": \"kidney\", \"reference\": \"../../shared/reference/atom-article-cases.json\"}"));
-    if have_atom_reference() {
-        assert!(
-            e.starts_with("test-sweep.json: plans[0].atom_case:") && e.contains("kidney"),
-            "{e}"
-        );
-    } else {
-        assert!(
-            e.starts_with("test-sweep.json: plans[0].reference: cannot read"),
-            "{e}"
-        );
-    }
+    let e = error_of(&GOOD.replace(
+        "\"../plans/prostate.json\"",
+        "{\"atom_case\": \"kidney\", \"reference\": \"../reference/atom-article-cases.json\"}",
+    ));
+    assert!(
+        e.starts_with("test-sweep.json: plans[0].atom_case:") && e.contains("kidney"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -1,10 +1,10 @@
-//! The ATOM article cases from ../shared/reference, converted to plans (skipped when absent,
-//! except under CI, which must have the file).
+//! The ATOM article cases (the repository's `reference/atom-article-cases.json`), converted to
+//! plans.
 
 use arcsim_plan::{atom_case_plan, load_machine, resolve, PlanError};
 use serde_json::Value;
 
-fn reference() -> Option<String> {
+fn reference() -> String {
     arcsim_test_support::atom_reference("the conversion of the ATOM article cases")
 }
 
@@ -18,7 +18,7 @@ fn numbers(v: &Value) -> Vec<f64> {
 
 #[test]
 fn atom_cases_become_plans_with_their_timings() {
-    let Some(text) = reference() else { return };
+    let text = reference();
     let data: Value = serde_json::from_str(&text).unwrap();
     let atom = load_machine(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -74,7 +74,7 @@ fn atom_cases_become_plans_with_their_timings() {
 
 #[test]
 fn unknown_case_and_bad_text_are_errors() {
-    let Some(text) = reference() else { return };
+    let text = reference();
     let err = atom_case_plan(&text, "brain").unwrap_err().to_string();
     assert!(
         err.contains("no case named \"brain\"") && err.contains("prostate"),

@@ -1,61 +1,44 @@
-//! Tests that need something outside the repository: under CI (`CI` set) a test that cannot run
-//! fails and says why; elsewhere it says so on standard error and the caller returns.
+//! Tests that need something outside the repository's code: a test that cannot run fails and says
+//! why (it never passes without running); the published reference data it may need is in the
+//! repository (`reference/`).
 
-use std::io::Write;
 use std::path::PathBuf;
 
-/// Whether the tests run under CI (the environment variable `CI` is set).
-pub fn under_ci() -> bool {
-    std::env::var_os("CI").is_some()
+/// A test that cannot run fails, naming `what` and `why`: a test that did not run never passes.
+/// (Tests that need a tool this machine may lack say how to install it in `why`.)
+pub fn cannot_run(what: &str, why: &str) -> ! {
+    panic!("{what} cannot run: {why}");
 }
 
-/// A test that cannot run: panics under CI naming `what` and `why`; elsewhere prints a notice, and
-/// the caller returns. The notice goes to the process's standard error directly, past the test
-/// harness's capture, so a plain `cargo test` shows it.
-pub fn skip_or_fail(what: &str, why: &str) {
-    if under_ci() {
-        panic!("CI: {what} cannot run: {why}");
-    }
-    let _ = writeln!(std::io::stderr(), "NOTICE: {what} skipped: {why}");
-}
-
-/// `../shared/reference/atom-article-cases.json` beside the repository: the ATOM article's data,
-/// which CI has and a clone alone does not.
+/// `reference/atom-article-cases.json` in the repository: the ATOM article's published data
+/// (Wase et al., Phys. Med. Biol. 2024; its source is named inside the file).
 pub fn atom_reference_path() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/reference/atom-article-cases.json")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../reference/atom-article-cases.json")
 }
 
-/// The text of [`atom_reference_path`]; `None` (after [`skip_or_fail`] for `what`) when it cannot
-/// be read, so under CI a missing file fails.
-pub fn atom_reference(what: &str) -> Option<String> {
+/// The text of [`atom_reference_path`]; a test that needs it fails, naming `what`, when it
+/// cannot be read.
+pub fn atom_reference(what: &str) -> String {
     let path = atom_reference_path();
-    match std::fs::read_to_string(&path) {
-        Ok(text) => Some(text),
-        Err(e) => {
-            skip_or_fail(what, &format!("{} not readable ({e})", path.display()));
-            None
-        }
-    }
+    std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| cannot_run(what, &format!("{} not readable ({e})", path.display())))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::skip_or_fail;
-    use crate::in_own_process;
+    use super::{atom_reference, cannot_run};
 
     #[test]
-    fn skip_or_fail_fails_under_ci_naming_what_and_why() {
-        if !in_own_process(
-            module_path!(),
-            "skip_or_fail_fails_under_ci_naming_what_and_why",
-            &[("CI", "true".as_ref())],
-        ) {
-            return;
-        }
-        let panic = std::panic::catch_unwind(|| skip_or_fail("the widget test", "no widget"))
-            .expect_err("a failure under CI");
+    fn a_test_that_cannot_run_fails_naming_what_and_why() {
+        let panic = std::panic::catch_unwind(|| cannot_run("the widget test", "no widget"))
+            .expect_err("a failure");
         let message = panic.downcast_ref::<String>().expect("a message");
-        assert_eq!(message, "CI: the widget test cannot run: no widget");
+        assert_eq!(message, "the widget test cannot run: no widget");
+    }
+
+    #[test]
+    fn the_atom_reference_is_in_the_repository() {
+        let text = atom_reference("this test");
+        assert!(text.contains("Wase et al., Phys. Med. Biol. 2024"));
     }
 }

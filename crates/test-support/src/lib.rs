@@ -4,7 +4,8 @@
 //!
 //! - [`temp_dir`] and [`temp_file`]: a fresh temporary directory per call, in the target directory;
 //! - [`Rng`]: a small seeded generator, so random test cases are the same in every run;
-//! - [`skip_or_fail`] and [`atom_reference`]: a test that cannot run fails under CI and says why;
+//! - [`cannot_run`] and [`atom_reference`]: a test that cannot run fails and says why; the ATOM
+//!   article's data from the repository's `reference/`;
 //! - [`HIDDEN_MACHINE_JSON`]: the machine whose simulated deliveries stand in for delivery logs;
 //! - [`COLUMNS_SINCE_V1`]: the sweep-table columns an old (V1) table lacks;
 //! - [`in_own_process`]: a test run alone in a child process, for one that changes what the whole
@@ -22,7 +23,7 @@ mod sweep_csv;
 mod temp;
 
 pub use alone::in_own_process;
-pub use ci::{atom_reference, atom_reference_path, skip_or_fail, under_ci};
+pub use ci::{atom_reference, atom_reference_path, cannot_run};
 pub use machines::HIDDEN_MACHINE_JSON;
 pub use rng::Rng;
 pub use sweep_csv::COLUMNS_SINCE_V1;

@@ -5,14 +5,14 @@ use std::net::TcpStream;
 use std::path::Path;
 
 use arcsim_sequencer::{simulate, Options, Schedule};
-use arcsim_test_support::{in_own_process, skip_or_fail};
+use arcsim_test_support::{cannot_run, in_own_process};
 use arcsim_viewer::{spawn_delivery, ViewerError, ViewerOptions};
 
 #[test]
 fn spawn_without_viewer_is_a_clear_error() {
     // The viewer's port is fixed: a viewer listening there would be reused, not spawned.
     if TcpStream::connect("127.0.0.1:9876").is_ok() {
-        return skip_or_fail(
+        cannot_run(
             "the spawn test",
             "something listens on 127.0.0.1:9876, where spawning would reuse a running viewer",
         );
