@@ -6,7 +6,7 @@ use arcsim_plan::{
 };
 use serde_json::{json, Value};
 
-fn machine_json() -> Value {
+pub(crate) fn machine_json() -> Value {
     json!({
         "format": "arcsim-machine/1",
         "name": "test",

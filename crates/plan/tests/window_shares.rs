@@ -9,14 +9,7 @@ use arcsim_plan::{
 use serde_json::{json, Value};
 
 fn machine() -> Machine {
-    let m = json!({
-        "format": "arcsim-machine/1",
-        "name": "test",
-        "gantry": { "max_speed_deg_per_s": 5.0, "max_accel_deg_per_s2": 0.5, "max_jerk_deg_per_s3": 0.5 },
-        "beam": { "s_per_mu": 0.005, "spot_switch_time_s": 0.002 },
-        "elst": { "kind": "constant", "up_s": 5.0, "down_s": 0.5, "same_s": 0.0 },
-        "default_window_deg": 1.0
-    });
+    let m = crate::machine_resolve::machine_json();
     parse_machine(&m.to_string(), "m.json").expect("test machine")
 }
 
