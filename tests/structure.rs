@@ -1,7 +1,6 @@
-//! The code's shape, as the project's conventions state it: no function in `crates/*/src` longer
-//! than 100 lines, no glob re-exports, and every library crate warns about missing docs. rustfmt
-//! puts a function's closing brace at the indentation of its `fn`, which is what the length
-//! count relies on.
+//! The code's shape, as the project's conventions state it: no function longer than 100 lines
+//! (clippy's `too_many_lines`, configured for every crate), no glob re-exports, and every library
+//! crate warns about missing docs.
 
 use std::path::{Path, PathBuf};
 
@@ -45,71 +44,41 @@ fn crate_sources() -> Vec<PathBuf> {
     files
 }
 
-/// The line's `fn` name when it opens a function item (after visibility and qualifiers).
-fn function_name(line: &str) -> Option<&str> {
-    let mut rest = line.trim_start();
-    for prefix in [
-        "pub(crate) ",
-        "pub(super) ",
-        "pub ",
-        "const ",
-        "async ",
-        "unsafe ",
-        "extern \"C\" ",
-    ] {
-        rest = rest.strip_prefix(prefix).unwrap_or(rest);
-    }
-    let rest = rest.strip_prefix("fn ")?;
-    let end = rest.find(|c: char| !(c.is_alphanumeric() || c == '_'))?;
-    Some(&rest[..end])
-}
-
-/// (length in lines, name) of every function in `text` with a body.
-fn function_lengths(text: &str) -> Vec<(usize, String, usize)> {
-    let lines: Vec<&str> = text.lines().collect();
-    let mut found = Vec::new();
-    for (i, line) in lines.iter().enumerate() {
-        let Some(name) = function_name(line) else {
-            continue;
-        };
-        if line.trim_end().ends_with(';') {
-            continue;
-        }
-        let indent = &line[..line.len() - line.trim_start().len()];
-        let closing = format!("{indent}}}");
-        if let Some(end) = lines[i + 1..].iter().position(|l| *l == closing) {
-            found.push((end + 2, name.to_string(), i + 1));
-        }
-    }
-    found
-}
-
+/// Every crate takes the workspace's lints, among them clippy's `too_many_lines` at the
+/// threshold of `clippy.toml` (100 lines): CI's `cargo clippy -- -D warnings` refuses a longer
+/// function.
 #[test]
-fn the_length_count_sees_a_function() {
-    let text = "impl X {\n    pub(crate) fn short(&self) -> u8 {\n        1\n    }\n}\n\nfn f() {\n    let a = 1;\n    let b = 2;\n}\n";
-    let lengths = function_lengths(text);
-    assert_eq!(
-        lengths,
-        vec![(3, "short".to_string(), 2), (4, "f".to_string(), 7)]
+fn every_crate_refuses_functions_over_100_lines() {
+    let root = std::fs::read_to_string(workspace().join("Cargo.toml")).expect("Cargo.toml");
+    assert!(
+        root.contains("[workspace.lints.clippy]\ntoo_many_lines = \"warn\""),
+        "Cargo.toml: [workspace.lints.clippy] too_many_lines = \"warn\" is missing"
     );
-}
-
-#[test]
-fn no_function_is_longer_than_100_lines() {
-    let mut long = Vec::new();
-    for file in crate_sources() {
-        let text = std::fs::read_to_string(&file).expect("source is readable");
-        let place = under_crates(&file);
-        for (length, name, line) in function_lengths(&text) {
-            if length > MAX_FUNCTION_LINES {
-                long.push(format!("crates/{place}:{line} {name} ({length} lines)"));
-            }
+    let clippy = std::fs::read_to_string(workspace().join("clippy.toml")).expect("clippy.toml");
+    assert!(
+        clippy
+            .lines()
+            .any(|l| l.trim() == format!("too-many-lines-threshold = {MAX_FUNCTION_LINES}")),
+        "clippy.toml: too-many-lines-threshold = {MAX_FUNCTION_LINES} is missing"
+    );
+    let mut missing = Vec::new();
+    let mut manifests = vec![workspace().join("Cargo.toml")];
+    for krate in std::fs::read_dir(workspace().join("crates"))
+        .expect("crates/")
+        .flatten()
+    {
+        manifests.push(krate.path().join("Cargo.toml"));
+    }
+    for manifest in &manifests {
+        let text = std::fs::read_to_string(manifest).expect("a crate's Cargo.toml");
+        if !text.contains("[lints]\nworkspace = true") {
+            missing.push(manifest.display().to_string());
         }
     }
     assert!(
-        long.is_empty(),
-        "functions over {MAX_FUNCTION_LINES} lines (split them into named steps):\n{}",
-        long.join("\n")
+        missing.is_empty(),
+        "without `[lints] workspace = true`:\n{}",
+        missing.join("\n")
     );
 }
 

@@ -3,6 +3,11 @@
 //! reversal allowed and a minimum duration, the duration analysis, and `state_at`.
 //! `cargo bench -p arcsim-planner --bench planner`
 
+#![allow(
+    clippy::too_many_lines,
+    reason = "the 100-line rule is for the crates' code; a test or benchmark reads top to bottom"
+)]
+
 use std::hint::black_box;
 
 use arcsim_planner::{plan, Limits, Move, MoveAnalysis, MoveOptions, Reversal};
