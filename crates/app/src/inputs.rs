@@ -103,13 +103,18 @@ pub fn read_plan_file_warned(
         name: name.clone(),
         message: e.to_string(),
     })?;
-    let dicom_extension = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"));
+    let dicom_extension = has_dicom_extension(path);
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
     let (plan, warnings) = plan_from_bytes_warned(&name, stem.as_deref(), dicom_extension, &bytes)?;
     Ok((plan, sha256_hex(&bytes), warnings))
+}
+
+/// Whether `path` ends in `.dcm` or `.dicom` (any case): such a file is read, and written, as
+/// DICOM.
+pub fn has_dicom_extension(path: &std::path::Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"))
 }
 
 /// The machine model in `text`, from the input called `name` in messages.

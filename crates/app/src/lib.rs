@@ -25,8 +25,9 @@ pub use document::{
     RESEQUENCE_FORMAT, RESULT_FORMAT,
 };
 pub use inputs::{
-    builtin_machine, machine_from_text, plan_from_bytes_warned, read_plan_file,
-    read_plan_file_warned, sha256_hex, AppError, DEFAULT_MACHINE_JSON, DEFAULT_MACHINE_SOURCE,
+    builtin_machine, has_dicom_extension, machine_from_text, plan_from_bytes_warned,
+    read_plan_file, read_plan_file_warned, sha256_hex, AppError, DEFAULT_MACHINE_JSON,
+    DEFAULT_MACHINE_SOURCE,
 };
 pub use moves::{MoveError, MoveRequest, SolvedMove};
 pub use request::{

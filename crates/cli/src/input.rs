@@ -105,7 +105,7 @@ pub fn load_plan_hashed(path: &Path) -> Result<(ArcPlan, String), CliError> {
 
 /// [`load_plan`], with the bytes read (a DICOM plan's file, to write a changed plan back).
 pub fn load_plan_with_bytes(path: &Path) -> Result<(ArcPlan, Vec<u8>), CliError> {
-    let dicom_extension = is_dicom_name(path);
+    let dicom_extension = arcsim_app::has_dicom_extension(path);
     let bytes = read_input(path)?;
     arcsim_app::plan_from_bytes_warned(
         &input_name(path),
@@ -115,13 +115,6 @@ pub fn load_plan_with_bytes(path: &Path) -> Result<(ArcPlan, Vec<u8>), CliError>
     )
     .map(|imported| (print_import_warnings(imported), bytes))
     .map_err(|e| CliError::failed(e.to_string()))
-}
-
-/// Whether `path` ends in `.dcm` or `.dicom` (any case).
-pub fn is_dicom_name(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("dcm") || e.eq_ignore_ascii_case("dicom"))
 }
 
 /// Loads the machine file at `path` (`-`: standard input), or the built-in ATOM machine when

@@ -12,7 +12,7 @@ use arcsim_resequence::{
 };
 use arcsim_sequencer::{Delivery, Motion, Schedule, SwitchKind, Switching, SMALL_UPWARD_STEP_MEV};
 
-use crate::input::{input_name, is_dicom_name, load_machine, load_plan_with_bytes};
+use crate::input::{input_name, load_machine, load_plan_with_bytes};
 use crate::simulate::{parse_motion, ScheduleArg};
 use crate::CliError;
 
@@ -108,7 +108,10 @@ fn report(out: &Outcome, before: &Switching, after: &Switching) -> String {
 }
 
 pub fn run(args: Args) -> Result<(), CliError> {
-    let dicom_out = args.output.as_deref().filter(|p| is_dicom_name(p));
+    let dicom_out = args
+        .output
+        .as_deref()
+        .filter(|p| arcsim_app::has_dicom_extension(p));
     if let (Some(out), true) = (dicom_out, args.turn_arcs) {
         return Err(CliError::usage(format!(
             "--output {} with --turn-arcs: a DICOM plan is written back only with layers reordered inside their control points (a beam's direction and the beams' order stay); drop --turn-arcs or write arcsim JSON",

@@ -66,17 +66,15 @@ pub(super) fn reorder(
     let mut out = Vec::with_capacity(sequence.len());
     for (position, &c) in sequence.iter().enumerate() {
         let mut item = cps[c].clone();
-        let before = position
-            .checked_sub(1)
-            .map(|p| &states[sequence[p]])
-            .cloned()
-            .unwrap_or_default();
+        // What the control point now before this one passes on (nothing for the first).
+        let before = position.checked_sub(1).map(|p| &states[sequence[p]]);
         for (tag, element) in &states[c] {
-            if item.get(*tag).is_none() && before.get(tag) != Some(element) {
+            if item.get(*tag).is_none() && before.and_then(|b| b.get(tag)) != Some(element) {
                 item.put(element.clone());
             }
         }
-        if let Some(tag) = before.keys().find(|t| !states[c].contains_key(t)) {
+        let cleared = before.and_then(|b| b.keys().find(|t| !states[c].contains_key(t)));
+        if let Some(tag) = cleared {
             return Err(WriteError::Unorderable {
                 at: at(c),
                 problem: format!(
