@@ -47,6 +47,7 @@ fn bench(c: &mut Criterion) {
         has_mu: true,
         wraps_unwrapped: 0,
         glitches_rejected: 0,
+        edge_resolution_s: None,
     };
     let other = simulate_resolved(&arcs, &limits, &constant).expect("simulated");
     let mut group = c.benchmark_group("logs");

@@ -832,3 +832,37 @@ def test_a_dicom_plan_written_back_reads_in_pydicom(tmp_path):
     # A plan that is not a reorder of the original is refused.
     with pytest.raises(arcsim.PlanError, match="arcsim JSON"):
         arcsim.write_resequenced_dicom(arcsim.load_plan("plans/lung.json"), src, str(tmp_path / "x.dcm"))
+
+
+def test_a_treatment_record_reads_in_pydicom_as_the_simulation_and_loads_as_a_log(tmp_path):
+    """`simulate --record` read by pydicom, independently of arcsim's reader: one pair of control
+    points per layer at the simulation's beam-on and beam-off, the delivered meterset growing by
+    the plan's MU; then `load_log` and `compare` read it as that delivery."""
+    import pydicom
+    rec = tmp_path / "lung.dcm"
+    d = cli_json(tmp_path, "simulate", "plans/lung.json", "--record", str(rec),
+                 "--record-time-digits", "6", "--record-start", "20261231235930")
+    ds = pydicom.dcmread(rec)
+    assert ds.SOPClassUID == "1.2.840.10008.5.1.4.1.1.481.9"
+    cps = [c for b in ds.TreatmentSessionIonBeamSequence for c in b.IonControlPointDeliverySequence]
+    assert len(cps) == 2 * len(d["layers"])
+
+    def seconds(c):
+        day = 0 if c.TreatmentControlPointDate == "20261231" else 1
+        t = c.TreatmentControlPointTime
+        return day * 86400 + int(t[:2]) * 3600 + int(t[2:4]) * 60 + float(t[4:]) - 86370.0
+
+    plan = json.loads(Path("plans/lung.json").read_text())
+    mu = [layer["spots"]["total_mu"] for arc in plan["arcs"] for cp in arc["control_points"]
+          for layer in cp["layers"]]
+    for k, layer in enumerate(d["layers"]):
+        on, off = cps[2 * k], cps[2 * k + 1]
+        assert seconds(on) == pytest.approx(layer["t_start_s"], abs=1e-6)
+        assert seconds(off) == pytest.approx(layer["t_end_s"], abs=1e-6)
+        assert float(off.DeliveredMeterset) - float(on.DeliveredMeterset) == pytest.approx(
+            mu[k], abs=2e-6)
+        assert float(on.NominalBeamEnergy) == pytest.approx(layer["energy_mev"], abs=1e-6)
+    log = arcsim.load_log(rec)
+    assert int(log["beam_on"].sum()) == 2 * len(d["layers"])
+    c = arcsim.compare(arcsim.load_plan("plans/lung.json"), rec, arcsim.Machine.atom())
+    assert abs(c.difference_s) < 1e-4

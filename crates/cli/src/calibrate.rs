@@ -23,7 +23,8 @@ pub struct Args {
     /// The machine to start from: what the logs do not determine is kept from it.
     #[arg(long)]
     machine: PathBuf,
-    /// Pairs of a plan and its delivery log: PLAN LOG [PLAN LOG ...].
+    /// Pairs of a plan and its delivery log (CSV, or a DICOM RT Ion Beams Treatment Record):
+    /// PLAN LOG [PLAN LOG ...].
     #[arg(required = true, num_args = 2.., value_names = ["PLAN", "LOG"])]
     inputs: Vec<PathBuf>,
     /// Where to write the fitted machine (JSON).
@@ -76,7 +77,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
             Ok(LoggedRun {
                 plan_name: input_name(&pair[0]),
                 plan: load_plan(&pair[0])?,
-                log: crate::compare::read(&pair[1], args.columns.as_deref())?,
+                log: crate::compare::read(&pair[1], args.columns.as_deref(), &pair[0])?,
             })
         })
         .collect::<Result<Vec<_>, CliError>>()?;

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use arcsim_log::kinematics::{ObservedKinematics, Plateau};
-use arcsim_log::{read_log, ColumnMap, Comparison, DeliveryLog};
+use arcsim_log::{ColumnMap, Comparison, DeliveryLog};
 use arcsim_sequencer::{machine_limits, simulate_resolved, Delivery, Motion, Options, Schedule};
 
 use crate::input::{input_name, load_machine, load_plan, machine_name};
@@ -17,7 +17,8 @@ use crate::CliError;
 pub struct Args {
     /// Plan file: arcsim JSON or DICOM RT Ion Plan.
     plan: PathBuf,
-    /// Delivery log (`arcsim-log/1` CSV, or another CSV with --columns).
+    /// Delivery log: `arcsim-log/1` CSV, another CSV with --columns, or a DICOM RT Ion Beams
+    /// Treatment Record.
     log: PathBuf,
     /// Machine model (JSON); default: the built-in ATOM article gantry.
     #[arg(long)]
@@ -40,15 +41,19 @@ pub struct Args {
     rrd: Option<PathBuf>,
 }
 
-/// Reads a log with an optional `--columns` mapping.
-pub fn read(path: &Path, columns: Option<&str>) -> Result<DeliveryLog, CliError> {
+/// Reads the log of plan `plan`: a DICOM RT Ion Beams Treatment Record (by content; refused when
+/// it references another plan than a DICOM `plan` is), else a CSV log with an optional
+/// `--columns` mapping.
+pub fn read(path: &Path, columns: Option<&str>, plan: &Path) -> Result<DeliveryLog, CliError> {
     let map = match columns {
         Some(text) => {
             ColumnMap::parse(text, "--columns").map_err(|e| CliError::usage(e.to_string()))?
         }
         None => ColumnMap::default(),
     };
-    read_log(path, &map).map_err(|e| CliError::failed(e.to_string()))
+    let plan_uid = arcsim_dicom::sop_instance_uid_of(plan);
+    arcsim_dicom::read_delivery_log(path, &map, plan_uid.as_deref())
+        .map_err(|e| CliError::failed(e.to_string()))
 }
 
 /// The options of `--motion` / `--schedule` on `machine` (the defaults of `simulate`: the
@@ -80,7 +85,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
     )?;
     let plan = load_plan(&args.plan)?;
     let machine = load_machine(args.machine.as_deref())?;
-    let log = read(&args.log, args.columns.as_deref())?;
+    let log = read(&args.log, args.columns.as_deref(), &args.plan)?;
     let arcs = arcsim_plan::resolve(&plan, &machine).map_err(crate::input::plan_error)?;
     let limits = machine_limits(&machine).map_err(|e| CliError::failed(e.to_string()))?;
     let (opts, controller) = options(args.motion, args.schedule, &plan, &machine);
@@ -283,6 +288,13 @@ pub fn summary(c: &Comparison, plan: &str, machine: &str) -> String {
 }
 
 fn observed_lines(s: &mut String, o: &ObservedKinematics, c: &Comparison) {
+    if let Some(res) = c.edge_resolution_s {
+        let _ = writeln!(
+            s,
+            "gantry observed: nothing (a log of beam-on intervals, times to {res} s: a treatment record holds each layer's beam-on and beam-off, not the gantry's motion between them)"
+        );
+        return;
+    }
     let _ = writeln!(
         s,
         "gantry observed (local polynomial fits over {} s; angle noise {:.4} deg):",

@@ -102,7 +102,7 @@ fn the_readme_s_log_example_gives_its_figures() {
     assert!(out.status.success(), "{}", text(&out).1);
     assert!(
         stdout.contains("controller: free motion")
-            && stdout.contains("37.6 times better")
+            && stdout.contains("38.8 times better (rms 0.384 s against 14.898 s")
             && stdout.contains("fitted 91.23 s (+0.85 %)")
             && stdout.contains("the fitted machine is +0.85 % off this log"),
         "{stdout}"
@@ -110,7 +110,7 @@ fn the_readme_s_log_example_gives_its_figures() {
     let readme = doc("README.md");
     for figure in [
         "158.23 s for a 90.45 s log",
-        "(38× better)",
+        "(39× better)",
         "predicts 91.23 s (+0.85 %",
         "ATOM predicts 67.8 s (43 %) too much",
     ] {

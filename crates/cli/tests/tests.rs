@@ -21,6 +21,7 @@ mod one_speed;
 mod probe;
 mod profile_reversal;
 mod python;
+mod records;
 mod report;
 mod resequence;
 mod slurm;

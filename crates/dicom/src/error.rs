@@ -26,6 +26,22 @@ pub enum Location {
         /// Index of the control point in the beam's IonControlPointSequence.
         control_point: usize,
     },
+    /// An item of TreatmentSessionIonBeamSequence (3008,0021) of a treatment record.
+    SessionBeam {
+        /// Index of the item.
+        beam: usize,
+        /// Its ReferencedBeamNumber (300C,0006), when present.
+        number: Option<i64>,
+    },
+    /// An item of IonControlPointDeliverySequence (3008,0041) inside a recorded beam.
+    DeliveredControlPoint {
+        /// Index of the beam in TreatmentSessionIonBeamSequence.
+        beam: usize,
+        /// Its ReferencedBeamNumber (300C,0006), when present.
+        number: Option<i64>,
+        /// Index of the item in the beam's IonControlPointDeliverySequence.
+        control_point: usize,
+    },
     /// An item of FractionGroupSequence (300A,0070).
     FractionGroup {
         /// Index of the fraction group.
@@ -58,6 +74,26 @@ impl fmt::Display for Location {
                 "IonBeamSequence[{beam}]{} > IonControlPointSequence[{control_point}]",
                 beam_number(number)
             ),
+            Location::SessionBeam { beam, number } => {
+                let n = number.map(|n| format!(" (ReferencedBeamNumber {n})"));
+                write!(
+                    f,
+                    "TreatmentSessionIonBeamSequence[{beam}]{}",
+                    n.unwrap_or_default()
+                )
+            }
+            Location::DeliveredControlPoint {
+                beam,
+                number,
+                control_point,
+            } => {
+                let n = number.map(|n| format!(" (ReferencedBeamNumber {n})"));
+                write!(
+                    f,
+                    "TreatmentSessionIonBeamSequence[{beam}]{} > IonControlPointDeliverySequence[{control_point}]",
+                    n.unwrap_or_default()
+                )
+            }
             Location::FractionGroup { group } => write!(f, "FractionGroupSequence[{group}]"),
             Location::ReferencedBeam { group, item } => {
                 write!(
@@ -133,6 +169,20 @@ pub enum DicomImportError {
     )]
     /// The SOP class is not RT Ion Plan Storage.
     NotIonPlan {
+        /// The file's SOP class UID.
+        sop_class_uid: String,
+        /// The SOP class's name, when it is a known one.
+        name: Option<String>,
+    },
+
+    #[error(
+        "not an RT Ion Beams Treatment Record: SOP class {sop_class_uid}{}; expected RT Ion Beams \
+         Treatment Record Storage ({})",
+        name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default(),
+        crate::record::RT_ION_BEAMS_TREATMENT_RECORD_STORAGE
+    )]
+    /// The SOP class is not RT Ion Beams Treatment Record Storage.
+    NotIonRecord {
         /// The file's SOP class UID.
         sop_class_uid: String,
         /// The SOP class's name, when it is a known one.

@@ -69,6 +69,7 @@
 mod convert;
 mod error;
 mod read;
+mod record;
 mod write;
 
 use std::path::Path;
@@ -81,6 +82,11 @@ pub use error::{DicomImportError, ImportWarning, Location};
 pub use read::{
     has_dicom_magic, is_dicom_file, CUMULATIVE_WEIGHT_TOLERANCE, MAX_NESTING, MAX_PAINTINGS,
     MAX_SPOTS, RT_ION_PLAN_STORAGE, RT_PLAN_STORAGE,
+};
+pub use record::{
+    read_delivery_log, read_treatment_record, sop_instance_uid_of, treatment_record_bytes,
+    treatment_record_from_bytes, BeamOnInterval, ReadLogError, RecordStart, RecordedBeam,
+    TreatmentRecord, RT_ION_BEAMS_TREATMENT_RECORD_STORAGE,
 };
 pub use write::{write_resequenced, ResequencedDicom, WriteError, RELATIONSHIP_TO_ORIGINAL};
 

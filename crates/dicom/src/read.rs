@@ -12,7 +12,7 @@
 pub(crate) mod access;
 pub(crate) mod attr;
 mod control_points;
-mod file;
+pub(crate) mod file;
 mod ion_plan;
 mod plan;
 

@@ -286,7 +286,7 @@ fn renew_identity(file: &mut dicom_object::DefaultDicomObject, uid: &str, origin
 }
 
 /// A UUID-derived UID (DICOM PS3.5 B.2): "2.25." and a random (version 4) UUID as a decimal.
-fn new_uid() -> String {
+pub(crate) fn new_uid() -> String {
     let mut u: u128 = rand::random();
     u = (u & !(0xF << 76)) | (0x4 << 76);
     u = (u & !(0x3 << 62)) | (0x2 << 62);

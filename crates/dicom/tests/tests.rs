@@ -2,4 +2,5 @@
 
 mod bundled;
 mod import;
+mod records;
 mod write_back;

@@ -278,19 +278,6 @@ struct Gap {
     to_layer: usize,
 }
 
-fn typical_period(log: &DeliveryLog) -> f64 {
-    let mut d: Vec<f64> = log
-        .samples
-        .windows(2)
-        .map(|w| w[1].t_s - w[0].t_s)
-        .collect();
-    if d.is_empty() {
-        0.0
-    } else {
-        median(&mut d)
-    }
-}
-
 /// The beam-off gaps between a run's consecutive layers of one arc that are energy switches of
 /// `base`'s ELST model: a layer changed inside a spill (multi-energy extraction: the spill
 /// model's in-spill switching time) or with the plan's own switching time is not, and neither
@@ -316,6 +303,24 @@ fn gaps(m: &Matched, base: &Machine) -> Vec<Gap> {
             })
         })
         .collect()
+}
+
+/// The median step between the log's samples (the mean of the middle two for an even count),
+/// or a log of intervals' edge resolution.
+fn typical_period(log: &DeliveryLog) -> f64 {
+    if let Some(r) = log.edge_resolution_s {
+        return r;
+    }
+    let mut d: Vec<f64> = log
+        .samples
+        .windows(2)
+        .map(|w| w[1].t_s - w[0].t_s)
+        .collect();
+    if d.is_empty() {
+        0.0
+    } else {
+        median(&mut d)
+    }
 }
 
 /// Fits a machine to `runs`, starting from `base` (see the module documentation); `options` are
@@ -345,7 +350,8 @@ pub fn calibrate(
     }
     let traces: Vec<_> = runs.iter().map(|r| trace(&r.log)).collect();
     let observed = observe(&traces);
-    fit_gantry(base, &observed, &mut machine, &mut values);
+    let traced = runs.iter().any(|r| r.log.edge_resolution_s.is_none());
+    fit_gantry(base, (&observed, traced), &mut machine, &mut values);
     if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
         question_speed_plateau(base, &mut machine, runs, options, &observed, &mut values);
         // A seed for the second ELST pass and the joint fit, which refines it: 0.1 % is enough.
@@ -389,6 +395,11 @@ pub fn calibrate(
         options,
         &mut values,
     );
+    let clock_s = runs
+        .iter()
+        .filter_map(|r| r.log.edge_resolution_s)
+        .fold(0.0, f64::max);
+    unresolved_by_clock(&mut machine, clock_s, &mut values);
     machine.spread = Some(spread);
     let uncertainty = uncertainty_of(&values);
     machine.uncertainty = uncertainty.any().then_some(uncertainty);
@@ -792,19 +803,53 @@ fn bound_unseen_elst(
         if n < 3 || at_zero > at_fit + (0.1 * at_fit).max(0.02) {
             continue;
         }
+        // A gap is read to within a log period (each edge to within half of one).
+        let period = matched.iter().map(|m| m.period_s).fold(0.0, f64::max);
         let shortest = durations_of(all_gaps, class)
             .into_iter()
             .fold(f64::INFINITY, f64::min);
+        let bound = shortest + period;
         let base = row.base.unwrap_or(fitted);
-        let value = base.min(shortest);
+        let value = base.min(bound);
         row.note = format!(
-            "not determined: no {class} gap shows it (simulated with it at 0 the {n} gaps fit as well: rms {at_zero:.3} s against {at_fit:.3} s at {fitted:.4} s; the gantry's moves alone explain them); it is at most {shortest:.4} s, the shortest such gap: the base value {base} {}",
+            "not determined: no {class} gap shows it (simulated with it at 0 the {n} gaps fit as well: rms {at_zero:.3} s against {at_fit:.3} s at {fitted:.4} s; the gantry's moves alone explain them); it is at most {bound:.4} s, the shortest such gap ({shortest:.4} s) plus the log's period ({period:.4} s): the base value {base} {}",
             if value < base { "lowered to that bound" } else { "kept" }
         );
         row.value = value;
         row.interval = None;
         row.determined = false;
         set(machine, value);
+    }
+}
+
+/// A clock this many times coarser than a switch cannot time it (s per s).
+const CLOCK_RESOLVES: f64 = 3.0;
+
+/// An ELST fitted from logs of intervals whose clock (`clock_s`, their coarsest time
+/// resolution; 0 for sampled logs) is too coarse to time it (below [`CLOCK_RESOLVES`] ×
+/// `clock_s`): a record in whole seconds reads a 0.7 s switch as 0 or 1 s, and the fit's own
+/// interval does not know it. Not determined; the base value is kept.
+fn unresolved_by_clock(machine: &mut Machine, clock_s: f64, values: &mut [FittedValue]) {
+    if clock_s <= 0.0 {
+        return;
+    }
+    for &(field, _, k) in &ELST_KINDS {
+        let Some(row) = values.iter_mut().find(|v| v.field == field && v.determined) else {
+            continue;
+        };
+        let shortest = CLOCK_RESOLVES * clock_s;
+        if row.value >= shortest {
+            continue;
+        }
+        let base = row.base.unwrap_or(row.value);
+        row.note = format!(
+            "not determined: the logs' clock (times to {clock_s} s) cannot time a switch shorter than {shortest} s ({CLOCK_RESOLVES} × its resolution), and the fit gave {:.4} s; the base value {base} is kept",
+            row.value
+        );
+        row.value = base;
+        row.interval = None;
+        row.determined = false;
+        set_elst(k)(machine, base);
     }
 }
 
@@ -1492,7 +1537,7 @@ fn record_gap_fit(row: &mut FittedValue, fit: &crate::transitions::GapFit, note:
 
 fn fit_gantry(
     base: &Machine,
-    obs: &ObservedKinematics,
+    (obs, traced): (&ObservedKinematics, bool),
     machine: &mut Machine,
     values: &mut Vec<FittedValue>,
 ) {
@@ -1500,12 +1545,16 @@ fn fit_gantry(
     let base_d = g.max_decel_deg_per_s2.unwrap_or(g.max_accel_deg_per_s2);
     let top_speed = obs.speed.map_or(0.0, |p| p.peak);
     let meaningful = MOVING_FRACTION_OF_BASE_SPEED * g.max_speed_deg_per_s;
-    if top_speed < meaningful {
-        let why = format!(
-            "the gantry never moves faster than {top_speed:.4} deg/s in the logs, under {:.0} % of the base machine's speed limit {} deg/s: no limit is approached, the base value is kept",
-            100.0 * MOVING_FRACTION_OF_BASE_SPEED,
-            g.max_speed_deg_per_s
-        );
+    if !traced || top_speed < meaningful {
+        let why = if traced {
+            format!(
+                "the gantry never moves faster than {top_speed:.4} deg/s in the logs, under {:.0} % of the base machine's speed limit {} deg/s: no limit is approached, the base value is kept",
+                100.0 * MOVING_FRACTION_OF_BASE_SPEED,
+                g.max_speed_deg_per_s
+            )
+        } else {
+            "not determined: the logs hold no angle trace (a treatment record holds each layer's beam-on and beam-off, not the gantry's motion between them), the base value is kept".to_string()
+        };
         let n = usize::from(obs.speed.is_some());
         for (field, unit, kept_value) in [
             ("gantry.max_speed_deg_per_s", "deg/s", g.max_speed_deg_per_s),

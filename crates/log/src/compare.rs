@@ -141,6 +141,9 @@ pub struct Comparison {
     /// Angle samples the reader rejected as encoder glitches and replaced
     /// ([`DeliveryLog::glitches_rejected`]).
     pub glitches_rejected: usize,
+    /// A log of beam-on intervals (a DICOM treatment record): the resolution of its times, s
+    /// ([`DeliveryLog::edge_resolution_s`]); it has no angle trace to observe.
+    pub edge_resolution_s: Option<f64>,
     /// Differences by class.
     pub classes: Vec<ClassStats>,
     /// The layers with the largest |difference_s|, largest first.
@@ -203,6 +206,7 @@ pub fn compare(
         machine_pauses: logged.iter().map(LoggedLayer::pauses).sum(),
         uncertain_edges: logged.iter().map(|l| l.uncertain_edges).sum(),
         glitches_rejected: log.glitches_rejected,
+        edge_resolution_s: log.edge_resolution_s,
         classes: classes(simulated, arcs, &layers),
         worst,
         motion_fits,

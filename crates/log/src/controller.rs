@@ -281,6 +281,10 @@ fn rms_beam_on_start(
     Ok((ss / n.max(1.0)).sqrt())
 }
 
+/// A log of intervals whose times are this coarse or coarser (s) names its clock as a likely
+/// cause of a residual.
+const COARSE_CLOCK_S: f64 = 0.1;
+
 /// A residual after the fit above max([`RESIDUAL_WARNING_PCT`], 3 × the log's own timing noise)
 /// is a warning with its likely cause.
 fn residual_warnings(cal: &mut Calibration, runs: &[LoggedRun]) {
@@ -305,8 +309,16 @@ fn residual_warnings(cal: &mut Calibration, runs: &[LoggedRun]) {
         let noise_pct = 100.0 * sd * switches.sqrt() / r.logged_total_s.max(f64::MIN_POSITIVE);
         let limit = RESIDUAL_WARNING_PCT.max(3.0 * noise_pct);
         if r.fitted_error_pct.abs() > limit {
+            // A record's clock in whole (or tenths of) seconds reads a sub-second switch as 0
+            // or 1 s.
+            let clock = run
+                .log
+                .edge_resolution_s
+                .filter(|&res| res >= COARSE_CLOCK_S)
+                .map(|res| format!("a clock too coarse for the switches it times (this log's times are to {res} s), "))
+                .unwrap_or_default();
             cal.report.warnings.push(format!(
-                "{}: the fitted machine is {:+.2} % off this log (above {:.2} %, the larger of {} % and 3 × the timing noise of its switches); likely causes: a log of another machine or controller than the others, interruptions, or a timing the model does not have (bursts, spills, a gantry limit the logs do not show)",
+                "{}: the fitted machine is {:+.2} % off this log (above {:.2} %, the larger of {} % and 3 × the timing noise of its switches); likely causes: {clock}a log of another machine or controller than the others, interruptions, or a timing the model does not have (bursts, spills, a gantry limit the logs do not show)",
                 r.log, r.fitted_error_pct, limit, RESIDUAL_WARNING_PCT
             ));
         }

@@ -136,6 +136,10 @@ fn binned(log: &DeliveryLog) -> (Vec<crate::LogSample>, f64) {
 
 /// Local fits of the log's angle trace (see the module documentation).
 pub fn trace(log: &DeliveryLog) -> Trace {
+    // A log of beam-on intervals has no angle trace between its edges.
+    if log.edge_resolution_s.is_some() {
+        return Trace::default();
+    }
     let (samples, per_bin) = binned(log);
     let s = &samples;
     let h = WINDOW_S / 2.0;

@@ -46,7 +46,7 @@ pub use read::{
     parse_log, read_log, MAX_ANGLE_MAGNITUDE_DEG, MAX_LOG_BYTES, MAX_SPAN_S, MAX_TIME_S,
 };
 pub use sample::{
-    DeliveryLog, LogSample, GLITCH_FLOOR_DEG, GLITCH_MAD_FACTOR, GLITCH_NEIGHBOURS,
+    BeamInterval, DeliveryLog, LogSample, GLITCH_FLOOR_DEG, GLITCH_MAD_FACTOR, GLITCH_NEIGHBOURS,
     LONG_GAP_PERIODS,
 };
 pub use virtual_log::{

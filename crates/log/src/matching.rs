@@ -726,6 +726,7 @@ mod tests {
             has_mu: true,
             wraps_unwrapped: 0,
             glitches_rejected: 0,
+            edge_resolution_s: None,
         };
         let mu: Vec<f64> = beam_segments(&log)
             .iter()

@@ -133,6 +133,7 @@ pub fn parse_log(
         has_mu: columns[5].is_some(),
         wraps_unwrapped: 0,
         glitches_rejected: 0,
+        edge_resolution_s: None,
     };
     log.clean();
     Ok(log)

@@ -58,6 +58,29 @@ pub struct DeliveryLog {
     /// Angle samples rejected as encoder glitches and replaced by their neighbours'
     /// interpolation ([`DeliveryLog::clean`]).
     pub glitches_rejected: usize,
+    /// For a log of beam-on intervals ([`DeliveryLog::from_intervals`], e.g. a DICOM treatment
+    /// record): the resolution its edge times were written at, s. Such a log has no angle trace
+    /// between its edges, so the kinematics see none ([`crate::kinematics::trace`]), and its
+    /// typical period is this resolution. `None` for a sampled log.
+    pub edge_resolution_s: Option<f64>,
+}
+
+/// A layer's beam on between two recorded instants: what a log of intervals holds (a DICOM
+/// treatment record's pair of control points).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BeamInterval {
+    /// Beam on and off, s (any origin).
+    pub start_s: f64,
+    /// See `start_s`.
+    pub end_s: f64,
+    /// Gantry angle at beam on and beam off, degrees (modulo 360 allowed).
+    pub angle_start_deg: f64,
+    /// See `angle_start_deg`.
+    pub angle_end_deg: f64,
+    /// The layer's nominal energy, MeV.
+    pub energy_mev: f64,
+    /// MU delivered in it.
+    pub mu: f64,
 }
 
 /// Neighbours on either side a sample's angle is judged against.
@@ -88,7 +111,89 @@ impl DeliveryLog {
             has_mu: false,
             wraps_unwrapped: 0,
             glitches_rejected: 0,
+            edge_resolution_s: None,
         }
+    }
+
+    /// A log of beam-on intervals whose edges were written at `resolution_s` (seconds; 1 for
+    /// whole seconds). Each interval becomes two beam-on samples (its edges, the second holding
+    /// its MU) between two beam-off samples a thousandth of the resolution outside them, so that
+    /// every edge found halfway between samples ([`crate::beam_segments`]) is within that of the
+    /// recorded time. Intervals that touch (recorded in one tick) are kept apart by that much
+    /// each. The angles are unwrapped as in [`DeliveryLog::clean`]; no glitch is looked for (a
+    /// record's angles are the system's own, not an encoder stream). `None` for an empty list,
+    /// a resolution that is not a positive finite number, or intervals not in order of their
+    /// starts.
+    pub fn from_intervals(
+        source: impl Into<String>,
+        intervals: &[BeamInterval],
+        resolution_s: f64,
+    ) -> Option<DeliveryLog> {
+        if intervals.is_empty() || !(resolution_s.is_finite() && resolution_s > 0.0) {
+            return None;
+        }
+        let delta = 1e-3 * resolution_s;
+        let mut samples: Vec<LogSample> = Vec::with_capacity(4 * intervals.len());
+        let off = |t_s: f64, angle: f64| LogSample {
+            t_s,
+            gantry_angle_deg: angle,
+            beam_on: false,
+            energy_mev: None,
+            spot: None,
+            mu: Some(0.0),
+        };
+        let mut prev_start = f64::NEG_INFINITY;
+        for iv in intervals {
+            if !(iv.end_s >= iv.start_s && iv.start_s >= prev_start) {
+                return None;
+            }
+            prev_start = iv.start_s;
+            let last = samples.last().map(|x| x.t_s);
+            let earliest = last.map_or(f64::NEG_INFINITY, |t| t + delta);
+            let before = (iv.start_s - delta).max(earliest);
+            let on_s = iv.start_s.max(before + delta);
+            let off_s = iv.end_s.max(on_s + delta);
+            samples.push(off(before, iv.angle_start_deg));
+            samples.push(LogSample {
+                t_s: on_s,
+                gantry_angle_deg: iv.angle_start_deg,
+                beam_on: true,
+                energy_mev: Some(iv.energy_mev),
+                spot: None,
+                mu: Some(0.0),
+            });
+            samples.push(LogSample {
+                t_s: off_s,
+                gantry_angle_deg: iv.angle_end_deg,
+                beam_on: true,
+                energy_mev: Some(iv.energy_mev),
+                spot: None,
+                mu: Some(iv.mu),
+            });
+            samples.push(off(off_s + delta, iv.angle_end_deg));
+        }
+        let mut turns = 0_i64;
+        let mut wraps = 0;
+        let mut prev = samples[0].gantry_angle_deg;
+        for x in &mut samples {
+            let step = x.gantry_angle_deg - prev;
+            prev = x.gantry_angle_deg;
+            if step.abs() > 180.0 {
+                turns -= (step / 360.0).round() as i64;
+                wraps += 1;
+            }
+            x.gantry_angle_deg += 360.0 * turns as f64;
+        }
+        Some(DeliveryLog {
+            source: source.into(),
+            samples,
+            has_energy: true,
+            has_spot: false,
+            has_mu: true,
+            wraps_unwrapped: wraps,
+            glitches_rejected: 0,
+            edge_resolution_s: Some(resolution_s),
+        })
     }
 
     /// Time from the first sample to the last, s.
@@ -100,8 +205,11 @@ impl DeliveryLog {
     }
 
     /// The log's typical time between samples: the median step, s (0 with fewer than two
-    /// samples).
+    /// samples); for a log of intervals, the resolution of its edges.
     pub fn typical_period_s(&self) -> f64 {
+        if let Some(r) = self.edge_resolution_s {
+            return r;
+        }
         let times: Vec<f64> = self.samples.iter().map(|x| x.t_s).collect();
         median_step_s(&times)
     }

@@ -13,10 +13,15 @@ use crate::convert::{columns, data_frame, serde_to_py};
 use crate::inputs::{Machine, Plan};
 use crate::{LogError, SimulationError};
 
-fn read(path: &std::path::Path, columns: Option<&str>) -> PyResult<arcsim_log::DeliveryLog> {
+/// A delivery log: a CSV through the `columns` mapping, or a DICOM RT Ion Beams Treatment
+/// Record (recognised by its content).
+pub(crate) fn read(
+    path: &std::path::Path,
+    columns: Option<&str>,
+) -> PyResult<arcsim_log::DeliveryLog> {
     let map = arcsim_log::ColumnMap::parse(columns.unwrap_or(""), "columns")
         .map_err(|e| LogError::new_err(e.to_string()))?;
-    arcsim_log::read_log(path, &map).map_err(|e| LogError::new_err(e.to_string()))
+    arcsim_dicom::read_delivery_log(path, &map, None).map_err(|e| LogError::new_err(e.to_string()))
 }
 
 fn options(

@@ -109,6 +109,17 @@ pub struct Args {
     /// beam on, energy, spot, MU since the previous row), a virtual log.
     #[arg(long, value_name = "LOG.csv")]
     log: Option<PathBuf>,
+    /// Write the delivery as the oncology information system would record it: a DICOM RT Ion
+    /// Beams Treatment Record, each layer a pair of control points (beam on, beam off) with its
+    /// time, gantry angle, energy and cumulative delivered MU; one beam per arc.
+    #[arg(long, value_name = "RECORD.dcm")]
+    record: Option<PathBuf>,
+    /// When the record's first layer starts: YYYYMMDDHHMMSS.
+    #[arg(long, value_name = "WHEN", default_value = "20260101080000")]
+    record_start: String,
+    /// Fraction digits of the record's times (0: whole seconds, 6: microseconds).
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    record_time_digits: u32,
     /// Time between the virtual log's samples (s).
     #[arg(
         long,
@@ -200,8 +211,20 @@ fn check_args(args: &Args) -> Result<(), CliError> {
             ("--rrd", args.rrd.as_deref()),
             ("--spots", args.spots.as_deref()),
             ("--log", args.log.as_deref()),
+            ("--record", args.record.as_deref()),
         ],
-    )
+    )?;
+    if args.record.is_some() {
+        arcsim_dicom::RecordStart::parse(&args.record_start)
+            .map_err(|e| CliError::usage(format!("--record-start {e}")))?;
+        if args.record_time_digits > 6 {
+            return Err(CliError::usage(format!(
+                "--record-time-digits {}: expected 0 to 6 (a DICOM time holds at most microseconds)",
+                args.record_time_digits
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a `--dt` (or `--log-period`) that would sample the timeline more than 5e7 times, when
@@ -379,6 +402,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     }
     if let (Some(path), Some(spots)) = (&args.log, &spots) {
         write_log(path, &delivery, spots, &args)?;
+    }
+    if let Some(path) = &args.record {
+        outputs::write_record(path, &delivery, (&plan, &machine), &args)?;
     }
     crate::viewer::output(
         &delivery,

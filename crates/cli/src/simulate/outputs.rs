@@ -101,6 +101,70 @@ pub(super) fn write_log(
     crate::output::write_file(path, arcsim_log::to_csv(&samples).as_bytes())
 }
 
+/// `--record`: the delivery as a DICOM RT Ion Beams Treatment Record (one beam per arc, each
+/// layer a pair of control points), referencing the plan when it is a DICOM file.
+pub(super) fn write_record(
+    path: &Path,
+    delivery: &Delivery,
+    (plan, machine): (&arcsim_plan::ArcPlan, &arcsim_plan::Machine),
+    args: &Args,
+) -> Result<(), CliError> {
+    let failed = |e: String| CliError::failed(format!("--record: {e}"));
+    let arcs = arcsim_plan::resolve(plan, machine).map_err(|e| failed(e.to_string()))?;
+    let planned: Vec<&arcsim_plan::ResolvedLayer> =
+        arcs.iter().flat_map(|a| a.layers.iter()).collect();
+    let mut beams: Vec<arcsim_dicom::RecordedBeam> = Vec::new();
+    for row in &delivery.layers {
+        let mu = planned.get(row.index).map_or(0.0, |l| l.mu);
+        if mu <= 0.0 {
+            return Err(failed(format!(
+                "layer {} (arc {}, control point {}) has no MU; a record holds each layer's delivered meterset, so the plan must give MU (spots' `mu`, or a layer's `mu`)",
+                row.index, row.arc, row.control_point
+            )));
+        }
+        // The gantry at beam on and off: the timeline's, else the layer's sweep centred on its
+        // angle.
+        let (on, off) = match &delivery.timeline {
+            Some(tl) => (
+                tl.state_at(row.t_start_s).angle_deg,
+                tl.state_at(row.t_end_s).angle_deg,
+            ),
+            None => (row.angle_deg, row.angle_deg),
+        };
+        let interval = arcsim_dicom::BeamOnInterval {
+            control_point: 0,
+            interval: arcsim_log::BeamInterval {
+                start_s: row.t_start_s,
+                end_s: row.t_end_s,
+                angle_start_deg: on,
+                angle_end_deg: off,
+                energy_mev: row.energy_mev,
+                mu,
+            },
+        };
+        let number = i64::try_from(row.arc).unwrap_or(i64::MAX).saturating_add(1);
+        match beams.last_mut() {
+            Some(b) if b.beam_number == Some(number) => b.intervals.push(interval),
+            _ => beams.push(arcsim_dicom::RecordedBeam {
+                beam_number: Some(number),
+                termination: Some("NORMAL".into()),
+                intervals: vec![interval],
+            }),
+        }
+    }
+    let start = arcsim_dicom::RecordStart::parse(&args.record_start)
+        .map_err(|e| CliError::usage(format!("--record-start {e}")))?;
+    let plan_uid = arcsim_dicom::sop_instance_uid_of(&args.plan);
+    let (bytes, _) = arcsim_dicom::treatment_record_bytes(
+        &beams,
+        start,
+        args.record_time_digits,
+        plan_uid.as_deref(),
+    )
+    .map_err(failed)?;
+    crate::output::write_file(path, &bytes)
+}
+
 pub(super) fn write_spots_csv(path: &Path, spots: &[SpotRow]) -> Result<(), CliError> {
     crate::output::write_file(path, &csv_table(&SPOT_COLUMNS, spots))
 }

@@ -9,7 +9,7 @@ use super::Result;
 use crate::error::{DicomImportError, Location};
 
 /// The error for a required attribute that is absent (or empty) at `at`.
-pub(super) fn missing(attr: Attr, at: Location, note: Option<&'static str>) -> DicomImportError {
+pub(crate) fn missing(attr: Attr, at: Location, note: Option<&'static str>) -> DicomImportError {
     DicomImportError::MissingTag {
         keyword: attr.keyword,
         tag: attr.tag,
@@ -19,7 +19,7 @@ pub(super) fn missing(attr: Attr, at: Location, note: Option<&'static str>) -> D
 }
 
 /// The error for an attribute whose value is not what the import accepts.
-pub(super) fn invalid(attr: Attr, at: Location, problem: String) -> DicomImportError {
+pub(crate) fn invalid(attr: Attr, at: Location, problem: String) -> DicomImportError {
     DicomImportError::InvalidValue {
         keyword: attr.keyword,
         tag: attr.tag,
@@ -29,7 +29,7 @@ pub(super) fn invalid(attr: Attr, at: Location, problem: String) -> DicomImportE
 }
 
 /// `value`, or the [`missing`] error when it is None.
-pub(super) fn required<T>(value: Option<T>, attr: Attr, at: Location) -> Result<T> {
+pub(crate) fn required<T>(value: Option<T>, attr: Attr, at: Location) -> Result<T> {
     value.ok_or_else(|| missing(attr, at, None))
 }
 
@@ -57,7 +57,7 @@ fn primitive(obj: &InMemDicomObject, attr: Attr) -> Option<&PrimitiveValue> {
 }
 
 /// A text attribute without its padding.
-pub(super) fn text(obj: &InMemDicomObject, attr: Attr) -> Option<String> {
+pub(crate) fn text(obj: &InMemDicomObject, attr: Attr) -> Option<String> {
     primitive(obj, attr).map(|p| {
         p.to_str()
             .trim_matches(|c: char| c == ' ' || c == '\0')
@@ -112,7 +112,7 @@ pub(crate) fn float_at(obj: &InMemDicomObject, attr: Attr, at: Location) -> Resu
 }
 
 /// A list of numbers (any count).
-pub(super) fn floats_at(
+pub(crate) fn floats_at(
     obj: &InMemDicomObject,
     attr: Attr,
     at: Location,
@@ -126,7 +126,7 @@ pub(super) fn floats_at(
 }
 
 /// A single-valued whole number.
-pub(super) fn int_at(obj: &InMemDicomObject, attr: Attr, at: Location) -> Result<Option<i64>> {
+pub(crate) fn int_at(obj: &InMemDicomObject, attr: Attr, at: Location) -> Result<Option<i64>> {
     single(obj, attr, at)?
         .map(|p| {
             p.to_int::<i64>()

@@ -43,4 +43,13 @@ attrs! {
     NUMBER_OF_PAINTINGS = "NumberOfPaintings",
     CUMULATIVE_METERSET_WEIGHT = "CumulativeMetersetWeight",
     CUMULATIVE_DOSE_REFERENCE_COEFFICIENT = "CumulativeDoseReferenceCoefficient",
+    REFERENCED_RT_PLAN_SEQUENCE = "ReferencedRTPlanSequence",
+    REFERENCED_SOP_INSTANCE_UID = "ReferencedSOPInstanceUID",
+    TREATMENT_SESSION_ION_BEAM_SEQUENCE = "TreatmentSessionIonBeamSequence",
+    ION_CONTROL_POINT_DELIVERY_SEQUENCE = "IonControlPointDeliverySequence",
+    TREATMENT_CONTROL_POINT_DATE = "TreatmentControlPointDate",
+    TREATMENT_CONTROL_POINT_TIME = "TreatmentControlPointTime",
+    DELIVERED_METERSET = "DeliveredMeterset",
+    REFERENCED_CONTROL_POINT_INDEX = "ReferencedControlPointIndex",
+    TREATMENT_TERMINATION_STATUS = "TreatmentTerminationStatus",
 }
