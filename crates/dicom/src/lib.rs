@@ -1,6 +1,6 @@
 #![warn(missing_docs)]
-//! DICOM RT Ion Plan import into arcsim arc plans (`arcsim-plan/1`), and the write-back of a
-//! re-sequenced plan.
+//! DICOM RT Ion Plan import into arcsim arc plans (`arcsim-plan/1`), the write-back of a
+//! re-sequenced plan, and DICOM RT Ion Beams Treatment Records read as delivery logs.
 //!
 //! [`read_rt_ion_plan`] reads an RT Ion Plan file (SOP class 1.2.840.10008.5.1.4.1.1.481.8) with
 //! dicom-object and converts it into an [`ArcPlan`]; [`is_dicom_file`] recognises a DICOM file by its
@@ -62,6 +62,12 @@
 //! [`write_resequenced`] writes a plan whose layers were reordered inside their control points
 //! (`arcsim resequence`) back as an RT Ion Plan: the original file with the layers' control points
 //! in the new order, a new SOPInstanceUID referencing the original, unapproved.
+//!
+//! [`read_treatment_record`] reads an RT Ion Beams Treatment Record (SOP class
+//! 1.2.840.10008.5.1.4.1.1.481.9) as the beam-on intervals of its control points, and
+//! [`read_delivery_log`] reads either a record or a CSV log as an `arcsim_log::DeliveryLog`;
+//! [`treatment_record_bytes`] writes one (`arcsim simulate --record`). The rules are in the
+//! `record` module and `docs/records.md`.
 //!
 //! A file whose sequences nest deeper than [`MAX_NESTING`] (64) levels is refused before it is parsed
 //! (dicom-object parses nested sequences recursively: thousands of levels would overflow the stack).

@@ -80,8 +80,8 @@ pub enum ReadLogError {
     },
 }
 
-/// Reads the delivery log at `path`: a DICOM file (recognised by its content) as an RT Ion Beams
-/// Treatment Record, else a CSV log through `map`. A record whose ReferencedRTPlanSequence names
+/// Reads the delivery log at `path`: a DICOM file (a regular file recognised by its content) as
+/// an RT Ion Beams Treatment Record, else a CSV log through `map` (a FIFO is read as a CSV). A record whose ReferencedRTPlanSequence names
 /// another plan than `plan_uid` (the SOPInstanceUID of the plan it is compared with, when that is
 /// a DICOM file) is refused.
 pub fn read_delivery_log(
@@ -89,7 +89,9 @@ pub fn read_delivery_log(
     map: &arcsim_log::ColumnMap,
     plan_uid: Option<&str>,
 ) -> Result<arcsim_log::DeliveryLog, ReadLogError> {
-    if !crate::read::is_dicom_file(path) {
+    // Only a regular file is looked into: a FIFO's first bytes would be consumed by the look.
+    let regular = std::fs::metadata(path).is_ok_and(|m| m.is_file());
+    if !(regular && crate::read::is_dicom_file(path)) {
         return Ok(arcsim_log::read_log(path, map)?);
     }
     let file = path.display().to_string();

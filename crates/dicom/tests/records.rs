@@ -458,3 +458,39 @@ fn a_record_of_another_plan_is_refused_and_a_csv_is_read_as_one() {
     assert_eq!((log.samples.len(), log.edge_resolution_s), (3, None));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A log streamed through a FIFO is read whole as a CSV: the look for a DICOM file must not
+/// consume its first bytes.
+#[test]
+fn a_csv_log_through_a_fifo_is_read_whole() {
+    let dir = std::env::temp_dir().join(format!("arcsim-records-fifo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let fifo = dir.join("log.fifo");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    assert!(
+        made.is_ok_and(|s| s.success()),
+        "mkfifo is needed for this test"
+    );
+    let text = "t_s,gantry_angle_deg,beam_on\n0,10,0\n0.1,10.1,1\n0.2,10.2,0\n";
+    let writer = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::write(&fifo, text))
+    };
+    // Read on a thread with a deadline: a reader that consumed the head waits forever.
+    let (tx, rx) = std::sync::mpsc::channel();
+    {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || {
+            let read = read_delivery_log(&fifo, &ColumnMap::default(), None);
+            tx.send(read.map(|l| l.samples.len()).map_err(|e| e.to_string()))
+        });
+    }
+    let read = rx.recv_timeout(std::time::Duration::from_secs(20));
+    assert_eq!(
+        read,
+        Ok(Ok(3)),
+        "the FIFO's log was not read whole within 20 s"
+    );
+    writer.join().expect("writer").expect("written");
+    std::fs::remove_dir_all(&dir).ok();
+}
