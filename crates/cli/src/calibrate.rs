@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use arcsim_log::{CalibrationReport, ElstFit, LoggedRun};
 
-use crate::input::{input_name, load_machine, load_plan};
+use crate::input::{input_name, load_machine, load_plan_with_bytes};
 use crate::simulate::{parse_motion, ScheduleArg};
 use crate::CliError;
 
@@ -74,10 +74,11 @@ pub fn run(args: Args) -> Result<(), CliError> {
         .inputs
         .chunks(2)
         .map(|pair| {
+            let (plan, plan_bytes) = load_plan_with_bytes(&pair[0])?;
             Ok(LoggedRun {
                 plan_name: input_name(&pair[0]),
-                plan: load_plan(&pair[0])?,
-                log: crate::compare::read(&pair[1], args.columns.as_deref(), &pair[0])?,
+                plan,
+                log: crate::compare::read(&pair[1], args.columns.as_deref(), &plan_bytes)?,
             })
         })
         .collect::<Result<Vec<_>, CliError>>()?;

@@ -9,7 +9,7 @@ use arcsim_log::kinematics::{ObservedKinematics, Plateau};
 use arcsim_log::{ColumnMap, Comparison, DeliveryLog};
 use arcsim_sequencer::{machine_limits, simulate_resolved, Delivery, Motion, Options, Schedule};
 
-use crate::input::{input_name, load_machine, load_plan, machine_name};
+use crate::input::{input_name, load_machine, load_plan_with_bytes, machine_name};
 use crate::simulate::{parse_motion, ScheduleArg};
 use crate::CliError;
 
@@ -41,17 +41,21 @@ pub struct Args {
     rrd: Option<PathBuf>,
 }
 
-/// Reads the log of plan `plan`: a DICOM RT Ion Beams Treatment Record (by content; refused when
-/// it references another plan than a DICOM `plan` is), else a CSV log with an optional
-/// `--columns` mapping.
-pub fn read(path: &Path, columns: Option<&str>, plan: &Path) -> Result<DeliveryLog, CliError> {
+/// Reads the log of a plan whose file's bytes are `plan_bytes`: a DICOM RT Ion Beams Treatment
+/// Record (by content; refused when it references another plan than a DICOM plan's), else a CSV
+/// log with an optional `--columns` mapping.
+pub fn read(
+    path: &Path,
+    columns: Option<&str>,
+    plan_bytes: &[u8],
+) -> Result<DeliveryLog, CliError> {
     let map = match columns {
         Some(text) => {
             ColumnMap::parse(text, "--columns").map_err(|e| CliError::usage(e.to_string()))?
         }
         None => ColumnMap::default(),
     };
-    let plan_uid = arcsim_dicom::sop_instance_uid_of(plan);
+    let plan_uid = arcsim_dicom::sop_instance_uid_of(plan_bytes);
     arcsim_dicom::read_delivery_log(path, &map, plan_uid.as_deref())
         .map_err(|e| CliError::failed(e.to_string()))
 }
@@ -83,9 +87,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
             ("--rrd", args.rrd.as_deref()),
         ],
     )?;
-    let plan = load_plan(&args.plan)?;
+    let (plan, plan_bytes) = load_plan_with_bytes(&args.plan)?;
     let machine = load_machine(args.machine.as_deref())?;
-    let log = read(&args.log, args.columns.as_deref(), &args.plan)?;
+    let log = read(&args.log, args.columns.as_deref(), &plan_bytes)?;
     let arcs = arcsim_plan::resolve(&plan, &machine).map_err(crate::input::plan_error)?;
     let limits = machine_limits(&machine).map_err(|e| CliError::failed(e.to_string()))?;
     let (opts, controller) = options(args.motion, args.schedule, &plan, &machine);

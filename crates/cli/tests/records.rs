@@ -253,3 +253,47 @@ fn bad_record_options_are_refused_before_anything_is_simulated() {
         assert!(!rec.exists());
     }
 }
+
+/// A plan read through a FIFO is read once: the record's reference is checked against the bytes
+/// read, not by opening the plan again (which would wait forever for another writer).
+#[test]
+fn a_plan_through_a_fifo_is_read_once_beside_a_record() {
+    let dir = temp_dir().join("records-fifo");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let rec = dir.join("lung.dcm");
+    let out = arcsim(&["simulate", "plans/lung.json", "--record", path_str(&rec)]);
+    assert!(out.status.success(), "{:?}", text(&out));
+    let fifo = dir.join("plan.fifo");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    assert!(
+        made.is_ok_and(|s| s.success()),
+        "mkfifo is needed for this test"
+    );
+    let plan = std::fs::read(crate::util::repo().join("plans/lung.json")).expect("plan");
+    let writer = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::write(&fifo, plan))
+    };
+    let mut child = crate::util::bin()
+        .args(["compare", path_str(&fifo), path_str(&rec)])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("compare");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break Some(s);
+        }
+        if std::time::Instant::now() > deadline {
+            child.kill().ok();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "compare with a FIFO plan: {status:?}"
+    );
+    writer.join().expect("writer").expect("written");
+}

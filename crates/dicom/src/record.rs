@@ -39,7 +39,7 @@ use crate::read::attr::{
     TREATMENT_CONTROL_POINT_TIME, TREATMENT_SESSION_ION_BEAM_SEQUENCE,
     TREATMENT_TERMINATION_STATUS,
 };
-use crate::read::file::{parse_bytes, sop_class_of};
+use crate::read::file::{parse_bytes, sop_class_name, sop_class_of};
 
 mod time;
 mod write;
@@ -80,18 +80,21 @@ pub enum ReadLogError {
     },
 }
 
-/// Reads the delivery log at `path`: a DICOM file (a regular file recognised by its content) as
-/// an RT Ion Beams Treatment Record, else a CSV log through `map` (a FIFO is read as a CSV). A record whose ReferencedRTPlanSequence names
-/// another plan than `plan_uid` (the SOPInstanceUID of the plan it is compared with, when that is
-/// a DICOM file) is refused.
+/// Reads the delivery log at `path`: a DICOM file (a regular file within the log size limit,
+/// recognised by its content) as an RT Ion Beams Treatment Record, else a CSV log through `map`
+/// (a FIFO is read as a CSV). A record whose ReferencedRTPlanSequence names another plan than
+/// `plan_uid` (the SOPInstanceUID of the plan it is compared with, when that is a DICOM file) is
+/// refused.
 pub fn read_delivery_log(
     path: &Path,
     map: &arcsim_log::ColumnMap,
     plan_uid: Option<&str>,
 ) -> Result<arcsim_log::DeliveryLog, ReadLogError> {
     // Only a regular file is looked into: a FIFO's first bytes would be consumed by the look.
-    let regular = std::fs::metadata(path).is_ok_and(|m| m.is_file());
-    if !(regular && crate::read::is_dicom_file(path)) {
+    // One above the size limit is left to the CSV reader, which refuses it by its size.
+    let small_file =
+        std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() <= arcsim_log::MAX_LOG_BYTES);
+    if !(small_file && crate::read::is_dicom_file(path)) {
         return Ok(arcsim_log::read_log(path, map)?);
     }
     let file = path.display().to_string();
@@ -189,13 +192,9 @@ pub fn treatment_record_from_bytes(bytes: &[u8]) -> Result<TreatmentRecord, Dico
     {
         Some(RT_ION_BEAMS_TREATMENT_RECORD_STORAGE) => {}
         Some(other) => {
-            use dicom_core::dictionary::UidDictionary;
-            let name = dicom_dictionary_std::StandardSopClassDictionary
-                .by_uid(other)
-                .map(|e| e.name.to_string());
             return Err(DicomImportError::NotIonRecord {
                 sop_class_uid: other.to_string(),
-                name,
+                name: sop_class_name(other),
             });
         }
         None => {
@@ -209,11 +208,13 @@ pub fn treatment_record_from_bytes(bytes: &[u8]) -> Result<TreatmentRecord, Dico
     record_from_dataset(&obj)
 }
 
-/// The SOPInstanceUID of the DICOM file at `path` (a plan, to check a record's reference), or
-/// `None` if it cannot be read.
-pub fn sop_instance_uid_of(path: impl AsRef<Path>) -> Option<String> {
-    let bytes = std::fs::read(path).ok()?;
-    let obj = parse_bytes(&bytes).ok()?;
+/// The SOPInstanceUID of a DICOM file held in memory (a plan as it was read, to check a record's
+/// reference), or `None` for anything else (a JSON plan).
+pub fn sop_instance_uid_of(bytes: &[u8]) -> Option<String> {
+    if !crate::read::has_dicom_magic(bytes) {
+        return None;
+    }
+    let obj = parse_bytes(bytes).ok()?;
     text(&obj, SOP_INSTANCE_UID)
 }
 

@@ -10,7 +10,7 @@ use arcsim_sequencer::{
     Motion, Schedule, CERTIFY_ROUNDS,
 };
 
-use crate::input::{load_machine_hashed, load_plan_hashed};
+use crate::input::{load_machine_hashed, load_plan_with_bytes, sha256_hex};
 use crate::CliError;
 
 mod outputs;
@@ -317,7 +317,8 @@ fn monte_carlo(
 
 pub fn run(args: Args) -> Result<(), CliError> {
     check_args(&args)?;
-    let (plan, plan_sha256) = load_plan_hashed(&args.plan)?;
+    let (plan, plan_bytes) = load_plan_with_bytes(&args.plan)?;
+    let plan_sha256 = sha256_hex(&plan_bytes);
     let (machine, machine_sha256) = load_machine_hashed(args.machine.as_deref())?;
     let mut warnings =
         crate::input::plausibility(&plan, &args.plan, &machine, args.machine.as_deref());
@@ -404,7 +405,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         write_log(path, &delivery, spots, &args)?;
     }
     if let Some(path) = &args.record {
-        outputs::write_record(path, &delivery, (&plan, &machine), &args)?;
+        outputs::write_record(path, &delivery, (&plan, &machine, &plan_bytes), &args)?;
     }
     crate::viewer::output(
         &delivery,

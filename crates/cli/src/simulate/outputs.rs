@@ -102,11 +102,12 @@ pub(super) fn write_log(
 }
 
 /// `--record`: the delivery as a DICOM RT Ion Beams Treatment Record (one beam per arc, each
-/// layer a pair of control points), referencing the plan when it is a DICOM file.
+/// layer a pair of control points), referencing the plan when its file (`plan_bytes`, as read)
+/// is a DICOM one.
 pub(super) fn write_record(
     path: &Path,
     delivery: &Delivery,
-    (plan, machine): (&arcsim_plan::ArcPlan, &arcsim_plan::Machine),
+    (plan, machine, plan_bytes): (&arcsim_plan::ArcPlan, &arcsim_plan::Machine, &[u8]),
     args: &Args,
 ) -> Result<(), CliError> {
     let failed = |e: String| CliError::failed(format!("--record: {e}"));
@@ -154,7 +155,7 @@ pub(super) fn write_record(
     }
     let start = arcsim_dicom::RecordStart::parse(&args.record_start)
         .map_err(|e| CliError::usage(format!("--record-start {e}")))?;
-    let plan_uid = arcsim_dicom::sop_instance_uid_of(&args.plan);
+    let plan_uid = arcsim_dicom::sop_instance_uid_of(plan_bytes);
     let (bytes, _) = arcsim_dicom::treatment_record_bytes(
         &beams,
         start,

@@ -168,17 +168,19 @@ pub fn check_sop_class(uid: Option<&str>) -> Result<()> {
         RT_PLAN_STORAGE => Err(DicomImportError::PhotonPlan {
             sop_class_uid: uid.to_string(),
         }),
-        other => {
-            use dicom_core::dictionary::UidDictionary;
-            let name = StandardSopClassDictionary
-                .by_uid(other)
-                .map(|e| e.name.to_string());
-            Err(DicomImportError::NotIonPlan {
-                sop_class_uid: other.to_string(),
-                name,
-            })
-        }
+        other => Err(DicomImportError::NotIonPlan {
+            sop_class_uid: other.to_string(),
+            name: sop_class_name(other),
+        }),
     }
+}
+
+/// The standard name of SOP class `uid`, when it is a known one (for messages).
+pub(crate) fn sop_class_name(uid: &str) -> Option<String> {
+    use dicom_core::dictionary::UidDictionary;
+    StandardSopClassDictionary
+        .by_uid(uid)
+        .map(|e| e.name.to_string())
 }
 
 /// The SOP class UID of a file: SOPClassUID (0008,0016) of the data set, else the meta group's
