@@ -1,0 +1,91 @@
+//! What a calibration says: the fitted machine's description and the residuals of every logged
+//! plan re-simulated on it.
+
+use super::*;
+
+pub(super) fn list(fields: &[&str]) -> String {
+    if fields.is_empty() {
+        "nothing".to_string()
+    } else {
+        fields.join(", ")
+    }
+}
+
+pub(super) fn describe(machine: &mut Machine, base: &Machine, runs: &[LoggedRun], values: &[FittedValue]) {
+    let fitted: Vec<&str> = values
+        .iter()
+        .filter(|v| v.determined)
+        .map(|v| v.field.as_str())
+        .collect();
+    let raised: Vec<&str> = values
+        .iter()
+        .filter(|v| !v.determined && v.base.is_some_and(|b| b != v.value))
+        .map(|v| v.field.as_str())
+        .collect();
+    let kept: Vec<&str> = values
+        .iter()
+        .filter(|v| !v.determined && !raised.contains(&v.field.as_str()))
+        .map(|v| v.field.as_str())
+        .collect();
+    machine.name = format!("{}-calibrated", base.name);
+    machine.description = Some(format!(
+        "{} calibrated by arcsim calibrate on {} log(s). Fitted: {}. Raised to what the logs show (a lower bound, the limit not resolved): {}. Kept from the base machine: {}. Spreads measured in the logs.",
+        base.name,
+        runs.len(),
+        list(&fitted),
+        list(&raised),
+        list(&kept),
+    ));
+    for r in runs {
+        machine.sources.push(format!(
+            "delivery log {} (plan {})",
+            r.log.source, r.plan_name
+        ));
+    }
+}
+
+/// `100 x / of` (0 for a log of no duration: one sample).
+pub(super) fn percent(x: f64, of: f64) -> f64 {
+    if of > 0.0 {
+        100.0 * x / of
+    } else {
+        0.0
+    }
+}
+
+pub(super) fn residuals(
+    base: &Machine,
+    fitted: &Machine,
+    runs: &[LoggedRun],
+    matched: &[Matched],
+    options: &Options,
+) -> Result<Vec<Residual>, CalibrateError> {
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    runs.par_iter()
+        .zip(matched)
+        .map(|(r, m)| {
+            let sim = |machine: &Machine| {
+                simulate(&r.plan, machine, &opts)
+                    .map(|d| d.total_s)
+                    .map_err(|source| CalibrateError::Simulate {
+                        plan: r.plan_name.clone(),
+                        source,
+                    })
+            };
+            let logged = m.layers[m.layers.len() - 1].end_s - m.layers[0].start_s;
+            let (b, f) = (sim(base)?, sim(fitted)?);
+            Ok(Residual {
+                plan: r.plan_name.clone(),
+                log: r.log.source.clone(),
+                logged_total_s: logged,
+                base_total_s: b,
+                fitted_total_s: f,
+                base_error_pct: percent(b - logged, logged),
+                fitted_error_pct: percent(f - logged, logged),
+            })
+        })
+        .collect()
+}
