@@ -1,7 +1,11 @@
 //! The beam fits: the time per MU and between spots (`per_mu`), or the scanning model's speeds
 //! and settling, from every logged layer's beam-on time.
 
-use super::*;
+use arcsim_plan::{layer_beam_time, BeamModel, Machine, PerMuBeam};
+
+use super::gaps::*;
+use super::stats::*;
+use super::types::*;
 
 /// The fitted beam model (when fitted) and the spread of a layer's beam time.
 pub(super) struct BeamResult {

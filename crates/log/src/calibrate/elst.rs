@@ -2,7 +2,17 @@
 //! re-simulated gaps last as the logged ones), a line in the energy step, and the bounds of what
 //! the logs do not show.
 
-use super::*;
+use arcsim_plan::{ElstModel, Machine};
+use arcsim_sequencer::Options;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::matching::LoggedLayer;
+
+use super::gaps::*;
+use super::stats::*;
+use super::types::*;
 
 /// The fitted ELST model and the spreads (up, down, same).
 pub(super) struct ElstResult {
@@ -18,40 +28,6 @@ pub(super) fn base_elst(base: &Machine) -> (Option<f64>, Option<f64>, f64) {
         ElstModel::Polynomial { down_s, .. } => (None, Some(*down_s), base.elst.same_s()),
         _ => (None, None, base.elst.same_s()),
     }
-}
-
-/// Per run, by delivery-order layer index: whether a simulation on `machine` times the switch
-/// into that layer at its ELST (lost time within 5 ms + 1 %).
-pub(super) fn lasting_switches(
-    machine: &Machine,
-    runs: &[LoggedRun],
-    options: &Options,
-) -> Result<Vec<Vec<bool>>, CalibrateError> {
-    let opts = Options {
-        build_timeline: false,
-        ..options.clone()
-    };
-    runs.par_iter()
-        .map(|r| {
-            let d =
-                simulate(&r.plan, machine, &opts).map_err(|source| CalibrateError::Simulate {
-                    plan: r.plan_name.clone(),
-                    source,
-                })?;
-            let mut lasts = vec![false; d.layers.len()];
-            for t in &d.transitions {
-                if let Some(x) = lasts.get_mut(t.to_layer) {
-                    // With constant speed per layer the move's own minimum time is known: a
-                    // switch whose move needs nearly its ELST is left out too, since its logged
-                    // gap is max(ELST + jitter, move) and would pull the median up.
-                    let clear = opts.motion != arcsim_sequencer::Motion::Constant
-                        || t.min_time_s <= ELST_CLEARANCE * t.elst_s;
-                    *x = t.lost_s <= 0.005 + 0.01 * t.elst_s && clear;
-                }
-            }
-            Ok(lasts)
-        })
-        .collect()
 }
 
 /// The fitted values' standard deviations from their 95 % intervals (half-width / 1.96), for
@@ -80,11 +56,6 @@ pub(super) fn uncertainty_of(values: &[FittedValue]) -> arcsim_plan::FitUncertai
         burst_switching_time_s_sd: sd("beam.burst_switching_time_s"),
     }
 }
-
-/// The bracket (in the logarithm) the one-at-a-time fits by the model (J, each ELST) stop at:
-/// 0.2 %, a start for the joint fit ([`crate::joint::refine_jointly`]), which refines them
-/// together; golden sections to finer brackets cost a simulation per 0.48 of a bracket's log.
-pub(super) const SEED_TOLERANCE: f64 = 2e-3;
 
 /// The single-valued ELSTs: field, class of switches, slot ([`elst_slot`]).
 pub(super) const ELST_KINDS: [(&str, &str, usize); 3] = [
@@ -349,10 +320,6 @@ pub(super) fn unresolved_by_clock(machine: &mut Machine, clock_s: f64, values: &
     }
 }
 
-/// Under constant speed per layer, a switch carries its ELST alone when its move needs at most
-/// this fraction of it (10 % is over 3 standard deviations of a few-% ELST jitter).
-pub(super) const ELST_CLEARANCE: f64 = 0.9;
-
 /// One ELST value being fitted: its field, the class of switches, the base value, a seed.
 pub(super) struct ElstKind<'a> {
     pub(super) field: &'a str,
@@ -516,19 +483,6 @@ pub(super) fn fit_elst(
     ElstResult {
         model,
         sd: [up_sd, down_sd, same_sd],
-    }
-}
-
-pub(super) fn kept(field: &str, unit: &str, base: Option<f64>, n: usize, why: &str) -> FittedValue {
-    FittedValue {
-        field: field.into(),
-        unit: unit.into(),
-        base,
-        value: base.unwrap_or(0.0),
-        interval: None,
-        observations: n,
-        determined: false,
-        note: why.into(),
     }
 }
 

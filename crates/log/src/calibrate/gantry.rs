@@ -1,7 +1,16 @@
 //! The gantry fits: V, A, D and J from the trace's plateaus and reversals, by the model where
 //! the controller says so, and "not determined" where the logs do not show a limit binding.
 
-use super::*;
+use arcsim_plan::Machine;
+use arcsim_sequencer::{simulate, Options};
+use rayon::prelude::*;
+
+use crate::kinematics::{ObservedKinematics, Plateau};
+use crate::matching::LoggedLayer;
+
+use super::gaps::*;
+use super::stats::*;
+use super::types::*;
 
 pub(super) fn gantry_value(
     field: &str,
@@ -145,15 +154,6 @@ pub(super) fn refine_jerk(
         );
         record_gap_fit(v, &fit, note);
     }
-}
-
-/// A value row determined by a fit by the model ([`crate::transitions::fit_by_gaps`]).
-pub(super) fn record_gap_fit(row: &mut FittedValue, fit: &crate::transitions::GapFit, note: String) {
-    row.value = fit.value;
-    row.interval = Some(fit.interval);
-    row.observations = fit.transitions;
-    row.determined = true;
-    row.note = note;
 }
 
 pub(super) fn fit_gantry(

@@ -1,6 +1,15 @@
 //! The logs matched to their plans, layer by layer, and the beam-off gaps between their layers.
 
-use super::*;
+use arcsim_plan::{resolve, ElstModel, Machine, ResolvedArc};
+use arcsim_sequencer::{simulate, Options};
+use rayon::prelude::*;
+
+use crate::compare::switch_class;
+use crate::matching::{match_layers, LoggedLayer};
+use crate::DeliveryLog;
+
+use super::stats::*;
+use super::types::*;
 
 /// One logged run, resolved and matched.
 pub(super) struct Matched {
@@ -108,7 +117,10 @@ pub(super) fn clean_gaps(
 }
 
 /// Each run's log matched to its plan's layers on `base` (its MU column checked too).
-pub(super) fn match_runs(base: &Machine, runs: &[LoggedRun]) -> Result<Vec<Matched>, CalibrateError> {
+pub(super) fn match_runs(
+    base: &Machine,
+    runs: &[LoggedRun],
+) -> Result<Vec<Matched>, CalibrateError> {
     runs.iter()
         .map(|r| {
             let arcs = resolve(&r.plan, base).map_err(|source| CalibrateError::Plan {
@@ -150,3 +162,41 @@ pub(super) fn simulated_burst_pauses(layer: &arcsim_plan::ResolvedLayer, burst_s
         0
     }
 }
+
+/// Per run, by delivery-order layer index: whether a simulation on `machine` times the switch
+/// into that layer at its ELST (lost time within 5 ms + 1 %).
+pub(super) fn lasting_switches(
+    machine: &Machine,
+    runs: &[LoggedRun],
+    options: &Options,
+) -> Result<Vec<Vec<bool>>, CalibrateError> {
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    runs.par_iter()
+        .map(|r| {
+            let d =
+                simulate(&r.plan, machine, &opts).map_err(|source| CalibrateError::Simulate {
+                    plan: r.plan_name.clone(),
+                    source,
+                })?;
+            let mut lasts = vec![false; d.layers.len()];
+            for t in &d.transitions {
+                if let Some(x) = lasts.get_mut(t.to_layer) {
+                    // With constant speed per layer the move's own minimum time is known: a
+                    // switch whose move needs nearly its ELST is left out too, since its logged
+                    // gap is max(ELST + jitter, move) and would pull the median up.
+                    let clear = opts.motion != arcsim_sequencer::Motion::Constant
+                        || t.min_time_s <= ELST_CLEARANCE * t.elst_s;
+                    *x = t.lost_s <= 0.005 + 0.01 * t.elst_s && clear;
+                }
+            }
+            Ok(lasts)
+        })
+        .collect()
+}
+
+/// Under constant speed per layer, a switch carries its ELST alone when its move needs at most
+/// this fraction of it (10 % is over 3 standard deviations of a few-% ELST jitter).
+pub(super) const ELST_CLEARANCE: f64 = 0.9;

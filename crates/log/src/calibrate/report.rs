@@ -1,17 +1,19 @@
 //! What a calibration says: the fitted machine's description and the residuals of every logged
 //! plan re-simulated on it.
 
-use super::*;
+use arcsim_plan::Machine;
+use arcsim_sequencer::{simulate, Options};
+use rayon::prelude::*;
 
-pub(super) fn list(fields: &[&str]) -> String {
-    if fields.is_empty() {
-        "nothing".to_string()
-    } else {
-        fields.join(", ")
-    }
-}
+use super::gaps::*;
+use super::types::*;
 
-pub(super) fn describe(machine: &mut Machine, base: &Machine, runs: &[LoggedRun], values: &[FittedValue]) {
+pub(super) fn describe(
+    machine: &mut Machine,
+    base: &Machine,
+    runs: &[LoggedRun],
+    values: &[FittedValue],
+) {
     let fitted: Vec<&str> = values
         .iter()
         .filter(|v| v.determined)

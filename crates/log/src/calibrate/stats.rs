@@ -1,7 +1,10 @@
 //! The statistics of the fits: medians, robust spreads, the lowest cluster of a set of gaps, and
 //! the bootstrap behind every timing's interval.
 
-use super::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::types::*;
 
 /// The median (the mean of the middle two for an even count); sorts `v`.
 pub(crate) fn median(v: &mut [f64]) -> f64 {
@@ -64,7 +67,11 @@ pub fn lowest_cluster(residuals: &[f64], floor_sd: f64) -> Option<Cluster> {
 }
 
 /// Percentile interval (2.5 %, 97.5 %) of a statistic over bootstrap resamples of `n` items.
-pub(super) fn bootstrap(n: usize, seed: u64, stat: &dyn Fn(&[usize]) -> Option<f64>) -> Option<[f64; 2]> {
+pub(super) fn bootstrap(
+    n: usize,
+    seed: u64,
+    stat: &dyn Fn(&[usize]) -> Option<f64>,
+) -> Option<[f64; 2]> {
     if n < 2 {
         return None;
     }
@@ -82,3 +89,8 @@ pub(super) fn bootstrap(n: usize, seed: u64, stat: &dyn Fn(&[usize]) -> Option<f
     let at = |q: f64| values[((values.len() - 1) as f64 * q).round() as usize];
     Some([at(0.025), at(0.975)])
 }
+
+/// The bracket (in the logarithm) the one-at-a-time fits by the model (J, each ELST) stop at:
+/// 0.2 %, a start for the joint fit ([`crate::joint::refine_jointly`]), which refines them
+/// together; golden sections to finer brackets cost a simulation per 0.48 of a bracket's log.
+pub(super) const SEED_TOLERANCE: f64 = 2e-3;
