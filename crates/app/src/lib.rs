@@ -13,11 +13,13 @@
 //! - [`check_period`]: a servo period's range and plausibility;
 //! - [`ResultDocument`]: the `arcsim-result/1` JSON document of a simulation;
 //! - [`MoveRequest`]: one planner move with `arcsim profile`'s options;
-//! - [`resequence_report`]: the `arcsim-resequence/1` report of a re-sequencing.
+//! - [`resequence_report`]: the `arcsim-resequence/1` report of a re-sequencing;
+//! - [`output_file`]: an output file replaced whole, through a temporary file beside it.
 
 mod document;
 mod inputs;
 mod moves;
+pub mod output_file;
 mod request;
 
 pub use document::{

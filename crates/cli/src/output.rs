@@ -3,18 +3,22 @@
 //! Output files are checked before the work starts: no alias of an input or of another output
 //! (compared after following symlinks), a directory that exists and takes a new file. A regular
 //! file is written to a temporary file of its own beside its target
-//! (`NAME.partial.PID.RANDOM`, created exclusively, so no other file is ever opened or truncated)
-//! and renamed into place only when complete: a failed or interrupted command leaves the old file
-//! as it was, and two commands writing the same output each leave a complete file. An output that
+//! (`NAME.partial.PID.RANDOM`, created exclusively by the `tempfile` crate, so no other file is
+//! ever opened or truncated; [`arcsim_app::output_file`]), synced to disk and renamed into place
+//! only when complete: a failed or interrupted command leaves the old file as it was, and two
+//! commands writing the same output each leave a complete file. An output that
 //! is a symlink is written through it (the link stays, its target is replaced). Anything that is
 //! not a regular file (a FIFO, a character device such as `/dev/null`) is written directly, and
 //! `-` (or `/dev/stdout`) is standard output, where the command's own report then goes to
 //! standard error.
 
-use std::fs::{File, OpenOptions};
+use std::fs::OpenOptions;
 use std::io::{BufWriter, ErrorKind, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+
+use arcsim_app::output_file::{persist, persist_path, temp_beside};
+use tempfile::NamedTempFile;
 
 use crate::CliError;
 
@@ -141,31 +145,6 @@ fn resolved(path: &Path) -> PathBuf {
         .map_or_else(|_| path.to_path_buf(), |d| d.join(name))
 }
 
-/// A temporary file of this process beside `target`, created exclusively (never an existing
-/// file or a symlink): `NAME.partial.PID.RANDOM`.
-fn create_temp(target: &Path) -> std::io::Result<(PathBuf, File)> {
-    use std::hash::{BuildHasher, Hasher};
-    let name = target.file_name().unwrap_or_default();
-    let mut last = None;
-    for attempt in 0u32..16 {
-        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
-        h.write_u32(attempt);
-        let mut temp = name.to_os_string();
-        temp.push(format!(
-            ".partial.{}.{:08x}",
-            std::process::id(),
-            h.finish() as u32
-        ));
-        let temp = target.with_file_name(temp);
-        match OpenOptions::new().write(true).create_new(true).open(&temp) {
-            Ok(f) => return Ok((temp, f)),
-            Err(e) if e.kind() == ErrorKind::AlreadyExists => last = Some(e),
-            Err(e) => return Err(e),
-        }
-    }
-    Err(last.unwrap_or_else(|| ErrorKind::AlreadyExists.into()))
-}
-
 /// What an output is compared by for aliasing; `None` for `/dev/null`, which takes any number.
 fn identity(dest: &Destination) -> Option<PathBuf> {
     match dest {
@@ -231,12 +210,12 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[(&str, Option<&Path>)]) -> Res
         match &dest {
             Destination::Stdout => STDOUT_IS_AN_OUTPUT.store(true, Ordering::Relaxed),
             Destination::Direct(_) => {}
-            // Try the directory with a file of the kind the result will first go to.
+            // Try the directory with a file of the kind the result will first go to (removed
+            // when dropped).
             Destination::Replace(target) => {
-                let (temp, _) = create_temp(target).map_err(|e| {
+                temp_beside(target).map_err(|e| {
                     CliError::failed(format!("{flag} {shown}: cannot write there: {e}"))
                 })?;
-                let _ = std::fs::remove_file(temp);
             }
         }
         seen.push((key, flag));
@@ -251,8 +230,11 @@ fn text_output(flag: &str) -> bool {
 
 /// Where an [`AtomicFile`]'s bytes go until it is committed.
 enum Sink {
-    /// A temporary file renamed to `target` on commit.
-    Temp { temp: PathBuf, target: PathBuf },
+    /// A temporary file renamed to `target` on commit (removed when dropped uncommitted).
+    Temp {
+        temp: NamedTempFile,
+        target: PathBuf,
+    },
     /// Written in place (a FIFO, a device).
     InPlace,
     /// Standard output: a closed pipe ends the process quietly, as in [`print`].
@@ -265,7 +247,7 @@ enum Sink {
 pub struct AtomicFile {
     dest: PathBuf,
     sink: Sink,
-    writer: Option<BufWriter<Box<dyn Write + Send>>>,
+    writer: BufWriter<Box<dyn Write + Send>>,
 }
 
 impl AtomicFile {
@@ -285,18 +267,20 @@ impl AtomicFile {
                 (Sink::InPlace, Box::new(f))
             }
             Destination::Replace(target) => {
-                let (temp, f) = create_temp(&target).map_err(cannot)?;
+                let temp = temp_beside(&target).map_err(cannot)?;
                 // A replaced file keeps its permissions.
                 if let Ok(m) = std::fs::metadata(&target) {
-                    let _ = f.set_permissions(m.permissions());
+                    let _ = temp.as_file().set_permissions(m.permissions());
                 }
+                // The writer's own handle on the temporary file, which stays to be persisted.
+                let f = temp.as_file().try_clone().map_err(cannot)?;
                 (Sink::Temp { temp, target }, Box::new(f))
             }
         };
         Ok(AtomicFile {
             dest: dest.to_path_buf(),
             sink,
-            writer: Some(BufWriter::new(out)),
+            writer: BufWriter::new(out),
         })
     }
 
@@ -308,16 +292,14 @@ impl AtomicFile {
     /// Where the bytes are until the commit: the temporary file, if there is one.
     pub fn temporary(&self) -> Option<&Path> {
         match &self.sink {
-            Sink::Temp { temp, .. } => Some(temp),
+            Sink::Temp { temp, .. } => Some(temp.path()),
             Sink::InPlace | Sink::Stdout => None,
         }
     }
 
     /// The writer; an error names the final path.
     pub fn writer(&mut self) -> &mut BufWriter<Box<dyn Write + Send>> {
-        self.writer
-            .as_mut()
-            .expect("an AtomicFile is only written before commit")
+        &mut self.writer
     }
 
     /// An I/O error of this file, as a CLI error naming it. On standard output a closed pipe
@@ -329,26 +311,15 @@ impl AtomicFile {
         CliError::failed(format!("{}: cannot write: {e}", self.dest.display()))
     }
 
-    /// Flushes and moves the file into place.
+    /// Flushes, and moves a temporary file into place once its data are on disk.
     pub fn commit(mut self) -> Result<(), CliError> {
-        let Some(mut w) = self.writer.take() else {
-            return Ok(());
-        };
-        w.flush().map_err(|e| self.error(e))?;
-        drop(w);
-        match &self.sink {
-            Sink::Temp { temp, target } => std::fs::rename(temp, target).map_err(|e| self.error(e)),
+        self.writer.flush().map_err(|e| self.error(e))?;
+        let AtomicFile { dest, sink, writer } = self;
+        drop(writer);
+        match sink {
+            Sink::Temp { temp, target } => persist(temp, &target)
+                .map_err(|e| CliError::failed(format!("{}: cannot write: {e}", dest.display()))),
             Sink::InPlace | Sink::Stdout => Ok(()),
-        }
-    }
-}
-
-impl Drop for AtomicFile {
-    fn drop(&mut self) {
-        if self.writer.take().is_some() {
-            if let Sink::Temp { temp, .. } = &self.sink {
-                let _ = std::fs::remove_file(temp);
-            }
         }
     }
 }
@@ -375,15 +346,10 @@ pub fn write_via_path(
         Destination::Direct(p) => return write(&p),
         Destination::Replace(target) => target,
     };
-    let (temp, file) = create_temp(&target).map_err(cannot)?;
-    drop(file);
-    match write(&temp) {
-        Ok(()) => std::fs::rename(&temp, &target).map_err(cannot),
-        Err(e) => {
-            let _ = std::fs::remove_file(&temp);
-            Err(e)
-        }
-    }
+    // Removed when dropped, after a failed write.
+    let temp = temp_beside(&target).map_err(cannot)?.into_temp_path();
+    write(&temp)?;
+    persist_path(temp, &target).map_err(cannot)
 }
 
 /// Checks an output directory given with `flag` before any work: it is a directory, or it does

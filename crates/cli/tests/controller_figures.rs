@@ -102,16 +102,16 @@ fn the_readme_s_log_example_gives_its_figures() {
     assert!(out.status.success(), "{}", text(&out).1);
     assert!(
         stdout.contains("controller: free motion")
-            && stdout.contains("38.8 times better (rms 0.384 s against 14.898 s")
-            && stdout.contains("fitted 91.23 s (+0.85 %)")
-            && stdout.contains("the fitted machine is +0.85 % off this log"),
+            && stdout.contains("12.0 times better (rms 1.241 s against 14.914 s")
+            && stdout.contains("fitted 92.72 s (+2.51 %)")
+            && stdout.contains("the fitted machine is +2.51 % off this log"),
         "{stdout}"
     );
     let readme = doc("README.md");
     for figure in [
         "158.23 s for a 90.45 s log",
-        "(39× better)",
-        "predicts 91.23 s (+0.85 %",
+        "(12× better)",
+        "predicts 92.72 s (+2.51 %",
         "ATOM predicts 67.8 s (43 %) too much",
     ] {
         assert!(readme.contains(figure), "README lacks {figure:?}");

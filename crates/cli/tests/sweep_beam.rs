@@ -1,11 +1,11 @@
 //! `arcsim sweep` over the beam axes, as a user runs it: a dose-rate scale on the ATOM machine
 //! (`per_mu` beam) shortens the beam-on time, the CSV and JSON carry the axes and the split of the
-//! beam-on time, a scanning-speed axis on that machine is refused with the reason, and an older
-//! arcsim's shard tables (without the new columns) still merge and read back with `--sweep`.
+//! beam-on time, a scanning-speed axis on that machine is refused with the reason, and a shard
+//! table of an earlier arcsim (without the new columns) is refused by `sweep-merge`.
 
 use std::path::Path;
 
-use arcsim_test_support::{temp_dir, COLUMNS_SINCE_V1};
+use arcsim_test_support::temp_dir;
 
 use crate::util::{arcsim, path_str, sweep_file, text};
 use serde_json::Value;
@@ -104,10 +104,10 @@ fn scan_speed_axis_on_a_per_mu_machine_is_refused() {
     );
 }
 
-/// Shards written by an arcsim without the beam columns merge into a table with their header, and
-/// `--sweep` reads them back and prints the summary.
+/// A shard table written by an earlier arcsim (without the beam columns) is refused by
+/// `sweep-merge`, naming the file, the column missing and the header expected; nothing is written.
 #[test]
-fn older_shard_tables_still_merge() {
+fn an_older_shard_table_is_refused() {
     let dir = temp_dir();
     let sweep = sweep_file(
         &dir,
@@ -127,47 +127,43 @@ fn older_shard_tables_still_merge() {
             path_str(&path),
         ]);
         assert!(o.status.success(), "{}", text(&o).1);
-        let (header, rows) = table(&path);
-        let keep: Vec<bool> = header
-            .iter()
-            .map(|h| !COLUMNS_SINCE_V1.contains(&h.as_str()))
-            .collect();
-        let old: String = std::iter::once(&header)
-            .chain(&rows)
-            .map(|r| {
-                let f: Vec<&str> = r
-                    .iter()
-                    .zip(&keep)
-                    .filter(|(_, k)| **k)
-                    .map(|(f, _)| f.as_str())
-                    .collect();
-                f.join(",") + "\n"
-            })
-            .collect();
-        std::fs::write(&path, old).expect("write old shard");
         shards.push(path);
     }
+    // Shard 2 as an earlier arcsim wrote it: without the dose-rate axis's column.
+    let (header, rows) = table(&shards[1]);
+    let keep: Vec<bool> = header.iter().map(|h| h != "dose_rate_scale").collect();
+    let old: String = std::iter::once(&header)
+        .chain(&rows)
+        .map(|r| {
+            let f: Vec<&str> = r
+                .iter()
+                .zip(&keep)
+                .filter(|(_, k)| **k)
+                .map(|(f, _)| f.as_str())
+                .collect();
+            f.join(",") + "\n"
+        })
+        .collect();
+    std::fs::write(&shards[1], old).expect("write old shard");
     let merged = dir.join("merged.csv");
     let o = arcsim(&[
         "sweep-merge",
-        path_str(&shards[1]),
         path_str(&shards[0]),
+        path_str(&shards[1]),
         "--out",
         path_str(&merged),
         "--sweep",
         path_str(&sweep),
     ]);
-    let (stdout, stderr) = text(&o);
-    assert!(o.status.success(), "{stderr}");
-    assert!(stdout.contains("J (base 0.5)"), "{stdout}");
-    let (header, rows) = table(&merged);
-    assert_eq!(rows.len(), 2);
+    let (_, stderr) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(
-        header
-            .iter()
-            .all(|h| !COLUMNS_SINCE_V1.contains(&h.as_str())),
-        "{header:?}"
+        stderr.contains(&format!(
+            "{}: line 1: no column dose_rate_scale (a table of an earlier arcsim? run its sweep \
+             again); expected the arcsim sweep CSV header: index,combinations,plan,",
+            shards[1].display()
+        )),
+        "{stderr}"
     );
-    assert_eq!(rows[0][0], "0");
-    assert_eq!(rows[1][0], "1");
+    assert!(!merged.exists(), "nothing is written");
 }

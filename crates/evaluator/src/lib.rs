@@ -31,10 +31,7 @@ mod summary;
 mod sweep;
 pub mod sweep_file;
 
-pub use csv::{
-    merge_csv, write_csv_header, write_csv_row, CsvLineNumbers, CSV_HEADER, CSV_HEADER_V1,
-    CSV_HEADER_V2, CSV_HEADER_V3, CSV_HEADER_V4, CSV_HEADER_V5,
-};
+pub use csv::{merge_csv, write_csv_header, write_csv_row, CsvLineNumbers, CSV_HEADER};
 pub use error::EvalError;
 pub use mode::RunMode;
 pub use monte_carlo::{

@@ -6,6 +6,7 @@ use arcsim_planner::Limits;
 use arcsim_sequencer::{machine_limits, simulate_resolved, Options, SequenceError};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -33,13 +34,6 @@ pub struct MonteCarlo {
     pub sd_s: f64,
     /// Every draw's total, s, in draw order.
     pub totals_s: Vec<f64>,
-}
-
-/// A standard normal number (Box–Muller).
-fn normal(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = 1.0 - rng.random::<f64>();
-    let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// Percentile `q` (0–1) of sorted values, linearly interpolated.
@@ -98,10 +92,10 @@ fn draws_of(
         .into_par_iter()
         .map(|k| {
             let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(k as u64));
-            let drawn_machine = uncertainty.draw(machine, &mut || normal(&mut rng));
+            let drawn_machine = uncertainty.draw(machine, &mut || rng.sample(StandardNormal));
             let arcs = arcsim_plan::resolve(plan, &drawn_machine)?;
             let limits = machine_limits(&drawn_machine)?;
-            let drawn = spread.draw(&arcs, &mut || normal(&mut rng));
+            let drawn = spread.draw(&arcs, &mut || rng.sample(StandardNormal));
             let total = simulate_resolved(&drawn, &limits, &opts).map(|d| d.total_s);
             on_draw();
             total
@@ -184,7 +178,7 @@ pub fn monte_carlo(
         .into_par_iter()
         .map(|k| {
             let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(k as u64));
-            let drawn = spread.draw(arcs, &mut || normal(&mut rng));
+            let drawn = spread.draw(arcs, &mut || rng.sample(StandardNormal));
             simulate_resolved(&drawn, limits, &opts).map(|d| d.total_s)
         })
         .collect::<Result<Vec<f64>, SequenceError>>()?;

@@ -1,15 +1,12 @@
 //! The beam axes of a sweep: `dose_rate_scale` (any beam model), `scan_speed_mm_per_s` and
 //! `burst_switching_time_s` (a `scanning` beam model only) change the resolved plan, and only
 //! its beam-on time; rows carry
-//! them and the split of the beam-on time (CSV and JSON), the CSV reads back, and an older
-//! arcsim's table without those columns still merges and reads back.
+//! them and the split of the beam-on time (CSV and JSON), and the CSV reads back.
 
 use std::path::Path;
 
-use crate::util::{csv, from_text_in, scenarios, NEW_COLUMNS};
-use arcsim_evaluator::{
-    merge_csv, Axis, Evaluator, Outcome, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1,
-};
+use crate::util::{csv, from_text_in, scenarios};
+use arcsim_evaluator::{merge_csv, Axis, Evaluator, Outcome, Row, Shard, Status, CSV_HEADER};
 use arcsim_plan::{BeamModel, PlanKind, ScanningBeam};
 use arcsim_test_support::temp_dir;
 
@@ -54,25 +51,6 @@ fn column<'a>(table: &'a str, name: &str) -> Vec<&'a str> {
             l.split(',').nth(i).expect("field")
         })
         .collect()
-}
-
-/// The table without `names` (as an older arcsim wrote it, when `names` are the new columns).
-fn drop_columns(table: &str, names: &[&str]) -> String {
-    let header: Vec<&str> = table.lines().next().expect("header").split(',').collect();
-    let keep: Vec<bool> = header.iter().map(|h| !names.contains(h)).collect();
-    let mut out = String::new();
-    for line in table.lines() {
-        assert!(!line.contains('"'), "a quoted field: {line}");
-        let fields: Vec<&str> = line
-            .split(',')
-            .zip(&keep)
-            .filter(|(_, k)| **k)
-            .map(|(f, _)| f)
-            .collect();
-        out += &fields.join(",");
-        out.push('\n');
-    }
-    out
 }
 
 /// Twice the dose rate halves the spots' irradiation and leaves the spot switching (and the
@@ -430,82 +408,6 @@ fn scan_speed_and_dose_rate_on_a_scanning_machine() {
             "{axes}: {e}"
         );
     }
-}
-
-/// A table without the new columns (an older arcsim's) merges with its like, keeping its header,
-/// and reads back for a sweep that does not sweep the beam (the split of the beam-on time
-/// unknown: NaN); a mix of old and new tables, or an old table of a beam sweep, is an error.
-#[test]
-fn older_tables_without_the_beam_columns_still_merge_and_read_back() {
-    let dir = scenarios();
-    let ev = Evaluator::new(
-        from_text_in(&atom_sweep(r#"{"jerk_deg_per_s3": [0.5, 1, 2]}"#), &dir).expect("sweep"),
-    )
-    .expect("prepare");
-    let rows = all_rows(&ev);
-    let single = csv(&rows);
-    let old = drop_columns(&single, &NEW_COLUMNS);
-    assert!(old.starts_with(&format!("{CSV_HEADER_V1}\n")), "{old}");
-
-    let back = ev
-        .rows_from_csv("old.csv", &old)
-        .expect("an older table reads back");
-    assert_eq!(back.len(), 3);
-    for (a, r) in back.iter().zip(&rows) {
-        let (x, y) = (ok(a), ok(r));
-        assert_eq!(a.setting, r.setting);
-        assert_eq!(
-            (
-                x.total_s,
-                x.breakdown.beam_on_s,
-                x.breakdown.lost_s,
-                x.limiter_counts
-            ),
-            (
-                y.total_s,
-                y.breakdown.beam_on_s,
-                y.breakdown.lost_s,
-                y.limiter_counts
-            )
-        );
-        assert!(x.breakdown.spot_irradiation_s.is_nan() && x.breakdown.scanning_s.is_nan());
-    }
-    assert_eq!(
-        ev.summarize(&back).to_table(),
-        ev.summarize(&rows).to_table()
-    );
-
-    let shard = |k: usize, new: bool| {
-        let t = csv(&ev.run_collect(&Shard::new(k, 2).expect("shard").indices(ev.len())));
-        let t = if new {
-            t
-        } else {
-            drop_columns(&t, &NEW_COLUMNS)
-        };
-        (format!("shard-{k}.csv"), t)
-    };
-    let merged = merge_csv(&[shard(2, false), shard(1, false)], Some(3)).expect("old merge");
-    assert_eq!(merged, old);
-    let err = merge_csv(&[shard(1, true), shard(2, false)], Some(3))
-        .expect_err("a mix")
-        .to_string();
-    assert!(
-        err.starts_with("shard-2.csv: line 1: an older arcsim's header")
-            && err.contains("but shard-1.csv has the current arcsim sweep CSV header"),
-        "{err}"
-    );
-
-    // The same old table against a sweep of the dose rate: not its combinations.
-    let beam = Evaluator::new(
-        from_text_in(&atom_sweep(r#"{"dose_rate_scale": [1, 2]}"#), &dir).expect("sweep"),
-    )
-    .expect("prepare");
-    let old_two = drop_columns(&csv(&beam.run_collect(&[0, 1])), &NEW_COLUMNS);
-    let err = beam
-        .rows_from_csv("old.csv", &old_two)
-        .expect_err("the beam axis is not in an older table")
-        .to_string();
-    assert!(err.contains("old.csv: line 2: row 0"), "{err}");
 }
 
 /// The burst switching axis on `scenarios/machine-proteusone-like.json`: only the burst switching

@@ -1,12 +1,10 @@
 //! The sweep table's one schema: written, read back and merged through the same column list, so
 //! a table reads back equal whatever a spreadsheet did to it (quoted fields, a byte-order mark,
-//! CRLF line ends, columns in another order), an older arcsim's table still reads, and bad input
+//! CRLF line ends, columns in another order), an earlier arcsim's table is refused, and bad input
 //! is an error that names the file, the line and the column.
 
-use crate::util::{csv, from_text, NEW_COLUMNS};
-use arcsim_evaluator::{
-    merge_csv, Evaluator, Row, Shard, Status, CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2,
-};
+use crate::util::{csv, from_text};
+use arcsim_evaluator::{merge_csv, Evaluator, Row, Shard, Status, CSV_HEADER};
 
 /// Prostate on the ATOM machine, two jerks, two schedules: four rows.
 const SWEEP: &str = r#"{
@@ -182,7 +180,7 @@ fn a_missing_column_is_named() {
     for column in ["total_s", "plan", "limited_jerk", "dose_rate_scale"] {
         let e = error(&ev, &without(&table, &[column]));
         assert!(
-            e.starts_with(&format!("t.csv: line 1: no column {column};")),
+            e.starts_with(&format!("t.csv: line 1: no column {column} (")),
             "{column}: {e}"
         );
         let e = merge_csv(&[("m.csv".into(), without(&table, &[column]))], None)
@@ -239,92 +237,46 @@ fn a_bad_number_names_line_and_column() {
     );
 }
 
-/// A table without the certificate's columns (lower_bound_s, gap_s: header version 2) reads back,
-/// uncertified.
+/// A table an earlier arcsim wrote (without the certificate, the beam axes, the split of the
+/// beam-on time or the spill columns) is refused by the read-back and the merge alike, in any of
+/// the forms a spreadsheet leaves it: the error names the file, the first column missing and the
+/// header expected.
 #[test]
-fn a_table_without_the_certificate_reads_back() {
+fn a_table_of_an_earlier_header_is_refused_naming_the_file_and_the_header() {
     let ev = evaluator();
-    let rows = rows(&ev);
-    let old = without(
-        &csv(&rows),
-        &[
-            "combinations",
-            "burst_switching_time_s",
-            "spill_charge_mu",
-            "spill_refill_time_s",
-            "spill_max_layers",
-            "burst_switching_s",
-            "spill_waiting_s",
-            "lower_bound_s",
-            "gap_s",
-        ],
-    );
-    assert!(old.starts_with(&format!("{CSV_HEADER_V2}\n")), "{old}");
-    let back = ev
-        .rows_from_csv("v2.csv", &old)
-        .expect("a table without the certificate");
-    // Nor has it the beam-on terms of bursts and spills: they read as unknown.
-    let mut expected = rows.clone();
-    for o in expected.iter_mut().filter_map(|r| r.outcome.as_mut()) {
-        o.breakdown.burst_switching_s = f64::NAN;
-        o.breakdown.spill_waiting_s = f64::NAN;
-    }
-    assert_same_rows(&back, &expected);
-    // Half a certificate is an error that names the missing column.
-    let half = without(&csv(&rows), &["gap_s"]);
-    let e = ev
-        .rows_from_csv("half.csv", &half)
-        .expect_err("half")
-        .to_string();
-    assert!(e.contains("no column gap_s"), "{e}");
-}
-
-#[test]
-fn an_older_table_reads_back() {
-    let ev = evaluator();
-    let rows = rows(&ev);
-    let old = without(&csv(&rows), &NEW_COLUMNS);
-    assert!(old.starts_with(&format!("{CSV_HEADER_V1}\n")), "{old}");
-    for (name, table) in [
-        ("old.csv", old.clone()),
+    let table = csv(&rows(&ev));
+    let expected = format!("expected the arcsim sweep CSV header: {CSV_HEADER}");
+    for (missing, dropped) in [
+        ("lower_bound_s", &["lower_bound_s", "gap_s"][..]),
+        ("gap_s", &["gap_s"][..]),
         (
-            "old-crlf.csv",
-            format!("\u{feff}{}", old.replace('\n', "\r\n")),
+            "scan_speed_mm_per_s",
+            &["scan_speed_mm_per_s", "dose_rate_scale"][..],
         ),
-        ("old-reordered.csv", reversed(&old)),
+        (
+            "spill_charge_mu",
+            &["spill_charge_mu", "spill_waiting_s"][..],
+        ),
     ] {
-        let back = ev.rows_from_csv(name, &table).expect("an older table");
-        assert_eq!(back.len(), 4);
-        for (a, r) in back.iter().zip(&rows) {
-            assert_eq!(
-                (a.index, a.setting, a.status),
-                (r.index, r.setting, r.status)
+        let old = without(&table, dropped);
+        for (name, text) in [
+            ("old.csv", old.clone()),
+            (
+                "old-crlf.csv",
+                format!("\u{feff}{}", old.replace('\n', "\r\n")),
+            ),
+            ("old-reordered.csv", reversed(&old)),
+        ] {
+            let message = format!(
+                "{name}: line 1: no column {missing} (a table of an earlier arcsim? run its sweep \
+                 again); {expected}"
             );
-            let (Some(x), Some(y)) = (a.outcome, r.outcome) else {
-                assert_eq!(a.outcome, None);
-                continue;
-            };
-            assert_eq!(
-                (
-                    x.total_s,
-                    x.breakdown.beam_on_s,
-                    x.limiter_counts,
-                    x.speedup
-                ),
-                (
-                    y.total_s,
-                    y.breakdown.beam_on_s,
-                    y.limiter_counts,
-                    y.speedup
-                )
-            );
-            assert!(x.breakdown.spot_irradiation_s.is_nan());
-            assert!(x.breakdown.scanning_s.is_nan());
+            let e = ev
+                .rows_from_csv(name, &text)
+                .expect_err("an earlier header");
+            assert_eq!(e.to_string(), message);
+            let e = merge_csv(&[(name.into(), text)], Some(4)).expect_err("an earlier header");
+            assert_eq!(e.to_string(), message);
         }
-        // An older table merges into an older table, in its header's order.
-        assert_eq!(
-            merge_csv(&[(name.into(), table)], Some(4)).expect("merge"),
-            old
-        );
     }
 }

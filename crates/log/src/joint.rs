@@ -7,8 +7,9 @@
 use arcsim_plan::Machine;
 use arcsim_plan::TimingSpread;
 use arcsim_sequencer::{machine_limits, simulate_resolved, Options};
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 use crate::calibrate::LoggedRun;
@@ -346,7 +347,7 @@ fn jitter_replay(
             for (arc, layers) in arcs.iter().zip(logged) {
                 let drawn = noise
                     .spread
-                    .draw(arc, &mut || crate::virtual_log::gaussian(&mut rng));
+                    .draw(arc, &mut || rng.sample::<f64, _>(StandardNormal));
                 let d = simulate_resolved(&drawn, &limits, opts).ok()?;
                 gaps.extend(
                     pairs_of(&d, layers, Switches::All)
@@ -362,7 +363,7 @@ fn jitter_replay(
                 if (l - s).abs() >= ROBUST_CAP_S || g.iter().all(|col| col[i].abs() < 1e-9) {
                     continue;
                 }
-                let y = y + noise.resolution_sd_s * crate::virtual_log::gaussian(&mut rng);
+                let y = y + noise.resolution_sd_s * rng.sample::<f64, _>(StandardNormal);
                 let r = (y - s).clamp(-ROBUST_CAP_S, ROBUST_CAP_S);
                 for (acc, col) in gtr.iter_mut().zip(g) {
                     *acc += col[i] * r;

@@ -9,6 +9,7 @@
 use arcsim_sequencer::{Delivery, SpotRow};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 use thiserror::Error;
 
 use crate::LogSample;
@@ -92,7 +93,7 @@ pub fn virtual_log(
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let mut noise = || match opts.angle_noise_deg {
         0.0 => 0.0,
-        sd => sd * gaussian(&mut rng),
+        sd => sd * rng.sample::<f64, _>(StandardNormal),
     };
     let mut out = Vec::with_capacity(count);
     let (mut seg, mut spot, mut mu_from) = (0, 0, 0);
@@ -211,11 +212,4 @@ fn mu_between(
         }
     }
     (mu, next)
-}
-
-/// A standard normal number (Box–Muller).
-pub(crate) fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = 1.0 - rng.random::<f64>();
-    let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }

@@ -21,6 +21,7 @@ use arcsim_sequencer::{
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -144,10 +145,7 @@ fn noisy_log_of(
         beam_time_sd_fraction: 0.0,
     };
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut normal = move || {
-        let (u1, u2): (f64, f64) = (1.0 - rng.random::<f64>(), rng.random::<f64>());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    };
+    let mut normal = move || rng.sample::<f64, _>(StandardNormal);
     let drawn = jitter.draw(&arcs, &mut normal);
     let limits = machine_limits(&machine).expect("limits");
     let opts = Options {

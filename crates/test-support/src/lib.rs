@@ -7,7 +7,6 @@
 //! - [`cannot_run`] and [`atom_reference`]: a test that cannot run fails and says why; the ATOM
 //!   article's data from the repository's `reference/`;
 //! - [`HIDDEN_MACHINE_JSON`]: the machine whose simulated deliveries stand in for delivery logs;
-//! - [`COLUMNS_SINCE_V1`]: the sweep-table columns an old (V1) table lacks;
 //! - [`in_own_process`]: a test run alone in a child process, for one that changes what the whole
 //!   test binary shares;
 //! - `dicom` (feature `dicom`): DICOM RT (Ion) Plan files generated in memory, complete or with
@@ -19,12 +18,10 @@ mod ci;
 pub mod dicom;
 mod machines;
 mod rng;
-mod sweep_csv;
 mod temp;
 
 pub use alone::in_own_process;
 pub use ci::{atom_reference, atom_reference_path, cannot_run};
 pub use machines::HIDDEN_MACHINE_JSON;
 pub use rng::Rng;
-pub use sweep_csv::COLUMNS_SINCE_V1;
 pub use temp::{temp_dir, temp_file};

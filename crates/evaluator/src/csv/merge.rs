@@ -1,42 +1,32 @@
 //! Joining shard outputs into the table a single run writes.
 
 use super::read::{check_results, records};
-use super::schema::{column_index, Layout, COLUMNS};
+use super::schema::{column_index, COLUMNS};
 use super::write::write_records;
 use crate::EvalError;
 
 /// Joins shard outputs (`(name, text)` pairs, in any order) into the table a single run writes.
-/// Every input must have the sweep header, all the same one ([`CSV_HEADER`], or all one earlier
-/// header, [`CSV_HEADER_V5`], [`CSV_HEADER_V4`], [`CSV_HEADER_V3`], [`CSV_HEADER_V2`] or [`CSV_HEADER_V1`], which the merged table then
-/// keeps; the columns of an input may be in any order, the merged table has them in the
-/// header's); indices must not repeat and must be exactly `0..n`, where `n` is the sweep's
-/// combination count: `expected` when given (from the sweep file), and the `combinations`
-/// column of every row (which must agree with each other and with `expected`). A table without
-/// that column (an earlier header's) and no `expected` must cover `0..n` without gaps. Every
-/// row's status must be one a table writes and, for a row that is ok, every result a finite
-/// number not below 0 (the certificate's gap may be).
+/// Every input must have the columns of [`CSV_HEADER`](super::CSV_HEADER) (in any order; the
+/// merged table has them in the header's); indices must not repeat and must be exactly `0..n`,
+/// where `n` is the sweep's combination count: `expected` when given (from the sweep file), and
+/// the `combinations` column of every row (which must agree with each other and with
+/// `expected`). Every row's status must be one a table writes and, for a row that is ok, every
+/// result a finite number not below 0 (the certificate's gap may be).
 pub fn merge_csv(
     inputs: &[(String, String)],
     expected: Option<usize>,
 ) -> Result<String, EvalError> {
     let mut merge = Merge {
         rows: Vec::new(),
-        first: None,
         size: expected.map(|n| (n, "the sweep file".to_string())),
     };
     for (name, text) in inputs {
         merge.add(name, text)?;
     }
-    let Merge {
-        mut rows,
-        first,
-        size,
-        ..
-    } = merge;
+    let Merge { mut rows, size } = merge;
     rows.sort_by_key(|r| r.0);
     check_complete(&rows, size.as_ref().map(|s| s.0), expected)?;
-    let layout = first.map_or(Layout::Current, |f| f.0);
-    let header: Vec<&str> = layout.columns().map(|c| c.name).collect();
+    let header: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
     let lines = rows
         .iter()
         .map(|r| r.1.iter().map(String::as_str).collect::<Vec<_>>());
@@ -50,16 +40,14 @@ pub fn merge_csv(
 
 /// The shard rows read so far, and what the inputs must agree on.
 struct Merge<'a> {
-    /// (index, fields in the layout's order, input name)
+    /// (index, fields in the header's order, input name)
     rows: Vec<(usize, Vec<String>, &'a str)>,
-    /// The layout of the first input, and its name.
-    first: Option<(Layout, &'a str)>,
     /// The sweep's size as the first row that says it does, and where.
     size: Option<(usize, String)>,
 }
 
 impl<'a> Merge<'a> {
-    /// Reads one input's rows: its header must be the first input's, its last line complete, and
+    /// Reads one input's rows: its header must be the sweep table's, its last line complete, and
     /// each row's index within the sweep's size that every row agrees on.
     fn add(&mut self, name: &'a str, text: &str) -> Result<(), EvalError> {
         let merr = |message: String| EvalError::Merge {
@@ -67,17 +55,6 @@ impl<'a> Merge<'a> {
             message,
         };
         let (header, records) = records(text).map_err(merr)?;
-        match self.first {
-            None => self.first = Some((header.layout, name)),
-            Some((layout, first_name)) if layout != header.layout => {
-                return Err(merr(format!(
-                    "line 1: {}, but {first_name} has {}; expected the tables of one run",
-                    header.layout.describe(),
-                    layout.describe()
-                )));
-            }
-            Some(_) => {}
-        }
         if !text.ends_with('\n') {
             return Err(merr(
                 "the last line is incomplete (no newline): was the run killed while writing?"
@@ -87,27 +64,20 @@ impl<'a> Merge<'a> {
         let index_column = column_index("index");
         let size_column = column_index("combinations");
         for (line, record) in records {
-            let count = |column: usize, what: &str| -> Result<Option<usize>, EvalError> {
-                let Some(field) = header.get(&record, column) else {
-                    return Ok(None);
-                };
-                field.trim().parse::<usize>().map(Some).map_err(|_| {
+            let count = |column: usize, what: &str| -> Result<usize, EvalError> {
+                let field = header.get(&record, column);
+                field.trim().parse::<usize>().map_err(|_| {
                     merr(format!(
                         "line {line}: column {}: expected {what}, found {field:?}",
                         COLUMNS[column].name
                     ))
                 })
             };
-            let index = count(index_column, "a row index (a count)")?.unwrap_or_default();
+            let index = count(index_column, "a row index (a count)")?;
             check_results(&header, &record, line).map_err(merr)?;
-            if let Some(n) = count(size_column, "the sweep's number of combinations")? {
-                self.check_size(n, index, name, line).map_err(merr)?;
-            }
-            let fields = header
-                .order
-                .iter()
-                .map(|&i| record[i].to_string())
-                .collect();
+            let n = count(size_column, "the sweep's number of combinations")?;
+            self.check_size(n, index, name, line).map_err(merr)?;
+            let fields = header.in_order(&record).map(str::to_string).collect();
             self.rows.push((index, fields, name));
         }
         Ok(())

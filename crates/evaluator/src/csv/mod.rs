@@ -14,18 +14,15 @@
 //! beam model (no scanning speed) or a `scanning` one with separate x and y speeds,
 //! `burst_switching_time_s` for a `per_mu` beam model (no bursts).
 //!
-//! Tables with an earlier header ([`CSV_HEADER_V5`]: without the beam-on terms
-//! `burst_switching_s` and `spill_waiting_s`; [`CSV_HEADER_V4`]: also without `burst_switching_time_s`;
-//! [`CSV_HEADER_V3`]: also without `combinations`; [`CSV_HEADER_V2`]: also without the
-//! certificate's `lower_bound_s` and `gap_s`; [`CSV_HEADER_V1`]: also without the two beam axes and
-//! the split of the beam-on time) still merge (with tables of the same header) and read back.
+//! A table is read and merged only with [`CSV_HEADER`]'s columns: one with other columns (an
+//! earlier arcsim's) is refused, naming the file and the header expected.
 //!
 //! Every column is defined once, in `COLUMNS`: its name and how a row writes it and reads back
 //! into one. The writer, the reader and the merge all go through that list and the `csv` crate,
 //! so a table read back may have its columns in any order (found by their header name), and
 //! quoted fields, a UTF-8 byte-order mark and CRLF line ends read as well.
 //!
-//! The files: `schema` (the columns and the headers), `write` (a row as a line), `merge` (shard
+//! The files: `schema` (the columns and the header), `write` (a row as a line), `merge` (shard
 //! outputs into one table), `read` (a table back into rows) and `lines` (line numbers of records,
 //! for located errors).
 
@@ -37,9 +34,7 @@ mod write;
 
 pub use lines::CsvLineNumbers;
 pub use merge::merge_csv;
-pub use schema::{
-    CSV_HEADER, CSV_HEADER_V1, CSV_HEADER_V2, CSV_HEADER_V3, CSV_HEADER_V4, CSV_HEADER_V5,
-};
+pub use schema::CSV_HEADER;
 pub use write::{write_csv_header, write_csv_row};
 
 #[cfg(test)]

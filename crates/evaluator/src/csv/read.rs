@@ -39,7 +39,7 @@ pub(super) fn records(text: &str) -> Result<(Header, Vec<(usize, StringRecord)>)
     Ok((header, out))
 }
 
-/// An outcome to fill from a table row: the numbers unknown (NaN) until read.
+/// An outcome to fill from a table row: the numbers unknown (NaN) until read (every one is).
 fn unknown_outcome() -> Outcome {
     Outcome {
         total_s: f64::NAN,
@@ -69,8 +69,8 @@ struct Fields<'a> {
 }
 
 impl Fields<'_> {
-    /// The field of `COLUMNS[k]`; `None` when the table has no such column.
-    fn get(&self, k: usize) -> Option<&str> {
+    /// The field of `COLUMNS[k]`.
+    fn get(&self, k: usize) -> &str {
         self.header.get(self.record, k)
     }
 
@@ -123,12 +123,9 @@ impl Evaluator {
     /// them).
     ///
     /// Columns are found by their name in the header, which must have the columns of
-    /// [`CSV_HEADER`] or of one earlier header ([`CSV_HEADER_V5`] to [`CSV_HEADER_V1`]; a
-    /// column an earlier header lacks reads back as unknown, and V2 and V1 rows without a
-    /// certificate), in any order. A V1 table
-    /// has no beam axes (its rows must be combinations that do not sweep them) and no split of
-    /// the beam-on time: its rows read back with `spot_irradiation_s` and `scanning_s` NaN
-    /// (unknown). Quoted fields, a UTF-8 byte-order mark and CRLF line ends read as well.
+    /// [`CSV_HEADER`], in any order; a table with other columns (an earlier arcsim's) is an
+    /// error naming the file and the header expected. Quoted fields, a UTF-8 byte-order mark and
+    /// CRLF line ends read as well.
     pub fn rows_from_csv(&self, name: &str, text: &str) -> Result<Vec<Row>, EvalError> {
         let merr = |message: String| EvalError::Merge {
             file: name.to_string(),
@@ -151,22 +148,19 @@ impl Evaluator {
     /// The row of one table line, checked against the sweep's combination of its index.
     fn row_from_fields(&self, f: &Fields) -> Result<Row, String> {
         let index_column = column_index("index");
-        let index = f.count("index", f.get(index_column).unwrap_or_default())?;
+        let index = f.count("index", f.get(index_column))?;
         if index >= self.len() {
             return Err(f.error(format!(
                 "row {index}: the sweep has {} combinations",
                 self.len()
             )));
         }
-        let size_column = column_index("combinations");
-        if let Some(t) = f.get(size_column) {
-            let n = f.count("combinations", t)?;
-            if n != self.len() {
-                return Err(f.error(format!(
-                    "a sweep of {n} combinations; this sweep has {}",
-                    self.len()
-                )));
-            }
+        let n = f.count("combinations", f.get(column_index("combinations")))?;
+        if n != self.len() {
+            return Err(f.error(format!(
+                "a sweep of {n} combinations; this sweep has {}",
+                self.len()
+            )));
         }
         let (plan, run, setting) = self.combination(index);
         let mut row = Row {
@@ -183,13 +177,11 @@ impl Evaluator {
         // The columns naming the combination: as the sweep's row of that index writes them.
         let mut same = true;
         for (k, c) in COLUMNS.iter().enumerate() {
-            match (c.field, f.get(k)) {
-                (Field::Name(get), Some(t)) => same &= t == one_line(&get(&row)),
-                (Field::Limit(axis), Some(t)) => {
-                    same &= f.optional(c.name, t)? == setting.get_or(axis, &row.defaults);
+            match c.field {
+                Field::Name(get) => same &= f.get(k) == one_line(&get(&row)),
+                Field::Limit(axis) => {
+                    same &= f.optional(c.name, f.get(k))? == setting.get_or(axis, &row.defaults);
                 }
-                // A table with an earlier header: its combinations leave the axis to the base machine.
-                (Field::Limit(axis), None) => same &= setting.get(axis).is_none(),
                 _ => {}
             }
         }
@@ -207,7 +199,7 @@ fn results(f: &Fields) -> Result<(Status, String, Option<Outcome>), String> {
     let mut status = Status::Ok;
     let mut message = String::new();
     for (k, c) in COLUMNS.iter().enumerate() {
-        let Some(t) = f.get(k) else { continue };
+        let t = f.get(k);
         match c.field {
             Field::Status => {
                 status = STATUSES
@@ -224,7 +216,7 @@ fn results(f: &Fields) -> Result<(Status, String, Option<Outcome>), String> {
     }
     let mut outcome = unknown_outcome();
     for (k, c) in COLUMNS.iter().enumerate() {
-        let Some(t) = f.get(k) else { continue };
+        let t = f.get(k);
         match c.field {
             Field::Number(_, set) => *set(&mut outcome) = f.number(c.name, t)?,
             Field::Optional(_, set) => *set(&mut outcome) = f.optional(c.name, t)?,
@@ -268,9 +260,8 @@ fn other_combination(row: &Row) -> String {
         })
         .collect();
     format!(
-        "row {} is {} {} {} in this sweep; the file has another combination (a different sweep \
-         file, or an older arcsim's table, which left the ELST and window columns empty when \
-         they were not swept?)",
+        "row {} is {} {} {} in this sweep; the file has another combination (a table of a \
+         different sweep file?)",
         row.index,
         row.plan,
         row.schedule.name(),

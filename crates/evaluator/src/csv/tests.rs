@@ -24,21 +24,6 @@ fn file(rows: &[usize], end: &str) -> String {
 fn the_headers_are_the_column_list() {
     let names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
     assert_eq!(CSV_HEADER, names.join(","));
-    let old: Vec<&str> = Layout::V1.columns().map(|c| c.name).collect();
-    assert_eq!(CSV_HEADER_V1, old.join(","));
-    let v2: Vec<&str> = Layout::V2.columns().map(|c| c.name).collect();
-    assert_eq!(CSV_HEADER_V2, v2.join(","));
-    let v3: Vec<&str> = Layout::V3.columns().map(|c| c.name).collect();
-    assert_eq!(CSV_HEADER_V3, v3.join(","));
-    let v4: Vec<&str> = Layout::V4.columns().map(|c| c.name).collect();
-    assert_eq!(CSV_HEADER_V4, v4.join(","));
-    let v5: Vec<&str> = Layout::V5.columns().map(|c| c.name).collect();
-    assert_eq!(CSV_HEADER_V5, v5.join(","));
-    assert_eq!(v5.len(), COLUMNS.len() - 5);
-    assert_eq!(v4.len(), COLUMNS.len() - 6);
-    assert_eq!(v3.len(), COLUMNS.len() - 7);
-    assert_eq!(v2.len(), COLUMNS.len() - 9);
-    assert_eq!(old.len(), COLUMNS.len() - 13);
     // One limit column per axis, named as the axis.
     let limits: Vec<Axis> = COLUMNS
         .iter()
@@ -81,21 +66,19 @@ fn merge_sorts_and_checks() {
     );
     let e = merge_csv(&[a.clone(), other], None).expect_err("sizes");
     assert!(e.to_string().contains("a sweep of 6 combinations"), "{e}");
-    // A table without the column (an earlier header's) still merges on its indices.
-    let v3 = |rows: &[usize]| {
-        let mut s = format!("{CSV_HEADER_V3}\n");
-        let names: Vec<&str> = CSV_HEADER_V3.split(',').collect();
-        let status = names.iter().position(|c| *c == "status").expect("status");
-        for r in rows {
-            let mut fields = vec![String::new(); names.len()];
-            fields[..3].clone_from_slice(&[r.to_string(), "p".into(), "scan".into()]);
-            fields[status] = "error".into();
-            s.push_str(&format!("{}\n", fields.join(",")));
-        }
-        s
-    };
-    let old = merge_csv(&[("x".into(), v3(&[1])), ("y".into(), v3(&[0]))], None);
-    assert_eq!(old.expect("older tables"), v3(&[0, 1]));
+    // A table without the `combinations` column (an earlier arcsim's): refused, naming the file,
+    // the column and the header expected.
+    let old = file(&[1], "\n").replacen("index,combinations,", "index,", 1);
+    let e = merge_csv(&[a.clone(), ("old.csv".into(), old)], None)
+        .expect_err("an earlier header")
+        .to_string();
+    assert_eq!(
+        e,
+        format!(
+            "old.csv: line 1: no column combinations (a table of an earlier arcsim? run its \
+             sweep again); expected the arcsim sweep CSV header: {CSV_HEADER}"
+        )
+    );
     assert!(merge_csv(&[a.clone(), a.clone()], None)
         .expect_err("dup")
         .to_string()
@@ -108,7 +91,7 @@ fn merge_sorts_and_checks() {
         merge_csv(&[("e".into(), String::new())], None)
             .expect_err("empty")
             .to_string(),
-        "e: empty file; expected the arcsim sweep CSV header"
+        format!("e: empty file; expected the arcsim sweep CSV header: {CSV_HEADER}")
     );
     let e = merge_csv(
         &[(
@@ -134,25 +117,36 @@ fn merge_sorts_and_checks() {
 fn a_header_names_each_column_once() {
     let parse = |h: &str| {
         let mut rd = reader(h);
-        Header::parse(rd.headers().expect("header")).map(|h| h.layout)
+        Header::parse(rd.headers().expect("header")).map(|h| h.len)
     };
-    assert_eq!(parse(CSV_HEADER), Ok(Layout::Current));
-    assert_eq!(parse(CSV_HEADER_V1), Ok(Layout::V1));
-    assert_eq!(parse(CSV_HEADER_V2), Ok(Layout::V2));
-    assert_eq!(
-        parse(&CSV_HEADER_V2.replacen("speedup,", "speedup,gap_s,", 1)),
-        Err("line 1: no column lower_bound_s; expected the arcsim sweep CSV header".into())
-    );
+    let expected = format!("expected the arcsim sweep CSV header: {CSV_HEADER}");
+    assert_eq!(parse(CSV_HEADER), Ok(COLUMNS.len()));
+    // In another order: each column found by its name.
+    let mut names: Vec<&str> = CSV_HEADER.split(',').collect();
+    names.reverse();
+    let reversed = names.join(",");
+    let mut rd = reader(&reversed);
+    let header = Header::parse(rd.headers().expect("header")).expect("reversed");
+    let record = csv::StringRecord::from(names.clone());
+    let in_order: Vec<&str> = header.in_order(&record).collect();
+    assert_eq!(in_order.join(","), CSV_HEADER);
     let twice = CSV_HEADER.replacen("plan,", "plan,plan,", 1);
     assert_eq!(
         parse(&twice),
-        Err("line 1: column plan appears twice; expected the arcsim sweep CSV header".into())
+        Err(format!("line 1: column plan appears twice; {expected}"))
     );
-    // Half new, half old: the first missing column of the current header.
+    // A column missing (a table of an earlier arcsim): the first missing column is named.
     let half = CSV_HEADER.replacen("scanning_s,", "", 1);
     assert_eq!(
         parse(&half),
-        Err("line 1: no column scanning_s; expected the arcsim sweep CSV header".into())
+        Err(format!(
+            "line 1: no column scanning_s (a table of an earlier arcsim? run its sweep again); \
+             {expected}"
+        ))
+    );
+    assert_eq!(
+        parse(&format!("{CSV_HEADER},extra")),
+        Err(format!("line 1: unknown column \"extra\"; {expected}"))
     );
 }
 

@@ -31,6 +31,3 @@ pub fn csv(rows: &[Row]) -> String {
     }
     String::from_utf8(out).expect("utf-8")
 }
-
-/// The columns a V1 table does not have (shared with the CLI's tests).
-pub use arcsim_test_support::COLUMNS_SINCE_V1 as NEW_COLUMNS;
