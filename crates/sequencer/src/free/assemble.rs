@@ -4,7 +4,7 @@
 use arcsim_plan::ResolvedArc;
 use arcsim_planner::{Limits, Segment};
 
-use super::mover::{FullMove, FullState, Mover};
+use super::mover::{FullMove, FullState, Mover, Track};
 use super::solve::FreeArc;
 use crate::problem::ArcProblem;
 use crate::raise::label_by_raise;
@@ -69,36 +69,6 @@ fn absolute(s: FullState, angle0: f64, dir: f64) -> FullState {
         pos: angle0 + dir * s.pos,
         vel: dir * s.vel,
         acc: dir * s.acc,
-    }
-}
-
-/// One arc's moves laid end to end from its first beam-on, with their start times.
-struct Track<'a> {
-    moves: Vec<(f64, &'a FullMove)>,
-}
-
-impl<'a> Track<'a> {
-    fn new(fa: &'a FreeArc) -> Self {
-        let mut t = 0.0;
-        let moves = fa
-            .moves
-            .iter()
-            .map(|m| {
-                let start = t;
-                t += m.duration();
-                (start, m)
-            })
-            .collect();
-        Track { moves }
-    }
-
-    fn state_at(&self, t: f64) -> FullState {
-        let i = self
-            .moves
-            .partition_point(|(s, _)| *s <= t)
-            .saturating_sub(1);
-        let (s, m) = self.moves[i];
-        m.state_at(t - s)
     }
 }
 
@@ -189,7 +159,7 @@ impl Assembly<'_> {
         p: &ArcProblem,
         fa: &FreeArc,
     ) -> Result<(), SequenceError> {
-        let (angle0, dir) = (p.angle.first().copied().unwrap_or(0.0), p.dir);
+        let (mut angle0, dir) = (p.angle.first().copied().unwrap_or(0.0), p.dir);
         let first_layer = self.out.layers.len();
         let run_up = fa.run_up.as_ref();
         let lead = run_up.map_or(0.0, |r| r.duration());
@@ -199,7 +169,9 @@ impl Assembly<'_> {
         };
         if let Some(prev) = self.prev {
             let to = FullState::rest(angle0 + dir * wait_at.pos);
-            self.turn_between_arcs(arc, p, prev, to, lead, first_layer)?;
+            // The turn lands at rest to Ruckig's precision (1e-10 deg): the arc starts where
+            // it landed, so the timeline's joins stay continuous.
+            angle0 += self.turn_between_arcs(arc, p, prev, to, lead, first_layer)?;
         }
         if let Some(r) = run_up {
             push_move(
@@ -216,7 +188,7 @@ impl Assembly<'_> {
             self.t += lead;
         }
         let t_arc = self.t;
-        let track = Track::new(fa);
+        let track = Track::new(&fa.moves);
         let n = p.len();
         // Beam intervals (absolute) and transition indices of this arc.
         let on: Vec<f64> = fa.beam_on.iter().map(|b| t_arc + b).collect();
@@ -244,7 +216,7 @@ impl Assembly<'_> {
 
     /// Stop-and-turn from the previous arc's end to `to`, at rest where this arc's run-up (or
     /// first beam) starts; its row counts from the last beam-off: braking (if any), the turn,
-    /// the run-up of `lead` seconds.
+    /// the run-up of `lead` seconds. Returns how far from `to` the turn lands (rounding).
     fn turn_between_arcs(
         &mut self,
         arc: &ResolvedArc,
@@ -253,7 +225,7 @@ impl Assembly<'_> {
         to: FullState,
         lead: f64,
         first_layer: usize,
-    ) -> Result<(), SequenceError> {
+    ) -> Result<f64, SequenceError> {
         let ArcEnd {
             state: from,
             layer: from_layer,
@@ -302,7 +274,20 @@ impl Assembly<'_> {
             lost_s: (duration - elst).max(0.0),
         });
         self.t += mv.duration();
-        Ok(())
+        // Where the pieces just pushed end ([`push_move`]'s arithmetic).
+        let landed = mv
+            .segments
+            .iter()
+            .filter(|seg| seg.duration > 0.0)
+            .fold(mv.start, |s, seg| {
+                s.settled(seg.jerk).after(seg.duration, seg.jerk)
+            });
+        let off = landed.pos - to.pos;
+        Ok(if off.abs() <= 1e-9 * (1.0 + to.pos.abs()) {
+            off
+        } else {
+            0.0
+        })
     }
 
     /// The arc's layer rows and the rows of the transitions inside it (labelled later); returns

@@ -47,18 +47,25 @@ pub(crate) fn simulate_free(
         solved.push(best);
         constant_arcs.push(base);
     }
-    let mut a = free::assemble(arcs, problems, &solved, limits)?;
-    if a.total > constant.total_s {
+    // Smoothed where that passes verification; as solved where it does not.
+    let smoothed: Vec<_> = solved
+        .iter()
+        .zip(problems)
+        .map(|(fa, p)| free::smooth(p, limits, fa))
+        .collect();
+    let (a, tl) = match built(arcs, problems, &smoothed, limits) {
+        Ok(b) => b,
+        Err(_) => built(arcs, problems, &solved, limits)?,
+    };
+    let (a, tl) = if a.total > constant.total_s {
         // Between arcs the braking and run-up of free ends can cost more than they save.
-        a = free::assemble(arcs, problems, &constant_arcs, limits)?;
-    }
+        built(arcs, problems, &constant_arcs, limits)?
+    } else {
+        (a, tl)
+    };
     let energy_switching_s: f64 = a.transitions.iter().map(|tr| tr.elst_s).sum();
     let lost_s: f64 = a.transitions.iter().map(|tr| tr.lost_s).sum::<f64>() + a.lead_s;
     let counts = crate::constant::limiter_counts(&a.transitions);
-    let tl = Timeline {
-        pieces: std::mem::take(&mut a.pieces),
-    };
-    verify_timeline(&tl, problems, &a.layers, &a.transitions, limits, true)?;
     let margins = opts
         .build_timeline
         .then(|| margins(&tl, &a.layers, &a.transitions, limits));
@@ -79,4 +86,19 @@ pub(crate) fn simulate_free(
         violations: constant.violations,
         timeline: opts.build_timeline.then_some(tl),
     })
+}
+
+/// Free-motion arcs assembled into rows and a timeline, verified by integration.
+fn built(
+    arcs: &[ResolvedArc],
+    problems: &[ArcProblem],
+    solved: &[super::solve::FreeArc],
+    limits: &Limits,
+) -> Result<(super::assemble::Assembled, Timeline), SequenceError> {
+    let mut a = free::assemble(arcs, problems, solved, limits)?;
+    let tl = Timeline {
+        pieces: std::mem::take(&mut a.pieces),
+    };
+    verify_timeline(&tl, problems, &a.layers, &a.transitions, limits, true)?;
+    Ok((a, tl))
 }

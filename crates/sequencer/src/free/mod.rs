@@ -22,6 +22,12 @@
 //! 4. The exact delivery: every beam and switch re-flown as a time-optimal full-state move
 //!    between the transcript's states (rsruckig, [`mover`]), or on the transcript's own pieces
 //!    where no such move exists to rounding; every move re-integrated and checked.
+//! 5. Smoothing ([`smooth`](mod@smooth)): the total time is the only objective, so where beams and ELSTs
+//!    set the clock the result may chatter (−J, +J, −J within a tenth of a second); stretches
+//!    between beam edges are re-flown as single Ruckig moves of the same duration between the
+//!    same states, where every beam stays in its window, choosing those that leave the fewest
+//!    short jerk reversals. Times are unchanged; a smoothed timeline that fails verification is
+//!    replaced by the unsmoothed one.
 //!
 //! The result is a local optimum of the transcribed problem. An independent optimiser (direct
 //! multiple shooting with IPOPT, `tests/oracle/` of the repository) gets within 0.05 % of it on
@@ -40,12 +46,14 @@ mod deliver;
 mod lp;
 mod mover;
 mod refine;
+mod smooth;
 mod solve;
 mod transcribe;
 
 use assemble::{assemble, from_constant};
 pub(crate) use bound::plan_lower_bound;
 pub(crate) use deliver::simulate_free;
+use smooth::smooth;
 use solve::{solve_arc, End, Start};
 
 /// How arc `ai` starts and ends: both at rest, or with free ends a run-up before its first beam

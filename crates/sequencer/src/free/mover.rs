@@ -391,6 +391,42 @@ impl Mover {
     }
 }
 
+/// Moves laid end to end from `t = 0` (an arc's, from its first beam-on).
+pub(crate) struct Track<'a> {
+    /// Each move with its start time (s).
+    pub moves: Vec<(f64, &'a FullMove)>,
+}
+
+impl<'a> Track<'a> {
+    pub fn new(moves: &'a [FullMove]) -> Self {
+        let mut t = 0.0;
+        let moves = moves
+            .iter()
+            .map(|m| {
+                let start = t;
+                t += m.duration();
+                (start, m)
+            })
+            .collect();
+        Track { moves }
+    }
+
+    /// When the last move ends (s).
+    pub fn end(&self) -> f64 {
+        self.moves.last().map_or(0.0, |(s, m)| s + m.duration())
+    }
+
+    /// The state `t` seconds in (in the move that covers `t`).
+    pub fn state_at(&self, t: f64) -> FullState {
+        let i = self
+            .moves
+            .partition_point(|(s, _)| *s <= t)
+            .saturating_sub(1);
+        let (s, m) = self.moves[i];
+        m.state_at(t - s)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
