@@ -169,8 +169,8 @@ fn delivered_end(mv: &FullMove) -> FullState {
     })
 }
 
-/// The move `from → to` lasting exactly `duration` (to 1e-9 s, then made exact on its last
-/// segment), within the limits and never going backwards; `None` where there is none.
+/// The move `from → to` lasting exactly `duration` (Ruckig's to 1e-12 of it, then made exact on
+/// its last segment), within the limits and never going backwards; `None` where there is none.
 fn exact(mover: &mut Mover, from: FullState, to: FullState, duration: f64) -> Option<FullMove> {
     if duration <= 0.0 {
         return None;
