@@ -425,6 +425,34 @@ impl<'a> Track<'a> {
         let (s, m) = self.moves[i];
         m.state_at(t - s)
     }
+
+    /// The segments from `t0` to `t1` (cut at both ends). Starts one move before the one that
+    /// covers `t0` (a move's summed segments may end a rounding past the next one's start) and
+    /// stops at the first move starting at or after `t1`, so a stretch costs its own moves.
+    pub fn slice(&self, t0: f64, t1: f64) -> Vec<Segment> {
+        let first = self
+            .moves
+            .partition_point(|(s, _)| *s <= t0)
+            .saturating_sub(2);
+        let mut segments = Vec::new();
+        for (s, m) in &self.moves[first..] {
+            if *s >= t1 {
+                break;
+            }
+            let mut t = *s;
+            for seg in &m.segments {
+                let (a, b) = (t.max(t0), (t + seg.duration).min(t1));
+                if b > a {
+                    segments.push(Segment {
+                        duration: b - a,
+                        jerk: seg.jerk,
+                    });
+                }
+                t += seg.duration;
+            }
+        }
+        segments
+    }
 }
 
 #[cfg(test)]

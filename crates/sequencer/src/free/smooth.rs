@@ -214,24 +214,3 @@ fn reversals(segments: &[Segment]) -> usize {
         .filter(|w| w[1].1 < SHORT_REVERSAL_S)
         .count()
 }
-
-impl Track<'_> {
-    /// The segments from `t0` to `t1` (cut at both ends).
-    fn slice(&self, t0: f64, t1: f64) -> Vec<Segment> {
-        let mut segments = Vec::new();
-        for (s, m) in &self.moves {
-            let mut t = *s;
-            for seg in &m.segments {
-                let (a, b) = (t.max(t0), (t + seg.duration).min(t1));
-                if b > a {
-                    segments.push(Segment {
-                        duration: b - a,
-                        jerk: seg.jerk,
-                    });
-                }
-                t += seg.duration;
-            }
-        }
-        segments
-    }
-}
