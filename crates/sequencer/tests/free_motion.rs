@@ -535,12 +535,28 @@ fn short_jerk_reversals(tl: &arcsim_sequencer::Timeline) -> usize {
         .count()
 }
 
-/// Issue 45, goal 8 (in part): where the beams and ELSTs set the clock, free motion re-flies
-/// the solver's saw-tooth as single moves between the same states in the same time. Before
+/// The issue's own count: pieces of one jerk sign shorter than 0.1 s whose neighbours both have
+/// the other sign, every piece counted however short.
+fn short_reversed_pieces(tl: &arcsim_sequencer::Timeline) -> usize {
+    let sign = |j: f64| (j > 1e-9) as i8 - (j < -1e-9) as i8;
+    tl.pieces
+        .windows(3)
+        .filter(|w| {
+            let s = sign(w[1].jerk_deg_per_s3);
+            s != 0
+                && w[1].duration_s < 0.1
+                && sign(w[0].jerk_deg_per_s3) == -s
+                && sign(w[2].jerk_deg_per_s3) == -s
+        })
+        .count()
+}
+
+/// Issue 45, goal 8: where the beams and ELSTs set the clock, free motion does not chatter. Before
 /// smoothing the bundled prostate on the ATOM machine had 50 short jerk reversals by this count
-/// (constant speed: 0) and lung on the fast machine 71. The totals are the solver's, and
-/// `check_sampled` holds the smoothed timelines to every limit and window; docs/model.md quotes
-/// the counts.
+/// (constant speed: 0) and lung on the fast machine 71, 22 and 27 after re-flying between the
+/// solver's states; the goal is at most twice constant speed's count, by this count and by the
+/// issue's own (every piece, however short). The totals are the solver's, and `check_sampled`
+/// holds the smoothed timelines to every limit, window and join; docs/model.md quotes the counts.
 #[test]
 fn free_motion_is_smoothed_where_the_gantry_does_not_set_the_clock() {
     let doc_path = format!("{}/../../docs/model.md", env!("CARGO_MANIFEST_DIR"));
@@ -549,19 +565,17 @@ fn free_motion_is_smoothed_where_the_gantry_does_not_set_the_clock() {
         .split_whitespace()
         .collect::<Vec<_>>()
         .join(" ");
-    for (plan, machine_file, most, quoted) in [
-        (
-            "prostate",
-            "machine-atom.json",
-            30,
-            "jerk reversals shorter than 0.1 s remain on the bundled prostate (ATOM machine)",
-        ),
-        (
-            "lung",
-            "machine-fast.json",
-            35,
-            "on lung on the fast machine (pieces under 1 ms ignored",
-        ),
+    let mut quoted_counts = Vec::new();
+    // The most short reversals (this file's count) allowed beyond twice constant speed's: on the
+    // two-arc plan on the fast machine two of the solver's moves begin with a 1–2 ms sliver of
+    // opposite jerk where the gantry ramps to its acceleration limit after a beam (no room for a
+    // least-jerk move there).
+    for (plan, machine_file, extra) in [
+        ("prostate", "machine-atom.json", 0),
+        ("lung", "machine-fast.json", 0),
+        ("prostate", "machine-fast.json", 0),
+        ("two-arc", "machine-fast.json", 2),
+        ("two-arc", "machine-atom.json", 0),
     ] {
         let m = machine(machine_file);
         let path = format!("{}/../../plans/{plan}.json", env!("CARGO_MANIFEST_DIR"));
@@ -569,22 +583,45 @@ fn free_motion_is_smoothed_where_the_gantry_does_not_set_the_clock() {
         let constant = simulate(&p, &m, &Options::new(Schedule::Optimal)).expect("constant");
         let d = simulate(&p, &m, &free(ArcEnds::Rest)).expect("free");
         check_sampled(&d, &m, 1e-3, plan);
-        let n_free = short_jerk_reversals(d.timeline.as_ref().expect("timeline"));
-        let n_constant = short_jerk_reversals(constant.timeline.as_ref().expect("timeline"));
+        let (tl_free, tl_constant) = (
+            d.timeline.as_ref().expect("timeline"),
+            constant.timeline.as_ref().expect("timeline"),
+        );
+        let (n_free, n_constant) = (
+            short_jerk_reversals(tl_free),
+            short_jerk_reversals(tl_constant),
+        );
+        let (p_free, p_constant) = (
+            short_reversed_pieces(tl_free),
+            short_reversed_pieces(tl_constant),
+        );
         println!(
-            "{plan} on {machine_file}: {n_free} short jerk reversals (constant speed {n_constant})"
+            "{plan} on {machine_file}: {n_free} short jerk reversals (constant speed {n_constant}); \
+             {p_free} short reversed pieces (constant speed {p_constant})"
         );
         assert_eq!(
             n_constant, 0,
             "{plan}: constant speed has no short reversal"
         );
         assert!(
-            n_free <= most,
-            "{plan} on {machine_file}: {n_free} short jerk reversals, at most {most} expected"
+            n_free <= 2 * n_constant + extra && p_free <= 2 * p_constant,
+            "{plan} on {machine_file}: {n_free} short jerk reversals and {p_free} short reversed \
+             pieces; constant speed {n_constant} and {p_constant}"
         );
-        assert!(
-            doc.contains(&format!("{n_free} {quoted}")),
-            "docs/model.md should say {n_free} {quoted}"
-        );
+        quoted_counts.push((n_free, p_free, p_constant));
+    }
+    let quoted = [
+        format!(
+            "{} jerk reversals shorter than 0.1 s remain on the bundled prostate (ATOM machine), \
+             {} on lung on the fast machine",
+            quoted_counts[0].0, quoted_counts[1].0
+        ),
+        format!(
+            "prostate has {} against constant speed's {}",
+            quoted_counts[0].1, quoted_counts[0].2
+        ),
+    ];
+    for q in quoted {
+        assert!(doc.contains(&q), "docs/model.md should say: {q}");
     }
 }

@@ -82,11 +82,15 @@ pub(crate) struct Assembled {
     pub lead_s: f64,
 }
 
-/// Assembles arcs solved with free motion into rows and a timeline starting at `t = 0`.
+/// Assembles arcs solved with free motion into rows and a timeline starting at `t = 0`. The
+/// transitions' labels (what limits them) come from `labelled`'s states at the beam edges where
+/// given: smoothing flies the same times through other states, which says nothing of what
+/// set those times.
 pub(crate) fn assemble(
     arcs: &[ResolvedArc],
     problems: &[ArcProblem],
     solved: &[FreeArc],
+    labelled: Option<&[FreeArc]>,
     lim: &Limits,
 ) -> Result<Assembled, SequenceError> {
     let mut a = Assembly {
@@ -103,7 +107,8 @@ pub(crate) fn assemble(
         prev: None,
     };
     for (ai, ((arc, p), fa)) in arcs.iter().zip(problems).zip(solved).enumerate() {
-        a.arc(ai, arc, p, fa)?;
+        let label_fa = labelled.and_then(|l| l.get(ai)).unwrap_or(fa);
+        a.arc(ai, arc, p, fa, label_fa)?;
     }
     a.out.total = a.t;
     Ok(a.out)
@@ -151,13 +156,15 @@ struct Beams {
 
 impl Assembly<'_> {
     /// Appends arc `ai`: the stop-and-turn into it, its run-up, its layer and transition rows,
-    /// its pieces and the labels of its transitions.
+    /// its pieces and the labels of its transitions (from `label_fa`'s states at the same beam
+    /// edges).
     fn arc(
         &mut self,
         ai: usize,
         arc: &ResolvedArc,
         p: &ArcProblem,
         fa: &FreeArc,
+        label_fa: &FreeArc,
     ) -> Result<(), SequenceError> {
         let (mut angle0, dir) = (p.angle.first().copied().unwrap_or(0.0), p.dir);
         let first_layer = self.out.layers.len();
@@ -202,10 +209,24 @@ impl Assembly<'_> {
         };
         let ends = self.rows(arc, p, &track, &beams);
         self.pieces(&track, &beams, angle0, dir);
-        self.label(&ends, &beams);
+        if std::ptr::eq(label_fa, fa) || label_fa.beam_on != fa.beam_on {
+            self.label(&ends, &beams);
+        } else {
+            let solved = Track::new(&label_fa.moves);
+            let at = |t: f64| solved.state_at(t - t_arc);
+            let solved_ends: Vec<(FullState, FullState)> = (0..n.saturating_sub(1))
+                .map(|k| (at(beams.off[k]), at(beams.on[k + 1])))
+                .collect();
+            self.label(&solved_ends, &beams);
+        }
         self.t = t_arc + fa.total - lead;
-        // Where the arc's motion ends (at rest after braking, unless it is the plan's last).
-        let last = fa.moves.last().map_or(FullState::default(), FullMove::end);
+        // Where the arc's motion ends (at rest after braking, unless it is the plan's last), as
+        // delivered: a rounding away from rest is rest, or the stop-and-turn that follows would
+        // start from it and hold it with a jump.
+        let last = fa
+            .moves
+            .last()
+            .map_or(FullState::default(), |m| m.delivered_end().settled(0.0));
         self.prev = Some(ArcEnd {
             state: absolute(last, angle0, dir),
             layer: first_layer + n - 1,

@@ -53,13 +53,13 @@ pub(crate) fn simulate_free(
         .zip(problems)
         .map(|(fa, p)| free::smooth(p, limits, fa))
         .collect();
-    let (a, tl) = match built(arcs, problems, &smoothed, limits) {
+    let (a, tl) = match built(arcs, problems, &smoothed, Some(&solved), limits) {
         Ok(b) => b,
-        Err(_) => built(arcs, problems, &solved, limits)?,
+        Err(_) => built(arcs, problems, &solved, None, limits)?,
     };
     let (a, tl) = if a.total > constant.total_s {
         // Between arcs the braking and run-up of free ends can cost more than they save.
-        built(arcs, problems, &constant_arcs, limits)?
+        built(arcs, problems, &constant_arcs, None, limits)?
     } else {
         (a, tl)
     };
@@ -88,14 +88,16 @@ pub(crate) fn simulate_free(
     })
 }
 
-/// Free-motion arcs assembled into rows and a timeline, verified by integration.
+/// Free-motion arcs assembled into rows and a timeline, verified by integration; the
+/// transitions labelled from `labelled` where given ([`free::assemble()`]).
 fn built(
     arcs: &[ResolvedArc],
     problems: &[ArcProblem],
     solved: &[super::solve::FreeArc],
+    labelled: Option<&[super::solve::FreeArc]>,
     limits: &Limits,
 ) -> Result<(super::assemble::Assembled, Timeline), SequenceError> {
-    let mut a = free::assemble(arcs, problems, solved, limits)?;
+    let mut a = free::assemble(arcs, problems, solved, labelled, limits)?;
     let tl = Timeline {
         pieces: std::mem::take(&mut a.pieces),
     };

@@ -26,8 +26,10 @@
 //!    set the clock the result may chatter (−J, +J, −J within a tenth of a second); stretches
 //!    between beam edges are re-flown as single Ruckig moves of the same duration between the
 //!    same states, where every beam stays in its window, choosing those that leave the fewest
-//!    short jerk reversals. Times are unchanged; a smoothed timeline that fails verification is
-//!    replaced by the unsmoothed one.
+//!    short jerk reversals; a move that still reverses is flown again with its neighbours as the
+//!    least-jerk move through their beam edges ([`least_jerk`], a small linear programme at fixed
+//!    edge times). Times are unchanged (the transitions keep the solver's labels); a smoothed
+//!    timeline that fails verification is replaced by the unsmoothed one.
 //!
 //! The result is a local optimum of the transcribed problem. An independent optimiser (direct
 //! multiple shooting with IPOPT, `tests/oracle/` of the repository) gets within 0.05 % of it on
@@ -43,6 +45,7 @@
 mod assemble;
 mod bound;
 mod deliver;
+mod least_jerk;
 mod lp;
 mod mover;
 mod refine;

@@ -86,6 +86,33 @@ impl FullMove {
             .fold(self.start, |s, seg| s.after(seg.duration, seg.jerk))
     }
 
+    /// Where the move ends as the timeline delivers it: each segment without jerk that starts a
+    /// rounding away from rest starts at rest ([`FullState::settled`]), as the assembly does.
+    pub fn delivered_end(&self) -> FullState {
+        self.segments.iter().fold(self.start, |s, seg| {
+            s.settled(seg.jerk).after(seg.duration, seg.jerk)
+        })
+    }
+
+    /// Whether the delivery, which takes a state a rounding away from rest before a piece
+    /// without jerk as rest ([`FullState::settled`]), finds no jump above 1e-13 inside this move
+    /// or at its end (where the next move may hold still): the timeline's joins must be
+    /// continuous to 1e-12, and a Ruckig move stretched over a hold can leave 1e-12 deg/s.
+    pub fn settles_smoothly(&self) -> bool {
+        let jump = |s: FullState| {
+            let r = s.settled(0.0);
+            (r.vel - s.vel).abs().max((r.acc - s.acc).abs()) <= 1e-13
+        };
+        let mut s = self.start;
+        for seg in &self.segments {
+            if seg.jerk == 0.0 && !jump(s) {
+                return false;
+            }
+            s = s.settled(seg.jerk).after(seg.duration, seg.jerk);
+        }
+        jump(s)
+    }
+
     /// State `t` seconds into the move (clamped).
     pub fn state_at(&self, t: f64) -> FullState {
         let mut s = self.start;
