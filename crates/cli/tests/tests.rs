@@ -8,9 +8,9 @@
 mod answers;
 mod build_reuse;
 mod cli;
-mod controller_figures;
 mod csv_tables;
 mod docs_examples;
+mod docs_figures;
 mod edges;
 mod free_motion_oracle;
 mod hardening;
