@@ -152,6 +152,17 @@ fn passage(doc: &str, quote: &str) -> Result<Vec<(usize, usize)>, usize> {
                 .all(|(j, q)| same(&doc[dw[i + j].0..dw[i + j].1], q))
         })
         .collect();
+    // Of passages alike (rows of a table), the one that shares the longest beginning with
+    // the quote.
+    let common = |i: usize| {
+        doc[dw[i].0..]
+            .chars()
+            .zip(quote.trim_start().chars())
+            .take_while(|(a, b)| a == b)
+            .count()
+    };
+    let best = found.iter().map(|&i| common(i)).max().unwrap_or(0);
+    let found: Vec<usize> = found.into_iter().filter(|&i| common(i) == best).collect();
     match found.as_slice() {
         [i] => Ok(dw[*i..*i + qw.len()].to_vec()),
         other => Err(other.len()),
@@ -559,7 +570,18 @@ fn output_block(doc: &'static str, marker: &str, output: &str) -> Vec<Quote> {
         .filter(|l| l.trim() != "..." && !l.trim().is_empty())
         .map(|quoted| {
             let want = shapes(quoted);
-            let printed: Vec<&str> = output.lines().filter(|l| shapes(l) == want).collect();
+            // Of the lines shaped alike (rows of a table), the one that shares the longest
+            // beginning with the quoted line.
+            let prefix = |l: &str| {
+                l.trim_start()
+                    .chars()
+                    .zip(quoted.trim_start().chars())
+                    .take_while(|(a, b)| a == b)
+                    .count()
+            };
+            let alike: Vec<&str> = output.lines().filter(|l| shapes(l) == want).collect();
+            let best = alike.iter().map(|l| prefix(l)).max().unwrap_or(0);
+            let printed: Vec<&str> = alike.into_iter().filter(|l| prefix(l) == best).collect();
             Quote {
                 doc,
                 line: true,
@@ -765,6 +787,131 @@ fn log_example() -> Vec<Quote> {
     quotes
 }
 
+/// `docs/commands.md`'s examples: the spot-timed summary, `--spots` rows and the large
+/// generated plan.
+fn commands_examples() -> Vec<Quote> {
+    let dir = temp_dir().join("docs-commands");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let spots = dir.join("spots.csv");
+    let summary = stdout_of(&[
+        "simulate",
+        "plans/prostate.json",
+        "--machine",
+        "scenarios/machine-opentps-pbs.json",
+        "--spots",
+        path_str(&spots),
+    ]);
+    let rows = std::fs::read_to_string(&spots).expect("spots");
+    let layer_90 = rows.lines().filter(|l| l.starts_with("90,")).count();
+    let plan = dir.join("two-arc-large.json");
+    stdout_of(&[
+        "generate-plan",
+        "--kind",
+        "two-arc",
+        "--spacing",
+        "2.2",
+        "--layers",
+        "2-4",
+        "--energy",
+        "70-230",
+        "-o",
+        path_str(&plan),
+    ]);
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(&plan).expect("plan")).expect("JSON");
+    let arcs = plan["arcs"].as_array().expect("arcs");
+    let per_arc: Vec<usize> = arcs
+        .iter()
+        .map(|a| {
+            a["control_points"]
+                .as_array()
+                .expect("control points")
+                .len()
+        })
+        .collect();
+    let layers: usize = arcs
+        .iter()
+        .flat_map(|a| a["control_points"].as_array().expect("control points"))
+        .map(|cp| cp["layers"].as_array().expect("layers").len())
+        .sum();
+    assert!(
+        per_arc.windows(2).all(|w| w[0] == w[1]),
+        "docs/commands.md gives one count per arc: {per_arc:?}"
+    );
+    let mut quotes = output_block(
+        "docs/commands.md",
+        "beam-on time into spot irradiation and the time between spots",
+        &summary,
+    );
+    quotes.extend(output_block(
+        "docs/commands.md",
+        "through its window while its",
+        &rows,
+    ));
+    quotes.push(Quote::prose(
+        "docs/commands.md",
+        format!("through its window while its {layer_90} spots are delivered"),
+    ));
+    quotes.push(Quote::prose(
+        "docs/commands.md",
+        format!(
+            "writes a two-arc plan of {} control points ({} per arc, 320° every 2.2°) and {layers} layers",
+            per_arc.iter().sum::<usize>(),
+            per_arc[0]
+        ),
+    ));
+    quotes
+}
+
+/// `docs/model.md`'s servo-period figures: prostate and head-neck on a 1 and 4 ms period.
+fn servo_periods(r: &mut Runs) -> Vec<Quote> {
+    let mut t = |plan: &str, schedule: &str, period: Option<&str>| {
+        let plan = format!("plans/{plan}.json");
+        let mut args = vec![plan.as_str(), "--schedule", schedule];
+        if let Some(p) = period {
+            args.extend_from_slice(&["--period", p]);
+        }
+        r.total(&args)
+    };
+    let row = |t: &mut dyn FnMut(&str, &str, Option<&str>) -> f64, schedule: &str| {
+        format!(
+            "| `{schedule}` | {:.2} s | {:.2} s | {:.2} s |",
+            t("prostate", schedule, None),
+            t("prostate", schedule, Some("0.001")),
+            t("prostate", schedule, Some("0.004"))
+        )
+    };
+    let rows = [row(&mut t, "scan"), row(&mut t, "optimal")];
+    let head_neck = format!(
+        "On the bundled head-neck plan at 4 ms, `optimal` gives {:.2} s (`scan` {:.2} s; {:.2} s continuous)",
+        t("head-neck", "optimal", Some("0.004")),
+        t("head-neck", "scan", Some("0.004")),
+        t("head-neck", "optimal", None)
+    );
+    let mut bound = |period: &str| {
+        number(
+            r.simulate(&[
+                "plans/prostate.json",
+                "--schedule",
+                "scan",
+                "--period",
+                period,
+                "--certify",
+            ]),
+            "/certificate/lower_bound_s",
+        )
+    };
+    let certify = format!(
+        "(prostate: {:.2} s at 1 ms, {:.2} s at 4 ms).",
+        bound("0.001"),
+        bound("0.004")
+    );
+    rows.into_iter()
+        .chain([head_neck, certify])
+        .map(|text| Quote::prose("docs/model.md", text))
+        .collect()
+}
+
 #[test]
 fn the_docs_figures_are_what_the_commands_give() {
     let mut r = Runs::new("docs-figures");
@@ -775,5 +922,7 @@ fn the_docs_figures_are_what_the_commands_give() {
     quotes.extend(prostate_on_atom(&mut r));
     quotes.extend(controller_example());
     quotes.extend(log_example());
+    quotes.extend(commands_examples());
+    quotes.extend(servo_periods(&mut r));
     check(&quotes);
 }
