@@ -906,8 +906,31 @@ fn servo_periods(r: &mut Runs) -> Vec<Quote> {
         bound("0.001"),
         bound("0.004")
     );
+    // The sensitivity to J at the ATOM machine: (T(1.1 J) - T(J / 1.1)) / 2, both schedules.
+    let j_at = |f: f64| move |m: &mut Value| m["gantry"]["max_jerk_deg_per_s3"] = (0.5 * f).into();
+    let (up, down) = (
+        r.machine("machine-atom.json", j_at(1.1)),
+        r.machine("machine-atom.json", j_at(1.0 / 1.1)),
+    );
+    let saves: Vec<String> = ["scan", "optimal"]
+        .iter()
+        .map(|sch| {
+            let at = |r: &mut Runs, m: &str| {
+                r.total(&["plans/prostate.json", "--machine", m, "--schedule", sch])
+            };
+            format!("{:.2}", (at(r, &down) - at(r, &up)) / 2.0)
+        })
+        .collect();
+    assert_eq!(
+        saves[0], saves[1],
+        "docs/model.md says +10 % J saves the same on prostate with scan and optimal"
+    );
+    let j_sens = format!(
+        "At the ATOM machine, +10 % J saves {} s on prostate with both.",
+        saves[0]
+    );
     rows.into_iter()
-        .chain([head_neck, certify])
+        .chain([head_neck, certify, j_sens])
         .map(|text| Quote::prose("docs/model.md", text))
         .collect()
 }
@@ -984,6 +1007,30 @@ fn records_example(r: &mut Runs) {
     );
 }
 
+/// `scenarios/README.md`'s example of a sweep summary's cheapest change (the guide's sweep).
+fn sweep_summary() -> Vec<Quote> {
+    let dir = temp_dir().join("docs-sweep");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let out = stdout_of(&[
+        "sweep",
+        "scenarios/sweep-guide.json",
+        "--out",
+        path_str(&dir.join("guide.csv")),
+    ]);
+    let change = out
+        .lines()
+        .find(|l| l.contains("scan") && l.contains("J 0.5 -> 1 deg/s^3"))
+        .unwrap_or_else(|| panic!("no cheapest change J 0.5 -> 1 in\n{out}"));
+    let words: Vec<&str> = change.split_whitespace().collect();
+    let [.., total, saves] = words[..] else {
+        panic!("{change}")
+    };
+    vec![Quote::prose(
+        "scenarios/README.md",
+        format!("\"J 0.5 -> 1 deg/s^3, total {total} s, saves {saves} s\";"),
+    )]
+}
+
 #[test]
 fn the_docs_figures_are_what_the_commands_give() {
     let mut r = Runs::new("docs-figures");
@@ -997,5 +1044,6 @@ fn the_docs_figures_are_what_the_commands_give() {
     quotes.extend(commands_examples());
     quotes.extend(servo_periods(&mut r));
     records_example(&mut r);
+    quotes.extend(sweep_summary());
     check(&quotes);
 }
