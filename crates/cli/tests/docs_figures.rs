@@ -9,7 +9,7 @@
 //! place), then read the diff: a claim in words may no longer hold.
 
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use arcsim_test_support::temp_dir;
 use serde_json::Value;
@@ -39,16 +39,21 @@ impl Quote {
 /// Runs `simulate` once per argument list and keeps its JSON result.
 struct Runs {
     dir: PathBuf,
-    results: HashMap<Vec<String>, Value>,
+    /// Each run's result and its printed summary.
+    results: HashMap<Vec<String>, (Value, String)>,
     machines: usize,
 }
 
+/// A JSON file's value.
+fn json_file(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
 impl Runs {
-    fn new(name: &str) -> Runs {
-        let dir = temp_dir().join(name);
-        std::fs::create_dir_all(&dir).expect("dir");
+    fn new() -> Runs {
         Runs {
-            dir,
+            dir: temp_dir(),
             results: HashMap::new(),
             machines: 0,
         }
@@ -56,8 +61,7 @@ impl Runs {
 
     /// A copy of the bundled machine `base` (in `scenarios/`) changed by `edit`: its path.
     fn machine(&mut self, base: &str, edit: impl FnOnce(&mut Value)) -> String {
-        let text = std::fs::read_to_string(repo().join("scenarios").join(base)).expect("machine");
-        let mut m: Value = serde_json::from_str(&text).expect("machine JSON");
+        let mut m = json_file(&repo().join("scenarios").join(base));
         edit(&mut m);
         self.machines += 1;
         let path = self.dir.join(format!("machine-{}.json", self.machines));
@@ -65,22 +69,29 @@ impl Runs {
         path_str(&path).to_string()
     }
 
-    /// `arcsim simulate ARGS --json …`: the result.
-    fn simulate(&mut self, args: &[&str]) -> &Value {
+    /// `arcsim simulate ARGS --json …`, once per argument list: its result and what it printed.
+    fn run(&mut self, args: &[&str]) -> &(Value, String) {
         let key: Vec<String> = args.iter().map(ToString::to_string).collect();
         if !self.results.contains_key(&key) {
             let out_path = self.dir.join(format!("result-{}.json", self.results.len()));
             let mut all = vec!["simulate"];
             all.extend_from_slice(args);
             all.extend_from_slice(&["--json", path_str(&out_path)]);
-            let out = arcsim(&all);
-            assert!(out.status.success(), "{all:?}: {}", text(&out).1);
-            let v: Value =
-                serde_json::from_str(&std::fs::read_to_string(&out_path).expect("result written"))
-                    .expect("result JSON");
-            self.results.insert(key.clone(), v);
+            let printed = stdout_of(&all);
+            self.results
+                .insert(key.clone(), (json_file(&out_path), printed));
         }
         &self.results[&key]
+    }
+
+    /// `arcsim simulate ARGS`: the result.
+    fn simulate(&mut self, args: &[&str]) -> &Value {
+        &self.run(args).0
+    }
+
+    /// `arcsim simulate ARGS`: the summary it printed.
+    fn printed(&mut self, args: &[&str]) -> String {
+        self.run(args).1.clone()
     }
 
     /// The total delivery time of `simulate ARGS` (s).
@@ -617,10 +628,10 @@ fn numbers_after(output: &str, prefix: &str) -> Vec<f64> {
 }
 
 /// The README's and the guide's prostate example on the ATOM machine under its controller.
-fn controller_example() -> Vec<Quote> {
-    let optimal = stdout_of(&["simulate", "plans/prostate.json", "--schedule", "optimal"]);
-    let default = stdout_of(&["simulate", "plans/prostate.json"]);
-    let free = stdout_of(&["simulate", "plans/prostate.json", "--motion", "free"]);
+fn controller_example(r: &mut Runs) -> Vec<Quote> {
+    let optimal = r.printed(&["plans/prostate.json", "--schedule", "optimal"]);
+    let default = r.printed(&["plans/prostate.json"]);
+    let free = r.printed(&["plans/prostate.json", "--motion", "free"]);
     let total = numbers_after(&default, "total delivery time")[0];
     let free_total = numbers_after(&free, "total delivery time")[0];
     let mut quotes = output_block("README.md", "## Example: where the time is lost", &optimal);
@@ -653,8 +664,7 @@ fn controller_example() -> Vec<Quote> {
 /// plans, the lung one compared on the ATOM machine, the machine calibrated from all three and
 /// from lung's alone.
 fn log_example() -> Vec<Quote> {
-    let dir = temp_dir().join("docs-logs");
-    std::fs::create_dir_all(&dir).expect("dir");
+    let dir = temp_dir();
     let mut pairs = Vec::new();
     for plan in ["lung", "prostate", "two-arc"] {
         let log = dir.join(format!("{plan}-log.csv"));
@@ -705,8 +715,7 @@ fn log_example() -> Vec<Quote> {
         lung_alone.contains("optimal schedule (not determined)"),
         "docs/logs.md says one lung log does not determine the controller:\n{lung_alone}"
     );
-    let machine: Value =
-        serde_json::from_str(&std::fs::read_to_string(&fitted).expect("fitted")).expect("JSON");
+    let machine = json_file(&fitted);
     let gantry = |f: &str| number(&machine, &format!("/gantry/{f}"));
     let [logged, simulated, _] = numbers_after(&compare, "total")[..] else {
         panic!("compare's total line:\n{compare}")
@@ -790,8 +799,7 @@ fn log_example() -> Vec<Quote> {
 /// `docs/commands.md`'s examples: the spot-timed summary, `--spots` rows and the large
 /// generated plan.
 fn commands_examples() -> Vec<Quote> {
-    let dir = temp_dir().join("docs-commands");
-    std::fs::create_dir_all(&dir).expect("dir");
+    let dir = temp_dir();
     let spots = dir.join("spots.csv");
     let summary = stdout_of(&[
         "simulate",
@@ -817,8 +825,7 @@ fn commands_examples() -> Vec<Quote> {
         "-o",
         path_str(&plan),
     ]);
-    let plan: Value =
-        serde_json::from_str(&std::fs::read_to_string(&plan).expect("plan")).expect("JSON");
+    let plan = json_file(&plan);
     let arcs = plan["arcs"].as_array().expect("arcs");
     let per_arc: Vec<usize> = arcs
         .iter()
@@ -944,8 +951,7 @@ fn records_example(r: &mut Runs) {
         m["elst"]["down_s"] = 0.7.into();
         m["beam"]["s_per_mu"] = 0.0056.into();
     });
-    let dir = temp_dir().join("docs-records");
-    std::fs::create_dir_all(&dir).expect("dir");
+    let dir = temp_dir();
     let record = |plan: &str| path_str(&dir.join(format!("{plan}.dcm"))).to_string();
     for (plan, start) in [
         ("prostate", Some("20261231235800")),
@@ -976,8 +982,7 @@ fn records_example(r: &mut Runs) {
         "-o",
         path_str(&fitted),
     ]);
-    let machine: Value =
-        serde_json::from_str(&std::fs::read_to_string(&fitted).expect("fitted")).expect("JSON");
+    let machine = json_file(&fitted);
     for (pointer, truth) in [
         ("/elst/up_s", 4.2),
         ("/elst/down_s", 0.7),
@@ -1009,8 +1014,7 @@ fn records_example(r: &mut Runs) {
 
 /// `scenarios/README.md`'s example of a sweep summary's cheapest change (the guide's sweep).
 fn sweep_summary() -> Vec<Quote> {
-    let dir = temp_dir().join("docs-sweep");
-    std::fs::create_dir_all(&dir).expect("dir");
+    let dir = temp_dir();
     let out = stdout_of(&[
         "sweep",
         "scenarios/sweep-guide.json",
@@ -1033,13 +1037,13 @@ fn sweep_summary() -> Vec<Quote> {
 
 #[test]
 fn the_docs_figures_are_what_the_commands_give() {
-    let mut r = Runs::new("docs-figures");
+    let mut r = Runs::new();
     let mut quotes = atom_cases_free(&mut r);
     quotes.extend(synchrocyclotron(&mut r));
     quotes.extend(synchrotron(&mut r));
     quotes.extend(scenario_notes(&mut r));
     quotes.extend(prostate_on_atom(&mut r));
-    quotes.extend(controller_example());
+    quotes.extend(controller_example(&mut r));
     quotes.extend(log_example());
     quotes.extend(commands_examples());
     quotes.extend(servo_periods(&mut r));
