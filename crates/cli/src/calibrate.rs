@@ -181,7 +181,8 @@ pub fn summary(r: &CalibrationReport, base: &str) -> String {
             v.observations,
             match (v.determined, v.base) {
                 (true, _) => "fitted",
-                (false, Some(b)) if b != v.value => "raised",
+                (false, Some(b)) if b < v.value => "raised",
+                (false, Some(b)) if b > v.value => "lowered",
                 _ => "kept",
             }
         );

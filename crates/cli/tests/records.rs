@@ -1,7 +1,8 @@
 //! DICOM RT Ion Beams Treatment Records end to end: `simulate --record` writes what the oncology
 //! information system would store of a delivery on a machine hidden from the fit; `calibrate`
-//! recovers that machine from the records of three plans, says the gantry is not determined (a
-//! record holds no angle trace), and the fitted machine predicts a held-out plan's record; a
+//! recovers that machine from the records of three plans, its gantry's A and J by the model from
+//! the switches' durations (a record holds no angle trace; V, which no switch reaches, not
+//! determined), and the fitted machine predicts a held-out plan's record; a
 //! record of another plan is refused by its reference; a clock in whole seconds is named as the
 //! likely cause of what it cannot resolve, and every value it calls fitted keeps the truth inside
 //! its interval.
@@ -13,12 +14,15 @@ use serde_json::Value;
 
 use crate::util::{arcsim, path_str, text};
 
-/// The ATOM machine with other timings: what the records are made on and the fit must find.
-const HIDDEN: [(&str, f64); 4] = [
+/// The ATOM machine with other timings and another gantry (A 0.5 -> 0.4, J 0.5 -> 0.7): what
+/// the records are made on and the fit must find.
+const HIDDEN: [(&str, f64); 6] = [
     ("/elst/up_s", 4.2),
     ("/elst/down_s", 0.7),
     ("/beam/s_per_mu", 0.0056),
     ("/beam/spot_switch_time_s", 0.0025),
+    ("/gantry/max_accel_deg_per_s2", 0.4),
+    ("/gantry/max_jerk_deg_per_s3", 0.7),
 ];
 
 fn hidden_machine(dir: &Path) -> PathBuf {
@@ -112,11 +116,14 @@ fn calibrate_recovers_a_hidden_machine_from_treatment_records() {
     std::fs::create_dir_all(&dir).expect("dir");
     let (report, out, fitted) = calibrate(&dir, "3");
     assert_eq!(report["controller"]["decision"], "chosen", "{out}");
+    // A and J by the model, from the switches' durations (the record holds no angle trace).
     for field in [
         "elst.up_s",
         "elst.down_s",
         "beam.s_per_mu",
         "beam.spot_switch_time_s",
+        "gantry.max_accel_deg_per_s2",
+        "gantry.max_jerk_deg_per_s3",
     ] {
         let v = value(&report, field);
         let got = v["value"].as_f64().expect("value");
@@ -126,16 +133,21 @@ fn calibrate_recovers_a_hidden_machine_from_treatment_records() {
             "{field}: {got} ({rel:.2e})\n{out}"
         );
     }
-    for field in [
-        "gantry.max_speed_deg_per_s",
-        "gantry.max_accel_deg_per_s2",
-        "gantry.max_jerk_deg_per_s3",
-    ] {
-        let v = value(&report, field);
-        assert_eq!(v["determined"], false, "{field}");
-        let note = v["note"].as_str().expect("note");
-        assert!(note.contains("no angle trace"), "{field}: {note}");
-    }
+    // No switch of these plans reaches V: not determined, the base's 5 kept.
+    let v = value(&report, "gantry.max_speed_deg_per_s");
+    assert_eq!(v["determined"], false, "{v}");
+    assert_eq!(v["value"], 5.0, "{v}");
+    let note = v["note"].as_str().expect("note");
+    assert!(note.contains("do not bind it"), "{note}");
+    // D moves with A: the ATOM machine keeps one limit.
+    let d = value(&report, "gantry.max_decel_deg_per_s2");
+    assert_eq!(
+        d["value"],
+        value(&report, "gantry.max_accel_deg_per_s2")["value"]
+    );
+    let fitted_machine: Value =
+        serde_json::from_str(&std::fs::read_to_string(&fitted).expect("fitted")).expect("json");
+    assert!(fitted_machine["gantry"]["max_decel_deg_per_s2"].is_null());
     // A held-out plan's record, compared with the fitted machine and no flags.
     let held_out = record(
         &dir,
@@ -181,6 +193,8 @@ fn whole_second_records_name_their_clock_and_every_fitted_interval_holds_the_tru
         "elst.down_s",
         "beam.s_per_mu",
         "beam.spot_switch_time_s",
+        "gantry.max_accel_deg_per_s2",
+        "gantry.max_jerk_deg_per_s3",
     ] {
         let v = value(&report, field);
         if v["determined"] == true {
@@ -194,6 +208,21 @@ fn whole_second_records_name_their_clock_and_every_fitted_interval_holds_the_tru
         out.contains("a clock too coarse for the switches it times (this log's times are to 1 s)"),
         "{out}"
     );
+    // A switch's duration read to a second cannot time the gantry's moves: nothing fitted (at
+    // whole seconds such a fit gave V 3.7 and J 2.1 where the truth is 5 and 0.7).
+    for field in [
+        "gantry.max_speed_deg_per_s",
+        "gantry.max_accel_deg_per_s2",
+        "gantry.max_jerk_deg_per_s3",
+    ] {
+        let v = value(&report, field);
+        assert_eq!(v["determined"], false, "{field}: {v}");
+        let note = v["note"].as_str().expect("note");
+        assert!(
+            note.contains("nor by the model: the log's clock (times to 1 s)"),
+            "{note}"
+        );
+    }
 }
 
 #[test]

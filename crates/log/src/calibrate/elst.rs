@@ -164,17 +164,13 @@ pub(super) fn refine_by_model_jointly(
     let set_jerk = |m: &mut Machine, j: f64| m.gantry.max_jerk_deg_per_s3 = j;
     // A, from the trace's plateaus, moves every gap J does: held (the gaps' fit would absorb
     // any model error into it), its error carried into J's and the ELSTs' intervals (a trace's
-    // A 0.5 % low reads J 1 % high).
-    let set_accel = |m: &mut Machine, a: f64| {
-        let shift = a - m.gantry.max_accel_deg_per_s2;
-        m.gantry.max_accel_deg_per_s2 = a;
-        if let Some(d) = &mut m.gantry.max_decel_deg_per_s2 {
-            *d += shift;
-        }
-    };
+    // A 0.5 % low reads J 1 % high). Fitted by the model itself (a record: no trace), it is
+    // refined with them.
+    let set_accel = super::gantry::set_accel;
+    let accel_by_model = by_model(ACCEL);
     let accel: Vec<crate::joint::Nuisance> = values
         .iter()
-        .filter(|v| v.field == ACCEL && v.determined && v.value > 0.0)
+        .filter(|v| v.field == ACCEL && v.determined && v.value > 0.0 && !accel_by_model)
         .filter_map(|v| {
             let [lo, hi] = v.interval?;
             Some(crate::joint::Nuisance {
@@ -193,6 +189,14 @@ pub(super) fn refine_by_model_jointly(
             set: &set_jerk,
             start: machine.gantry.max_jerk_deg_per_s3,
             range: arcsim_plan::JERK_RANGE_DEG_PER_S3,
+        });
+    }
+    if accel_by_model {
+        fields.push(ACCEL);
+        params.push(crate::joint::Param {
+            set: &set_accel,
+            start: machine.gantry.max_accel_deg_per_s2,
+            range: arcsim_plan::ACCEL_RANGE_DEG_PER_S2,
         });
     }
     for (&(field, _, k), set) in ELST_KINDS.iter().zip(&setters) {

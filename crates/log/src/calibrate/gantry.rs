@@ -257,3 +257,140 @@ pub(super) fn fit_gantry(
     };
     values.extend([v, a, d, j]);
 }
+
+/// Sets A, moving a separate deceleration limit D by as much (their difference kept).
+pub(super) fn set_accel(m: &mut Machine, a: f64) {
+    let shift = a - m.gantry.max_accel_deg_per_s2;
+    m.gantry.max_accel_deg_per_s2 = a;
+    if let Some(d) = &mut m.gantry.max_decel_deg_per_s2 {
+        *d += shift;
+    }
+}
+
+/// A record (no angle trace) under a constant-speed controller: the gantry's limits by the
+/// model, from the transitions the record shows. Each layer's beam edges are in the record;
+/// between them the switch lasts its ELST or the planner's move from one layer's constant speed
+/// to the next's, whichever is longer. A, then J, then A and J again (a move's duration
+/// depends on both: short moves on J, long ones on A), then V: the value whose simulated
+/// beam-off gaps last as the recorded ones ([`crate::transitions::fit_by_gaps`], every
+/// candidate's schedule re-simulated). A limit no gap binds (the misfit flat around it) stays
+/// not determined, the base value kept; so does every limit when the clock (`clock_s`) reads a
+/// gap to no better than the robust cap of such fits (whole seconds: V and J were "fitted" at
+/// 3.7 and 2.1 where the truth was 5 and 0.7).
+pub(super) fn gantry_by_gaps(
+    machine: &mut Machine,
+    (runs, matched): (&[LoggedRun], &[Matched]),
+    clock_s: f64,
+    options: &Options,
+    values: &mut [FittedValue],
+) {
+    if clock_s >= crate::transitions::ROBUST_CAP_S {
+        for v in values.iter_mut().filter(|v| v.field.starts_with("gantry.")) {
+            v.note.push_str(&format!("; nor by the model: the log's clock (times to {clock_s} s) reads a switch's duration to within {clock_s} s, at or beyond the {} s beyond which a gap stops pulling a fit by the model", crate::transitions::ROBUST_CAP_S));
+        }
+        return;
+    }
+    let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
+    let set_jerk = |m: &mut Machine, j: f64| m.gantry.max_jerk_deg_per_s3 = j;
+    let set_speed = |m: &mut Machine, v: f64| m.gantry.max_speed_deg_per_s = v;
+    type Setter<'a> = &'a dyn Fn(&mut Machine, f64);
+    let limits: [(&str, Setter, (f64, f64)); 3] = [
+        (
+            "gantry.max_accel_deg_per_s2",
+            &set_accel,
+            arcsim_plan::ACCEL_RANGE_DEG_PER_S2,
+        ),
+        (
+            "gantry.max_jerk_deg_per_s3",
+            &set_jerk,
+            arcsim_plan::JERK_RANGE_DEG_PER_S3,
+        ),
+        (
+            "gantry.max_speed_deg_per_s",
+            &set_speed,
+            arcsim_plan::SPEED_RANGE_DEG_PER_S,
+        ),
+    ];
+    let current = |m: &Machine, field: &str| match field {
+        "gantry.max_accel_deg_per_s2" => m.gantry.max_accel_deg_per_s2,
+        "gantry.max_jerk_deg_per_s3" => m.gantry.max_jerk_deg_per_s3,
+        _ => m.gantry.max_speed_deg_per_s,
+    };
+    // (limit, bracket span): A and J twice, the second pass in a narrower bracket; V once.
+    let passes = [(0, 4.0), (1, 4.0), (0, 1.5), (1, 1.5), (2, 4.0)];
+    let mut fits: [Option<crate::transitions::GapFit>; 3] = [None, None, None];
+    let mut starts = [0.0; 3];
+    for (i, span) in passes {
+        let (field, set, range) = limits[i];
+        let start = current(machine, field);
+        starts[i] = start;
+        let fit = crate::transitions::fit_by_gaps(
+            machine,
+            set,
+            (start, span, range, SEED_TOLERANCE),
+            (runs, &logged),
+            crate::transitions::Switches::All,
+            options,
+        );
+        if let Some(f) = &fit {
+            set(machine, f.value);
+        }
+        fits[i] = fit;
+    }
+    for (i, (field, _, _)) in limits.iter().enumerate() {
+        let Some(row) = values.iter_mut().find(|v| v.field == *field) else {
+            continue;
+        };
+        match &fits[i] {
+            Some(fit) => {
+                let note = format!(
+                    "by the model, from a log without an angle trace (a treatment record): the value whose simulated switches (constant speed per layer, the schedule re-simulated at each candidate) last as the recorded beam-off gaps (golden section over its logarithm from {:.4}, A and J in turn; a gap off by more than 0.3 s counts as 0.3 s); interval: the sandwich over the {} gaps it moves, Student's t",
+                    starts[i], fit.transitions
+                );
+                record_gap_fit(row, fit, note);
+            }
+            None => {
+                row.note = format!(
+                    "not determined: the log holds no angle trace (a treatment record holds each layer's beam-on and beam-off, not the gantry's motion between them), and fitted by the model the recorded gaps do not bind it (fewer than 3 gaps move with it, or their misfit is flat around it); the base value {} is kept",
+                    row.base.unwrap_or(row.value)
+                );
+                if let Some(b) = row.base {
+                    (limits[i].1)(machine, b);
+                }
+            }
+        }
+    }
+}
+
+/// After the gantry's fit by the model on a record ([`gantry_by_gaps`], then the joint
+/// refinement): a record cannot tell deceleration from acceleration, so D's row says it moved
+/// with A and shows the machine's value.
+pub(super) fn decel_follows_accel(machine: &Machine, values: &mut [FittedValue]) {
+    let accel_from_record = values.iter().any(|v| {
+        v.field == "gantry.max_accel_deg_per_s2"
+            && v.determined
+            && v.note
+                .starts_with("by the model, from a log without an angle trace")
+    });
+    let Some(row) = values
+        .iter_mut()
+        .find(|v| v.field == "gantry.max_decel_deg_per_s2")
+    else {
+        return;
+    };
+    if !accel_from_record {
+        return;
+    }
+    let (value, how) = match machine.gantry.max_decel_deg_per_s2 {
+        Some(d) => (
+            d,
+            "moved with A by as much (the base's difference from A kept)",
+        ),
+        None => (
+            machine.gantry.max_accel_deg_per_s2,
+            "the base machine has one limit A, kept so",
+        ),
+    };
+    row.value = value;
+    row.note = format!("not determined on its own: the recorded gaps cannot tell deceleration from acceleration; {how}");
+}

@@ -12,7 +12,9 @@
 //!   logged layer.
 //! - **Gantry**: the plateau levels of the observed speed, acceleration and deceleration, the
 //!   jerk from the acceleration's reversals ([`crate::kinematics`]); a level not held long
-//!   enough is not the limit (the base value is kept, or raised to it when it is higher).
+//!   enough is not the limit (the base value is kept, or raised to it when it is higher). A log
+//!   without an angle trace (a treatment record) under constant speed per layer: A, J and V by
+//!   the model, from the switches' durations ([`gantry::gantry_by_gaps`]).
 //!
 //! Intervals: bootstrap over the switches and layers (a fixed seed, [`BOOTSTRAP_DRAWS`] draws)
 //! for the timings, the fit noise over the plateau for the gantry.
@@ -70,11 +72,28 @@ pub fn calibrate(
     let traces: Vec<_> = runs.iter().map(|r| trace(&r.log)).collect();
     let observed = observe(&traces);
     let traced = runs.iter().any(|r| r.log.edge_resolution_s.is_none());
+    // The coarsest clock among logs without an angle trace (treatment records), s.
+    let clock_s = runs
+        .iter()
+        .filter_map(|r| r.log.edge_resolution_s)
+        .fold(0.0, f64::max);
     fit_gantry(base, (&observed, traced), &mut machine, &mut values);
     if options.motion == arcsim_sequencer::Motion::Constant && moving(base, &observed) {
         question_speed_plateau(base, &mut machine, runs, options, &observed, &mut values);
         // A seed for the second ELST pass and the joint fit, which refines it: 0.1 % is enough.
         refine_jerk(&mut machine, (runs, &matched), options, &mut values);
+    } else if options.motion == arcsim_sequencer::Motion::Constant && !traced {
+        gantry_by_gaps(
+            &mut machine,
+            (runs, &matched),
+            clock_s,
+            options,
+            &mut values,
+        );
+    } else if !traced {
+        for v in values.iter_mut().filter(|v| v.field.starts_with("gantry.")) {
+            v.note.push_str("; nor by the model: under free motion a switch's duration is not one move between two known layer speeds (the fit by the model of records needs constant speed per layer)");
+        }
     }
     // After the J seed: a replay simulates moves shaped by J as the logs' are.
     crate::plateau_replay::correct_plateaus(&mut machine, runs, options, &observed, &mut values);
@@ -105,6 +124,7 @@ pub fn calibrate(
             resolution_sd_s: resolution_sd,
         };
         refine_by_model_jointly(&mut machine, (runs, &matched), options, noise, &mut values);
+        decel_follows_accel(&machine, &mut values);
     }
     bound_unseen_elst(
         &mut machine,
@@ -114,10 +134,6 @@ pub fn calibrate(
         options,
         &mut values,
     );
-    let clock_s = runs
-        .iter()
-        .filter_map(|r| r.log.edge_resolution_s)
-        .fold(0.0, f64::max);
     unresolved_by_clock(&mut machine, clock_s, &mut values);
     machine.spread = Some(spread);
     let uncertainty = uncertainty_of(&values);

@@ -19,23 +19,31 @@ pub(super) fn describe(
         .filter(|v| v.determined)
         .map(|v| v.field.as_str())
         .collect();
-    let raised: Vec<&str> = values
-        .iter()
-        .filter(|v| !v.determined && v.base.is_some_and(|b| b != v.value))
-        .map(|v| v.field.as_str())
-        .collect();
+    let changed = |lower: bool| -> Vec<&str> {
+        values
+            .iter()
+            .filter(|v| {
+                !v.determined
+                    && v.base
+                        .is_some_and(|b| (v.value < b) == lower && b != v.value)
+            })
+            .map(|v| v.field.as_str())
+            .collect()
+    };
+    let (raised, lowered) = (changed(false), changed(true));
     let kept: Vec<&str> = values
         .iter()
-        .filter(|v| !v.determined && !raised.contains(&v.field.as_str()))
+        .filter(|v| !v.determined && v.base.is_none_or(|b| b == v.value))
         .map(|v| v.field.as_str())
         .collect();
     machine.name = format!("{}-calibrated", base.name);
     machine.description = Some(format!(
-        "{} calibrated by arcsim calibrate on {} log(s). Fitted: {}. Raised to what the logs show (a lower bound, the limit not resolved): {}. Kept from the base machine: {}. Spreads measured in the logs.",
+        "{} calibrated by arcsim calibrate on {} log(s). Fitted: {}. Raised to what the logs show (a lower bound, the limit not resolved): {}. Lowered to what the logs allow (an upper bound), or moved with a fitted value: {}. Kept from the base machine: {}. Spreads measured in the logs.",
         base.name,
         runs.len(),
         list(&fitted),
         list(&raised),
+        list(&lowered),
         list(&kept),
     ));
     for r in runs {
