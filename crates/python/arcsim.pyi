@@ -232,6 +232,16 @@ def calibrate(
     (values with 95 % intervals, what the logs do not determine, the controller's evidence,
     warnings, residuals before and after)."""
 
+def calibrate_spots(
+    machine: Machine,
+    runs: Sequence[Tuple[Plan, _Path]],
+) -> Tuple[Machine, Dict[str, Any]]:
+    """`arcsim calibrate-spots`: a `scanning` beam's spot timing (time per MU factor, minimum
+    spot time, scanning speed, settling, burst switching) fitted to (plan, per-spot log) pairs,
+    starting from `machine`. Returns the fitted machine and the report (values with 95 %
+    intervals, the clock's resolution, outliers, residuals, warnings). Raises LogError for a
+    log that cannot be read, ValueError for a beam it cannot fit."""
+
 def simulate(
     plan: Plan,
     machine: Optional[Machine] = None,

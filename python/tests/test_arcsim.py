@@ -756,6 +756,33 @@ def test_compare_calibrate_and_monte_carlo(tmp_path):
         arcsim.calibrate(made_up, runs, elst="cubic")
 
 
+def test_calibrate_spots_equals_the_cli(tmp_path):
+    # A hidden scanning machine (6,000 mm/s, 2 ms settling) writes the per-spot log.
+    base_file = "scenarios/machine-proteusone-like.json"
+    hidden = json.loads(open(base_file).read())
+    hidden["beam"]["scan_speed_mm_per_s"] = 6000.0
+    hidden["beam"]["settling_time_s"] = 0.002
+    hidden_file = tmp_path / "hidden.json"
+    hidden_file.write_text(json.dumps(hidden))
+    spots = tmp_path / "spots.csv"
+    code, _, err = cli("simulate", "plans/prostate.json", "--machine", str(hidden_file),
+                       "--spots", str(spots))
+    assert code == 0, err
+    plan = arcsim.load_plan("plans/prostate.json")
+    fitted, report = arcsim.calibrate_spots(arcsim.load_machine(base_file), [(plan, spots)])
+    values = {v["field"]: v for v in report["values"]}
+    assert values["beam.scan_speed_mm_per_s"]["value"] == pytest.approx(6000.0, rel=1e-6)
+    assert values["beam.settling_time_s"]["value"] == pytest.approx(0.002, rel=1e-6)
+    assert json.loads(fitted.to_json())["beam"]["scan_speed_mm_per_s"] == pytest.approx(6000.0)
+    cli_doc = cli_json(tmp_path, "calibrate-spots", "--machine", base_file, "plans/prostate.json",
+                       str(spots), "-o", str(tmp_path / "fitted.json"))
+    assert [v["value"] for v in cli_doc["values"]] == [v["value"] for v in report["values"]]
+    with pytest.raises(ValueError, match="per_mu"):
+        arcsim.calibrate_spots(arcsim.Machine.atom(), [(plan, spots)])
+    with pytest.raises(arcsim.LogError, match="no column"):
+        arcsim.calibrate_spots(arcsim.load_machine(base_file), [(plan, "plans/README.md")])
+
+
 def test_resequence_equals_the_cli(tmp_path):
     # Each control point's layers in ascending energy: re-sequencing has upward switches to remove.
     plan = json.loads(Path("plans/lung.json").read_text())

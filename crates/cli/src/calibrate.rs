@@ -52,22 +52,32 @@ pub struct Args {
     strict: bool,
 }
 
-pub fn run(args: Args) -> Result<(), CliError> {
-    if !args.inputs.len().is_multiple_of(2) {
+/// Checks that `inputs` are pairs of a plan and its `what` (a log), and that the outputs clobber
+/// none of them (nor the machine) before any work.
+pub fn check_pairs(
+    inputs: &[PathBuf],
+    machine: &Path,
+    (output, json): (&Path, Option<&Path>),
+    what: &str,
+) -> Result<(), CliError> {
+    if !inputs.len().is_multiple_of(2) {
         return Err(CliError::usage(format!(
-            "expected pairs of a plan and its log, got {} paths (the last, {}, has no log)",
-            args.inputs.len(),
-            args.inputs[args.inputs.len() - 1].display()
+            "expected pairs of a plan and its {what}, got {} paths (the last, {}, has no {what})",
+            inputs.len(),
+            inputs[inputs.len() - 1].display()
         )));
     }
-    let mut inputs: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
-    inputs.push(&args.machine);
-    crate::output::check_outputs(
-        &inputs,
-        &[
-            ("--output", Some(args.output.as_path())),
-            ("--json", args.json.as_deref()),
-        ],
+    let mut all: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    all.push(machine);
+    crate::output::check_outputs(&all, &[("--output", Some(output)), ("--json", json)])
+}
+
+pub fn run(args: Args) -> Result<(), CliError> {
+    check_pairs(
+        &args.inputs,
+        &args.machine,
+        (&args.output, args.json.as_deref()),
+        "log",
     )?;
     let base = load_machine(Some(&args.machine))?;
     let runs = args
@@ -137,19 +147,37 @@ pub fn run(args: Args) -> Result<(), CliError> {
         );
     }
     crate::output::print(&text);
-    crate::output::write_file(&args.output, format!("{machine_json}\n").as_bytes())?;
-    if let (Some(path), Some(text)) = (&args.json, report) {
-        crate::output::write_file(path, text.as_bytes())?;
-    }
-    Ok(())
+    write_fitted(
+        &args.output,
+        &machine_json,
+        args.json.as_deref().zip(report),
+    )
 }
 
 fn report_json(report: &CalibrationReport) -> Result<String, CliError> {
-    let mut doc = serde_json::to_value(report).map_err(|e| CliError::failed(e.to_string()))?;
+    tagged_json(report, "arcsim-calibration/1")
+}
+
+/// `value` as pretty JSON with its `format` tag.
+pub fn tagged_json(value: &impl serde::Serialize, format: &str) -> Result<String, CliError> {
+    let mut doc = serde_json::to_value(value).map_err(|e| CliError::failed(e.to_string()))?;
     if let Some(o) = doc.as_object_mut() {
-        o.insert("format".into(), "arcsim-calibration/1".into());
+        o.insert("format".into(), format.into());
     }
     serde_json::to_string_pretty(&doc).map_err(|e| CliError::failed(e.to_string()))
+}
+
+/// Writes the fitted machine to `output` and, where asked, the report.
+pub fn write_fitted(
+    output: &Path,
+    machine_json: &str,
+    report: Option<(&Path, String)>,
+) -> Result<(), CliError> {
+    crate::output::write_file(output, format!("{machine_json}\n").as_bytes())?;
+    if let Some((path, text)) = report {
+        crate::output::write_file(path, text.as_bytes())?;
+    }
+    Ok(())
 }
 
 /// The readable report printed on standard output.
@@ -162,11 +190,20 @@ pub fn summary(r: &CalibrationReport, base: &str) -> String {
         r.logs.len(),
         r.logs.join(", ")
     );
+    s.push_str(&values_table(&r.values));
+    s.push_str(&report_tail(r));
+    s
+}
+
+/// Every value considered, a row each (base, fitted, interval, observations, what was done),
+/// then how each was found.
+pub fn values_table(values: &[arcsim_log::FittedValue]) -> String {
+    let mut s = String::new();
     let _ = writeln!(
         s,
         "  field                              base        fitted     95 % interval            n  "
     );
-    for v in &r.values {
+    for v in values {
         let interval = v
             .interval
             .map_or_else(|| "-".to_string(), |[a, b]| format!("{a:.6} – {b:.6}"));
@@ -188,9 +225,15 @@ pub fn summary(r: &CalibrationReport, base: &str) -> String {
         );
     }
     let _ = writeln!(s, "how each value was found:");
-    for v in &r.values {
+    for v in values {
         let _ = writeln!(s, "  {}: {}", v.field, v.note);
     }
+    s
+}
+
+/// The rest of the calibration report: spreads, residuals, warnings.
+fn report_tail(r: &CalibrationReport) -> String {
+    let mut s = String::new();
     let sp = &r.spread;
     let _ = writeln!(
         s,

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod calibrate;
+mod calibrate_spots;
 mod compare;
 mod error;
 mod generate;
@@ -63,6 +64,9 @@ enum Command {
     Compare(compare::Args),
     /// Fit a machine to delivery logs (ELST, beam timing, gantry limits, spreads) and write it.
     Calibrate(calibrate::Args),
+    /// Fit a `scanning` beam's spot timing (time per MU, minimum spot time, scanning speed,
+    /// settling, burst switching) to per-spot logs and write the machine.
+    CalibrateSpots(calibrate_spots::Args),
     /// Join the CSV outputs of `sweep --shard K/N` into the single-run table.
     SweepMerge(sweep::MergeArgs),
     /// Deliver the same dose faster: the layers of each control point in the order the machine
@@ -186,6 +190,7 @@ fn main() -> ExitCode {
         Command::SweepMerge(args) => sweep::merge(args),
         Command::Compare(args) => compare::run(args),
         Command::Calibrate(args) => calibrate::run(args),
+        Command::CalibrateSpots(args) => calibrate_spots::run(args),
         Command::Resequence(args) => resequence::run(args),
     };
     match result {

@@ -25,6 +25,7 @@ mod records;
 mod report;
 mod resequence;
 mod slurm;
+mod spot_calibration;
 mod spots;
 mod sweep_beam;
 mod util;

@@ -417,7 +417,7 @@ fn normal_equations(centre: &[(f64, f64)], g: &[Vec<f64>]) -> Normal {
 
 /// The inverse of a small symmetric matrix (Gauss–Jordan with partial pivoting); `None` when
 /// it is singular to working precision.
-fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
+pub(crate) fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
     let p = a.len();
     let scale = (0..p).map(|k| a[k][k].abs()).fold(0.0, f64::max);
     if scale.is_nan() || scale <= 0.0 {

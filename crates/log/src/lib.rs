@@ -7,7 +7,8 @@
 //!
 //! [`match_layers`] finds the plan's layers in a log's beam-on segments, [`compare`] sets a log
 //! beside a simulation of its plan, and [`calibrate`] fits a machine to one or more logs
-//! ([`kinematics`]: what the angle trace shows of the gantry's limits).
+//! ([`kinematics`]: what the angle trace shows of the gantry's limits). [`calibrate_spots`] fits
+//! the `scanning` beam model to per-spot logs ([`read_spot_log`]).
 
 #![warn(missing_docs)]
 
@@ -23,6 +24,7 @@ mod mu_check;
 mod plateau_replay;
 mod read;
 mod sample;
+mod spots;
 mod transitions;
 mod virtual_log;
 mod write;
@@ -48,6 +50,10 @@ pub use read::{
 pub use sample::{
     BeamInterval, DeliveryLog, LogSample, GLITCH_FLOOR_DEG, GLITCH_MAD_FACTOR, GLITCH_NEIGHBOURS,
     LONG_GAP_PERIODS,
+};
+pub use spots::{
+    calibrate_spots, is_spot_log_header, parse_spot_log, read_spot_log, LoggedSpot,
+    SpotCalibrateError, SpotCalibration, SpotLog, SpotResidual, SpotRun, SPOT_LOG_COLUMNS,
 };
 pub use virtual_log::{
     check_options, virtual_log, VirtualLogError, VirtualLogOptions, MAX_ANGLE_NOISE_DEG,

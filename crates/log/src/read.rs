@@ -49,9 +49,19 @@ pub fn read_log(path: &Path, map: &ColumnMap) -> Result<DeliveryLog, LogError> {
 
 /// A reader that fails once more than [`MAX_LOG_BYTES`] have come through it: the size limit for
 /// a FIFO, standard input or any stream whose size is not known before it is read.
-struct Capped<R> {
+pub(crate) struct Capped<R> {
     inner: R,
     left: u64,
+}
+
+impl<R> Capped<R> {
+    /// `inner`, failing past [`MAX_LOG_BYTES`].
+    pub(crate) fn new(inner: R) -> Self {
+        Capped {
+            inner,
+            left: MAX_LOG_BYTES,
+        }
+    }
 }
 
 impl<R: Read> Read for Capped<R> {
@@ -81,10 +91,7 @@ pub fn parse_log(
     source: &str,
     map: &ColumnMap,
 ) -> Result<DeliveryLog, LogError> {
-    let capped = Capped {
-        inner: reader,
-        left: MAX_LOG_BYTES,
-    };
+    let capped = Capped::new(reader);
     let mut rd = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .flexible(false)

@@ -5,4 +5,5 @@ mod compare;
 mod controller;
 mod faults;
 mod read_errors;
+mod spots;
 mod virtual_logs;

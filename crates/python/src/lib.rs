@@ -80,6 +80,7 @@ fn arcsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<logtools::Comparison>()?;
     m.add_function(wrap_pyfunction!(logtools::compare, m)?)?;
     m.add_function(wrap_pyfunction!(logtools::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(logtools::calibrate_spots, m)?)?;
     m.add_class::<simulate::Delivery>()?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(resequence::resequence, m)?)?;

@@ -219,3 +219,41 @@ pub fn calibrate<'py>(
     let report = serde_to_py(py, &cal.report)?;
     PyTuple::new(py, [Bound::new(py, fitted)?.into_any(), report])
 }
+
+/// Fits a `scanning` beam's spot timing to per-spot logs, starting from `machine`, as
+/// `arcsim calibrate-spots` does. `runs` is a list of `(plan, spots_csv_path)` pairs. Returns
+/// `(fitted Machine, report dict)`.
+#[pyfunction]
+pub fn calibrate_spots<'py>(
+    py: Python<'py>,
+    machine: &Bound<'py, Machine>,
+    runs: Vec<(Bound<'py, Plan>, PathBuf)>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let base = machine.get();
+    let spot_runs = runs
+        .iter()
+        .map(|(plan, path)| {
+            let plan = plan.get();
+            Ok(arcsim_log::SpotRun {
+                plan_name: plan.source.file.clone(),
+                plan: plan.plan.clone(),
+                log: arcsim_log::read_spot_log(path)
+                    .map_err(|e| LogError::new_err(e.to_string()))?,
+            })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let cal = py
+        .detach(|| arcsim_log::calibrate_spots(&base.machine, &spot_runs))
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let text = serde_json::to_string_pretty(&cal.machine)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    let fitted = Machine {
+        machine: cal.machine.clone(),
+        source: Source {
+            file: format!("{} (spot-calibrated)", base.source.file),
+            sha256: sha256_hex(text.as_bytes()),
+        },
+    };
+    let report = serde_to_py(py, &cal)?;
+    PyTuple::new(py, [Bound::new(py, fitted)?.into_any(), report])
+}
