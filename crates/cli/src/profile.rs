@@ -3,8 +3,9 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use arcsim_app::{MoveRequest, SolvedMove};
 use arcsim_evaluator::CsvLineNumbers;
-use arcsim_planner::{Limits, Move, PlannerError, Profile, Reversal, State};
+use arcsim_planner::{Move, PlannerError, Profile, Reversal, State};
 use serde::Serialize;
 
 use crate::table::{csv_table, Column};
@@ -78,27 +79,8 @@ pub struct Args {
     out: Option<PathBuf>,
 }
 
-/// One move as the user specified it.
-#[derive(Clone, Debug)]
-struct MoveSpec {
-    mv: Move,
-    jerk: f64,
-    accel: f64,
-    decel: Option<f64>,
-    vel: f64,
-    min_duration: Option<f64>,
-    period: Option<f64>,
-    reverse: Reversal,
-}
-
-struct Solved {
-    profile: Profile,
-    limits: Limits,
-    added_time_s: Option<f64>,
-}
-
 enum Outcome {
-    Ok(Box<Solved>),
+    Ok(Box<SolvedMove>),
     /// No profile under the chosen policy; the message says what is reachable.
     Infeasible(String),
     /// Bad input values.
@@ -114,23 +96,9 @@ fn classify(err: PlannerError) -> Outcome {
     }
 }
 
-fn solve(spec: &MoveSpec) -> Outcome {
-    let request = arcsim_app::MoveRequest {
-        mv: spec.mv,
-        jerk_deg_per_s3: spec.jerk,
-        accel_deg_per_s2: spec.accel,
-        decel_deg_per_s2: spec.decel,
-        speed_deg_per_s: spec.vel,
-        min_duration_s: spec.min_duration,
-        period_s: spec.period,
-        reverse: spec.reverse,
-    };
+fn solve(request: &MoveRequest) -> Outcome {
     match request.solve() {
-        Ok(s) => Outcome::Ok(Box::new(Solved {
-            profile: s.profile,
-            limits: s.limits,
-            added_time_s: s.added_time_s,
-        })),
+        Ok(s) => Outcome::Ok(Box::new(s)),
         Err(arcsim_app::MoveError::Planner(e)) => classify(e),
         Err(e) => Outcome::Error(e.to_string()),
     }
@@ -157,7 +125,7 @@ struct ProfileOut {
     phases: Vec<PhaseOut>,
 }
 
-fn describe(s: &Solved) -> ProfileOut {
+fn describe(s: &SolvedMove) -> ProfileOut {
     let e = s.profile.extrema();
     let mut t = 0.0;
     let phases = s
@@ -278,18 +246,18 @@ pub fn run(args: Args) -> Result<(), CliError> {
     let need = |v: Option<f64>, name: &str| {
         v.ok_or_else(|| CliError::usage(format!("--{name} is required")))
     };
-    let spec = MoveSpec {
+    let spec = MoveRequest {
         mv: Move {
             distance: need(args.distance, "distance")?,
             v_start: need(args.v_start, "v-start")?,
             v_end: need(args.v_end, "v-end")?,
         },
-        jerk: need(args.jerk, "jerk")?,
-        accel: need(args.accel, "accel")?,
-        decel: args.decel,
-        vel: need(args.vel, "vel")?,
-        min_duration: args.min_duration,
-        period: args.period,
+        jerk_deg_per_s3: need(args.jerk, "jerk")?,
+        accel_deg_per_s2: need(args.accel, "accel")?,
+        decel_deg_per_s2: args.decel,
+        speed_deg_per_s: need(args.vel, "vel")?,
+        min_duration_s: args.min_duration,
+        period_s: args.period,
         reverse: args.reverse.into(),
     };
     let solved = match solve(&spec) {
@@ -316,7 +284,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
 struct InputColumn {
     name: &'static str,
     required: bool,
-    set: fn(&mut MoveSpec, &str) -> Result<(), String>,
+    set: fn(&mut MoveRequest, &str) -> Result<(), String>,
 }
 
 const INPUT_COLUMNS: [InputColumn; 10] = [
@@ -348,7 +316,7 @@ const INPUT_COLUMNS: [InputColumn; 10] = [
         name: "jerk",
         required: true,
         set: |m, t| {
-            m.jerk = finite(t)?;
+            m.jerk_deg_per_s3 = finite(t)?;
             Ok(())
         },
     },
@@ -356,7 +324,7 @@ const INPUT_COLUMNS: [InputColumn; 10] = [
         name: "accel",
         required: true,
         set: |m, t| {
-            m.accel = finite(t)?;
+            m.accel_deg_per_s2 = finite(t)?;
             Ok(())
         },
     },
@@ -364,7 +332,7 @@ const INPUT_COLUMNS: [InputColumn; 10] = [
         name: "vel",
         required: true,
         set: |m, t| {
-            m.vel = finite(t)?;
+            m.speed_deg_per_s = finite(t)?;
             Ok(())
         },
     },
@@ -372,7 +340,7 @@ const INPUT_COLUMNS: [InputColumn; 10] = [
         name: "decel",
         required: false,
         set: |m, t| {
-            m.decel = Some(finite(t)?);
+            m.decel_deg_per_s2 = Some(finite(t)?);
             Ok(())
         },
     },
@@ -380,7 +348,7 @@ const INPUT_COLUMNS: [InputColumn; 10] = [
         name: "min_duration",
         required: false,
         set: |m, t| {
-            m.min_duration = Some(finite(t)?);
+            m.min_duration_s = Some(finite(t)?);
             Ok(())
         },
     },
@@ -388,7 +356,7 @@ const INPUT_COLUMNS: [InputColumn; 10] = [
         name: "period",
         required: false,
         set: |m, t| {
-            m.period = Some(finite(t)?);
+            m.period_s = Some(finite(t)?);
             Ok(())
         },
     },
@@ -468,25 +436,25 @@ fn parse_row(
     record: &csv::StringRecord,
     columns: usize,
     default_reverse: Reversal,
-) -> Result<MoveSpec, String> {
+) -> Result<MoveRequest, String> {
     if record.len() != columns {
         return Err(format!(
             "{} fields; expected {columns} (as the header)",
             record.len()
         ));
     }
-    let mut spec = MoveSpec {
+    let mut spec = MoveRequest {
         mv: Move {
             distance: f64::NAN,
             v_start: f64::NAN,
             v_end: f64::NAN,
         },
-        jerk: f64::NAN,
-        accel: f64::NAN,
-        decel: None,
-        vel: f64::NAN,
-        min_duration: None,
-        period: None,
+        jerk_deg_per_s3: f64::NAN,
+        accel_deg_per_s2: f64::NAN,
+        decel_deg_per_s2: None,
+        speed_deg_per_s: f64::NAN,
+        min_duration_s: None,
+        period_s: None,
         reverse: default_reverse,
     };
     for (c, i) in INPUT_COLUMNS.iter().zip(at) {
@@ -536,7 +504,7 @@ const BATCH_COLUMNS: [Column<BatchLine>; 5] = [
 ];
 
 /// The result of the move of input line `line`.
-fn batch_line(line: usize, parsed: Result<MoveSpec, String>) -> BatchLine {
+fn batch_line(line: usize, parsed: Result<MoveRequest, String>) -> BatchLine {
     let (status, duration_s, peak_speed, message) = match parsed.map(|s| solve(&s)) {
         Err(m) | Ok(Outcome::Error(m)) => ("error", None, None, m),
         Ok(Outcome::Infeasible(m)) => ("infeasible", None, None, m),

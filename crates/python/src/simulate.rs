@@ -18,16 +18,10 @@ use crate::convert::{columns, data_frame, serde_to_py};
 use crate::inputs::{check_each, check_positive, floats, opt_number, positive, Machine, Plan};
 use crate::{PlanError, SimulationError};
 
+/// A schedule by its name, as the CLI and the files take it (the sequencer's `FromStr`).
 pub(crate) fn schedule_of(name: &str) -> PyResult<Schedule> {
-    match name {
-        "scan" => Ok(Schedule::Scan),
-        "optimal" => Ok(Schedule::Optimal),
-        "prescribed" => Ok(Schedule::Prescribed),
-        "step-and-shoot" | "step_and_shoot" => Ok(Schedule::StepAndShoot),
-        other => Err(PyValueError::new_err(format!(
-            "schedule: expected \"optimal\", \"scan\", \"prescribed\" or \"step-and-shoot\", got {other:?}"
-        ))),
-    }
+    name.parse::<Schedule>()
+        .map_err(|e| PyValueError::new_err(format!("schedule: {e}")))
 }
 
 pub(crate) fn motion_of(name: Option<&str>) -> PyResult<Option<Motion>> {
@@ -43,14 +37,10 @@ pub(crate) fn schedule_opt(name: Option<&str>) -> PyResult<Option<Schedule>> {
     name.map(schedule_of).transpose()
 }
 
+/// Arc ends by their name (the sequencer's `FromStr`).
 fn arc_ends_of(name: &str) -> PyResult<ArcEnds> {
-    match name {
-        "rest" => Ok(ArcEnds::Rest),
-        "free" => Ok(ArcEnds::Free),
-        other => Err(PyValueError::new_err(format!(
-            "arc_ends: expected \"rest\" or \"free\", got {other:?}"
-        ))),
-    }
+    name.parse::<ArcEnds>()
+        .map_err(|e| PyValueError::new_err(format!("arc_ends: {e}")))
 }
 
 /// A simulated delivery: what `arcsim simulate` computes.
