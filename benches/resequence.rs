@@ -20,6 +20,7 @@ fn bench(c: &mut Criterion) {
         spacing_deg: Some(2.2),
         layers_per_cp: Some((2, 4)),
         energy_mev: Some((70.0, 230.0)),
+        spot_spacing_mm: None,
     };
     let mut plan = generate_shaped(PlanKind::TwoArc, 1, &shape).expect("plan");
     for cp in plan.arcs.iter_mut().flat_map(|a| &mut a.control_points) {

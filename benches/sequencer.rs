@@ -107,6 +107,7 @@ fn bench(c: &mut Criterion) {
         spacing_deg: Some(2.2),
         layers_per_cp: Some((2, 4)),
         energy_mev: Some((70.0, 230.0)),
+        spot_spacing_mm: None,
     };
     let two_arc =
         arcsim_plan::generate_shaped(arcsim_plan::PlanKind::TwoArc, 1, &shape).expect("shape");

@@ -783,6 +783,37 @@ def test_calibrate_spots_equals_the_cli(tmp_path):
         arcsim.calibrate_spots(arcsim.load_machine(base_file), [(plan, "plans/README.md")])
 
 
+def test_iba_logs_are_read_as_the_cli_reads_them(tmp_path):
+    # A hidden scanning machine's IBA-style log of a plan whose spot spacing varies by energy.
+    base_file = "scenarios/machine-opentps-pbs.json"
+    hidden = json.loads(open(base_file).read())
+    hidden["beam"]["scan_speed_mm_per_s"] = 6000.0
+    hidden["beam"]["settling_time_s"] = 0.002
+    hidden_file = tmp_path / "hidden.json"
+    hidden_file.write_text(json.dumps(hidden))
+    plan_file, folder = tmp_path / "lung-spaced.json", tmp_path / "lung-iba"
+    code, _, err = cli("generate-plan", "--kind", "lung", "--spot-spacing", "3-8", "-o", str(plan_file))
+    assert code == 0, err
+    code, _, err = cli("simulate", str(plan_file), "--machine", str(hidden_file),
+                       "--iba-log", str(folder))
+    assert code == 0, err
+    plan = arcsim.load_plan(str(plan_file))
+    log = arcsim.load_log(str(folder))
+    layers = sum(len(cp["layers"]) for a in json.loads(plan_file.read_text())["arcs"]
+                 for cp in a["control_points"])
+    # Two beam-on rows per layer, between beam-off rows; no energies in such a log.
+    assert int(sum(log["beam_on"])) == 2 * layers
+    fitted, report = arcsim.calibrate_spots(arcsim.load_machine(base_file), [(plan, folder)])
+    values = {v["field"]: v for v in report["values"]}
+    assert values["beam.scan_speed_mm_per_s"]["value"] == pytest.approx(6000.0, rel=0.03)
+    assert values["beam.settling_time_s"]["value"] == pytest.approx(0.002, rel=0.03)
+    cli_doc = cli_json(tmp_path, "calibrate-spots", "--machine", base_file, str(plan_file),
+                       str(folder), "-o", str(tmp_path / "fitted.json"))
+    assert [v["value"] for v in cli_doc["values"]] == [v["value"] for v in report["values"]]
+    with pytest.raises(arcsim.LogError, match="no map_record"):
+        arcsim.load_log(str(tmp_path))
+
+
 def test_resequence_equals_the_cli(tmp_path):
     # Each control point's layers in ascending energy: re-sequencing has upward switches to remove.
     plan = json.loads(Path("plans/lung.json").read_text())

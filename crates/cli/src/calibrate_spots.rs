@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use arcsim_log::{SpotCalibration, SpotRun};
 
-use crate::input::{input_name, load_machine, load_plan_with_bytes};
+use crate::input::{input_name, load_machine, load_plan};
 use crate::CliError;
 
 #[derive(clap::Args, Debug)]
@@ -16,8 +16,8 @@ pub struct Args {
     /// spot timing is kept from it.
     #[arg(long)]
     machine: PathBuf,
-    /// Pairs of a plan and its per-spot log (the columns `simulate --spots` writes):
-    /// PLAN SPOTS [PLAN SPOTS ...].
+    /// Pairs of a plan and its per-spot log (the columns `simulate --spots` writes, or an
+    /// IBA-style log folder): PLAN SPOTS [PLAN SPOTS ...].
     #[arg(required = true, num_args = 2.., value_names = ["PLAN", "SPOTS"])]
     inputs: Vec<PathBuf>,
     /// Where to write the fitted machine (JSON).
@@ -40,9 +40,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
         .inputs
         .chunks(2)
         .map(|pair| {
-            let (plan, _) = load_plan_with_bytes(&pair[0])?;
-            let log =
-                arcsim_log::read_spot_log(&pair[1]).map_err(|e| CliError::failed(e.to_string()))?;
+            let plan = load_plan(&pair[0])?;
+            let log = arcsim_log::read_spots(&pair[1], &plan)
+                .map_err(|e| CliError::failed(e.to_string()))?;
             Ok(SpotRun {
                 plan_name: input_name(&pair[0]),
                 plan,

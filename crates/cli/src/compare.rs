@@ -295,7 +295,7 @@ fn observed_lines(s: &mut String, o: &ObservedKinematics, c: &Comparison) {
     if let Some(res) = c.edge_resolution_s {
         let _ = writeln!(
             s,
-            "gantry observed: nothing (a log of beam-on intervals, times to {res} s: a treatment record holds each layer's beam-on and beam-off, not the gantry's motion between them)"
+            "gantry observed: nothing (a log of beam-on intervals, times to {res} s: a treatment record or an IBA-style log holds each layer's beam-on and beam-off, not the gantry's motion between them)"
         );
         return;
     }

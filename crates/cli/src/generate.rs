@@ -1,5 +1,5 @@
 //! `arcsim generate-plan --kind KIND --seed N [--spacing DEG] [--layers MIN-MAX]
-//! [--energy LOW-HIGH] [-o FILE]`: a deterministic synthetic example plan.
+//! [--energy LOW-HIGH] [--spot-spacing MIN-MAX] [-o FILE]`: a deterministic synthetic example plan.
 
 use std::path::PathBuf;
 
@@ -25,6 +25,11 @@ pub struct Args {
     /// Energy range in MeV, LOW-HIGH (e.g. 70-230); the kind's own when omitted.
     #[arg(long, value_name = "LOW-HIGH", value_parser = energy_range)]
     energy: Option<(f64, f64)>,
+    /// Spot spacing in mm, MIN-MAX: each layer's grid spacing falls linearly with its energy,
+    /// from MAX at the plan's lowest energy to MIN at its highest (smaller spots at higher
+    /// energies); 5 mm for every layer when omitted.
+    #[arg(long, value_name = "MIN-MAX", value_parser = spacing_range)]
+    spot_spacing: Option<(f64, f64)>,
     /// Output file (then one line says what was written); standard output when omitted.
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -37,6 +42,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         spacing_deg: args.spacing,
         layers_per_cp: args.layers,
         energy_mev: args.energy,
+        spot_spacing_mm: args.spot_spacing,
     };
     let plan = generate_shaped(args.kind, args.seed, &shape)
         .map_err(|e| CliError::Usage(format!("generate-plan {e}")))?;
@@ -86,6 +92,14 @@ fn layer_range(text: &str) -> Result<(u32, u32), String> {
 /// `LOW-HIGH` as two energies (MeV).
 fn energy_range(text: &str) -> Result<(f64, f64), String> {
     let bad = || format!("\"{text}\" is not LOW-HIGH in MeV (e.g. 70-230)");
+    let (lo, hi) = text.split_once('-').ok_or_else(bad)?;
+    let parse = |t: &str| t.trim().parse::<f64>().map_err(|_| bad());
+    Ok((parse(lo)?, parse(hi)?))
+}
+
+/// `MIN-MAX` as two spot spacings (mm).
+fn spacing_range(text: &str) -> Result<(f64, f64), String> {
+    let bad = || format!("\"{text}\" is not MIN-MAX in mm (e.g. 3-8)");
     let (lo, hi) = text.split_once('-').ok_or_else(bad)?;
     let parse = |t: &str| t.trim().parse::<f64>().map_err(|_| bad());
     Ok((parse(lo)?, parse(hi)?))

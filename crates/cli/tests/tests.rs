@@ -14,6 +14,7 @@ mod docs_figures;
 mod edges;
 mod free_motion_oracle;
 mod hardening;
+mod iba;
 mod log_tools;
 mod logs;
 mod messages;

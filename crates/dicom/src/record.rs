@@ -80,7 +80,7 @@ pub enum ReadLogError {
     },
 }
 
-/// Reads the delivery log at `path`: a DICOM file (a regular file within the log size limit,
+/// Reads the delivery log at `path`: a folder as an IBA-style log ([`arcsim_log::iba`]), a DICOM file (a regular file within the log size limit,
 /// recognised by its content) as an RT Ion Beams Treatment Record, else a CSV log through `map`
 /// (a FIFO is read as a CSV). A record whose ReferencedRTPlanSequence names another plan than
 /// `plan_uid` (the SOPInstanceUID of the plan it is compared with, when that is a DICOM file) is
@@ -90,6 +90,10 @@ pub fn read_delivery_log(
     map: &arcsim_log::ColumnMap,
     plan_uid: Option<&str>,
 ) -> Result<arcsim_log::DeliveryLog, ReadLogError> {
+    // A folder is an IBA-style log (beam folders of map_record files).
+    if arcsim_log::iba::is_iba_folder(path) {
+        return Ok(arcsim_log::iba::read_iba_log(path)?.to_delivery_log()?);
+    }
     // Only a regular file is looked into: a FIFO's first bytes would be consumed by the look.
     // One above the size limit is left to the CSV reader, which refuses it by its size.
     let small_file =

@@ -8,7 +8,8 @@
 //! [`match_layers`] finds the plan's layers in a log's beam-on segments, [`compare`] sets a log
 //! beside a simulation of its plan, and [`calibrate`] fits a machine to one or more logs
 //! ([`kinematics`]: what the angle trace shows of the gantry's limits). [`calibrate_spots`] fits
-//! the `scanning` beam model to per-spot logs ([`read_spot_log`]).
+//! the `scanning` beam model to per-spot logs ([`read_spot_log`]; [`read_spots`] also takes an
+//! IBA-style log folder, which [`iba`] reads and writes).
 
 #![warn(missing_docs)]
 
@@ -17,6 +18,7 @@ mod columns;
 mod compare;
 mod controller;
 mod error;
+pub mod iba;
 mod joint;
 pub mod kinematics;
 mod matching;
@@ -52,7 +54,7 @@ pub use sample::{
     LONG_GAP_PERIODS,
 };
 pub use spots::{
-    calibrate_spots, is_spot_log_header, parse_spot_log, read_spot_log, LoggedSpot,
+    calibrate_spots, is_spot_log_header, parse_spot_log, read_spot_log, read_spots, LoggedSpot,
     SpotCalibrateError, SpotCalibration, SpotLog, SpotResidual, SpotRun, SPOT_LOG_COLUMNS,
 };
 pub use virtual_log::{

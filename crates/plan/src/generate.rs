@@ -196,7 +196,14 @@ pub struct Shape {
     pub layers_per_cp: Option<(u32, u32)>,
     /// Lowest and highest energy (MeV); the runs of descending energies span most of it.
     pub energy_mev: Option<(f64, f64)>,
+    /// Least and most spot spacing (mm): each layer's grid spacing falls linearly with its
+    /// energy across the plan's energy range, from the most at the lowest energy to the least at
+    /// the highest (smaller spots at higher energies). 5 mm for every layer when `None`.
+    pub spot_spacing_mm: Option<(f64, f64)>,
 }
+
+/// The spot spacings [`Shape`] accepts (mm).
+pub const SPOT_SPACING_RANGE_MM: (f64, f64) = (0.5, 30.0);
 
 /// The largest number of layers per control point [`Shape`] accepts.
 pub const MAX_LAYERS_PER_CP: u32 = 20;
@@ -260,7 +267,28 @@ impl Shape {
                 });
             }
         }
+        if let Some((lo, hi)) = self.spot_spacing_mm {
+            let (min, max) = SPOT_SPACING_RANGE_MM;
+            if !(lo.is_finite() && hi.is_finite() && min <= lo && lo <= hi && hi <= max) {
+                return Err(ShapeError {
+                    option: "--spot-spacing",
+                    given: format!("{}-{} mm", crate::fmt_num(lo), crate::fmt_num(hi)),
+                    expected: format!("MIN-MAX mm with {min} <= MIN <= MAX <= {max}"),
+                });
+            }
+        }
         Ok(())
+    }
+
+    /// The spot spacing of a layer of `energy_mev` in a plan spanning `range_mev`.
+    fn spot_spacing(&self, energy_mev: f64, (lo, hi): (f64, f64)) -> f64 {
+        match self.spot_spacing_mm {
+            None => SPOT_SPACING_MM,
+            Some((min, max)) => {
+                let f = ((energy_mev - lo) / (hi - lo).max(1e-9)).clamp(0.0, 1.0);
+                round_dec(max - (max - min) * f, 1000.0)
+            }
+        }
     }
 
     fn is_default(&self) -> bool {
@@ -297,6 +325,9 @@ impl Shape {
         }
         if let Some((lo, hi)) = self.energy_mev {
             out.push_str(&format!(" --energy {lo}-{hi}"));
+        }
+        if let Some((lo, hi)) = self.spot_spacing_mm {
+            out.push_str(&format!(" --spot-spacing {lo}-{hi}"));
         }
         out
     }
@@ -335,12 +366,16 @@ fn build(kind: PlanKind, seed: u64, shape: &Shape) -> ArcPlan {
                     required_speed_deg_per_s: None,
                     window_deg: None,
                     layers: (0..n)
-                        .map(|_| EnergyLayer {
-                            energy_mev: energies.next().unwrap_or(spec.energy_mev.0),
-                            spots: Some(spots(&mut rng, spec.time_s, spec.style)),
-                            irradiation_time_s: None,
-                            switching_time_s: None,
-                            window_share: None,
+                        .map(|_| {
+                            let energy_mev = energies.next().unwrap_or(spec.energy_mev.0);
+                            let spacing = shape.spot_spacing(energy_mev, spec.energy_mev);
+                            EnergyLayer {
+                                energy_mev,
+                                spots: Some(spots(&mut rng, spec.time_s, spec.style, spacing)),
+                                irradiation_time_s: None,
+                                switching_time_s: None,
+                                window_share: None,
+                            }
                         })
                         .collect(),
                 })
@@ -444,7 +479,12 @@ fn energy_sequence(
 }
 
 /// Spots sized so the layer takes a time in `time_s` under the ATOM beam model.
-fn spots(rng: &mut SplitMix64, (t_lo, t_hi): (f64, f64), style: SpotStyle) -> Spots {
+fn spots(
+    rng: &mut SplitMix64,
+    (t_lo, t_hi): (f64, f64),
+    style: SpotStyle,
+    spacing_mm: f64,
+) -> Spots {
     let target = rng.range(t_lo, t_hi);
     // At most 40 % of the layer time goes to switching between spots.
     let max_count = ((0.4 * target / SPOT_SWITCH_S) as u32 + 1).clamp(3, 80);
@@ -455,7 +495,7 @@ fn spots(rng: &mut SplitMix64, (t_lo, t_hi): (f64, f64), style: SpotStyle) -> Sp
             count,
             mu: None,
             total_mu: Some(round_dec(total_mu, 1000.0)),
-            positions_mm: Some(spot_grid(count)),
+            positions_mm: Some(spot_grid(count, spacing_mm)),
             paintings: None,
         },
         SpotStyle::PerSpot => {
@@ -469,20 +509,21 @@ fn spots(rng: &mut SplitMix64, (t_lo, t_hi): (f64, f64), style: SpotStyle) -> Sp
                 count,
                 mu: Some(mu),
                 total_mu: None,
-                positions_mm: Some(spot_grid(count)),
+                positions_mm: Some(spot_grid(count, spacing_mm)),
                 paintings: None,
             }
         }
     }
 }
 
-/// Spacing of the generated spot grid, mm (a typical spot spacing for 3–5 mm sigma spots).
+/// Spacing of the generated spot grid unless a [`Shape`] sets it, mm (a typical spot spacing
+/// for 3–5 mm sigma spots).
 const SPOT_SPACING_MM: f64 = 5.0;
 
-/// `count` spot positions on a square grid centred on the isocentre, delivered row by row in a
+/// `count` spot positions `spacing_mm` apart on a square grid centred on the isocentre, delivered row by row in a
 /// serpentine (each row the other way), the usual scanning order. Draws no random numbers, so
 /// the spots' MU and everything else generated stay as they were before plans had positions.
-fn spot_grid(count: u32) -> Vec<[f64; 2]> {
+fn spot_grid(count: u32, spacing_mm: f64) -> Vec<[f64; 2]> {
     let side = (f64::from(count).sqrt().ceil() as u32).max(1);
     let half = f64::from(side - 1) / 2.0;
     (0..count)
@@ -490,8 +531,8 @@ fn spot_grid(count: u32) -> Vec<[f64; 2]> {
             let (row, k) = (i / side, i % side);
             let col = if row % 2 == 0 { k } else { side - 1 - k };
             [
-                (f64::from(col) - half) * SPOT_SPACING_MM,
-                (f64::from(row) - half) * SPOT_SPACING_MM,
+                (f64::from(col) - half) * spacing_mm,
+                (f64::from(row) - half) * spacing_mm,
             ]
         })
         .collect()
@@ -565,11 +606,76 @@ mod tests {
     }
 
     #[test]
+    fn spot_spacing_falls_with_energy_and_leaves_the_rest_of_the_plan_alone() {
+        let shape = Shape {
+            energy_mev: Some((70.0, 230.0)),
+            spot_spacing_mm: Some((3.0, 8.0)),
+            ..Shape::default()
+        };
+        let spaced = generate_shaped(PlanKind::Lung, 4, &shape).expect("valid shape");
+        let plain = generate_shaped(
+            PlanKind::Lung,
+            4,
+            &Shape {
+                spot_spacing_mm: None,
+                ..shape
+            },
+        )
+        .expect("valid shape");
+        let layers = |p: &ArcPlan| -> Vec<EnergyLayer> {
+            p.arcs
+                .iter()
+                .flat_map(|a| &a.control_points)
+                .flat_map(|c| c.layers.clone())
+                .collect()
+        };
+        let mut seen = Vec::new();
+        for (a, b) in layers(&spaced).iter().zip(layers(&plain)) {
+            let (sa, sb) = (
+                a.spots.as_ref().expect("spots"),
+                b.spots.as_ref().expect("spots"),
+            );
+            // Only the positions differ; they are the plain grid scaled by the layer's spacing.
+            assert_eq!(
+                (a.energy_mev, sa.count, &sa.mu, sa.total_mu),
+                (b.energy_mev, sb.count, &sb.mu, sb.total_mu)
+            );
+            let (pa, pb) = (
+                sa.positions_mm.as_ref().expect("xy"),
+                sb.positions_mm.as_ref().expect("xy"),
+            );
+            let f = 1.0 - (a.energy_mev - 70.0) / 160.0;
+            let spacing = 3.0 + 5.0 * f;
+            for (xa, xb) in pa.iter().zip(pb) {
+                for k in 0..2 {
+                    assert!(
+                        (xa[k] - xb[k] * spacing / 5.0).abs() < 0.01,
+                        "{xa:?} {xb:?} at {} MeV",
+                        a.energy_mev
+                    );
+                }
+            }
+            seen.push(spacing);
+        }
+        let (lo, hi) = seen
+            .iter()
+            .fold((f64::INFINITY, 0.0_f64), |(l, h), &v| (l.min(v), h.max(v)));
+        assert!(lo < 4.0 && hi > 7.0, "{lo}-{hi}");
+        let bad = Shape {
+            spot_spacing_mm: Some((8.0, 3.0)),
+            ..Shape::default()
+        };
+        let e = generate_shaped(PlanKind::Lung, 4, &bad).expect_err("MIN above MAX");
+        assert_eq!(e.to_string(), "--spot-spacing: 8-3 mm is not allowed; expected MIN-MAX mm with 0.5 <= MIN <= MAX <= 30");
+    }
+
+    #[test]
     fn a_shape_sets_spacing_layers_and_energies() {
         let shape = Shape {
             spacing_deg: Some(3.0),
             layers_per_cp: Some((2, 4)),
             energy_mev: Some((70.0, 230.0)),
+            spot_spacing_mm: None,
         };
         let plan = generate_shaped(PlanKind::Prostate, 9, &shape).expect("valid shape");
         let cps = &plan.arcs[0].control_points;

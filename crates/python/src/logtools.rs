@@ -207,21 +207,27 @@ pub fn calibrate<'py>(
             arcsim_log::CalibrateError::Match(m) => LogError::new_err(m.to_string()),
             other => SimulationError::new_err(other.to_string()),
         })?;
-    let text = serde_json::to_string_pretty(&cal.machine)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    let fitted = Machine {
-        machine: cal.machine,
-        source: Source {
-            file: format!("{} (calibrated)", base.source.file),
-            sha256: sha256_hex(text.as_bytes()),
-        },
-    };
     let report = serde_to_py(py, &cal.report)?;
+    let fitted = fitted_machine(base, cal.machine, "calibrated")?;
     PyTuple::new(py, [Bound::new(py, fitted)?.into_any(), report])
 }
 
+/// The fitted machine as Python receives it: its source the base's file, labelled, and the
+/// hash of its JSON.
+fn fitted_machine(base: &Machine, machine: arcsim_plan::Machine, label: &str) -> PyResult<Machine> {
+    let text = serde_json::to_string_pretty(&machine)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    Ok(Machine {
+        machine,
+        source: Source {
+            file: format!("{} ({label})", base.source.file),
+            sha256: sha256_hex(text.as_bytes()),
+        },
+    })
+}
+
 /// Fits a `scanning` beam's spot timing to per-spot logs, starting from `machine`, as
-/// `arcsim calibrate-spots` does. `runs` is a list of `(plan, spots_csv_path)` pairs. Returns
+/// `arcsim calibrate-spots` does. `runs` is a list of `(plan, path)` pairs, each path a per-spot CSV log or an IBA-style log folder. Returns
 /// `(fitted Machine, report dict)`.
 #[pyfunction]
 pub fn calibrate_spots<'py>(
@@ -237,7 +243,7 @@ pub fn calibrate_spots<'py>(
             Ok(arcsim_log::SpotRun {
                 plan_name: plan.source.file.clone(),
                 plan: plan.plan.clone(),
-                log: arcsim_log::read_spot_log(path)
+                log: arcsim_log::read_spots(path, &plan.plan)
                     .map_err(|e| LogError::new_err(e.to_string()))?,
             })
         })
@@ -245,15 +251,7 @@ pub fn calibrate_spots<'py>(
     let cal = py
         .detach(|| arcsim_log::calibrate_spots(&base.machine, &spot_runs))
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let text = serde_json::to_string_pretty(&cal.machine)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    let fitted = Machine {
-        machine: cal.machine.clone(),
-        source: Source {
-            file: format!("{} (spot-calibrated)", base.source.file),
-            sha256: sha256_hex(text.as_bytes()),
-        },
-    };
     let report = serde_to_py(py, &cal)?;
+    let fitted = fitted_machine(base, cal.machine, "spot-calibrated")?;
     PyTuple::new(py, [Bound::new(py, fitted)?.into_any(), report])
 }

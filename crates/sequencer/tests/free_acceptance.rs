@@ -134,6 +134,7 @@ fn raising_a_limit_never_lengthens_the_delivery() {
         spacing_deg: Some(2.2),
         layers_per_cp: Some((2, 4)),
         energy_mev: Some((70.0, 230.0)),
+        spot_spacing_mm: None,
     };
     let mut all = cases();
     all.push((

@@ -114,7 +114,12 @@ pub struct Args {
     /// time, gantry angle, energy and cumulative delivered MU; one beam per arc.
     #[arg(long, value_name = "RECORD.dcm")]
     record: Option<PathBuf>,
-    /// When the record's first layer starts: YYYYMMDDHHMMSS.
+    /// Write the delivery as an IBA-style log: a folder with one beam folder per arc, each
+    /// holding a `map_record` (a row per 0.25 ms) and `map_specif` file per layer, `beam_config`,
+    /// `beam` and the arc irradiation `events` (docs/records.md#iba-logs).
+    #[arg(long, value_name = "DIR")]
+    iba_log: Option<PathBuf>,
+    /// When the record's (and the IBA-style log's) first layer starts: YYYYMMDDHHMMSS.
     #[arg(long, value_name = "WHEN", default_value = "20260101080000")]
     record_start: String,
     /// Fraction digits of the record's times (0: whole seconds, 6: microseconds).
@@ -212,9 +217,18 @@ fn check_args(args: &Args) -> Result<(), CliError> {
             ("--spots", args.spots.as_deref()),
             ("--log", args.log.as_deref()),
             ("--record", args.record.as_deref()),
+            ("--iba-log", args.iba_log.as_deref()),
         ],
     )?;
-    if args.record.is_some() {
+    if let Some(dir) = &args.iba_log {
+        if dir.exists() && std::fs::read_dir(dir).map_or(true, |mut d| d.next().is_some()) {
+            return Err(CliError::usage(format!(
+                "--iba-log {}: exists and is not an empty folder; expected a new folder",
+                dir.display()
+            )));
+        }
+    }
+    if args.record.is_some() || args.iba_log.is_some() {
         arcsim_dicom::RecordStart::parse(&args.record_start)
             .map_err(|e| CliError::usage(format!("--record-start {e}")))?;
         if args.record_time_digits > 6 {
@@ -362,17 +376,7 @@ pub fn run(args: Args) -> Result<(), CliError> {
         text.push_str(&monte_carlo_lines(mc));
     }
     crate::output::print(&text);
-    // The spot timeline for --spots and --log, and for the beam's-eye view of the Rerun outputs.
-    let viewer = args.rrd.is_some() || args.spawn || args.connect.is_some();
-    let spots = match args.spots.is_some() || args.log.is_some() || viewer {
-        true => Some(spot_timeline(&plan, &machine, &delivery).map_err(|e| {
-            CliError::failed(format!(
-                "spot timeline: {}: {e}",
-                crate::input::input_name(&args.plan)
-            ))
-        })?),
-        false => None,
-    };
+    let spots = spot_rows(&args, &plan, &machine, &delivery)?;
 
     if let Some(path) = &args.json {
         let outputs = Extras {
@@ -404,6 +408,9 @@ pub fn run(args: Args) -> Result<(), CliError> {
     if let (Some(path), Some(spots)) = (&args.log, &spots) {
         write_log(path, &delivery, spots, &args)?;
     }
+    if let (Some(dir), Some(spots)) = (&args.iba_log, &spots) {
+        outputs::write_iba_log(dir, &delivery, spots, &args)?;
+    }
     if let Some(path) = &args.record {
         outputs::write_record(path, &delivery, (&plan, &machine, &plan_bytes), &args)?;
     }
@@ -416,6 +423,28 @@ pub fn run(args: Args) -> Result<(), CliError> {
         args.spawn,
         args.connect.as_deref(),
     )
+}
+
+/// The spot timeline for --spots, --log and --iba-log, and for the beam's-eye view of the Rerun
+/// outputs; `None` when no output needs it.
+fn spot_rows(
+    args: &Args,
+    plan: &arcsim_plan::ArcPlan,
+    machine: &arcsim_plan::Machine,
+    delivery: &Delivery,
+) -> Result<Option<Vec<arcsim_sequencer::SpotRow>>, CliError> {
+    let viewer = args.rrd.is_some() || args.spawn || args.connect.is_some();
+    if !(args.spots.is_some() || args.log.is_some() || args.iba_log.is_some() || viewer) {
+        return Ok(None);
+    }
+    spot_timeline(plan, machine, delivery)
+        .map(Some)
+        .map_err(|e| {
+            CliError::failed(format!(
+                "spot timeline: {}: {e}",
+                crate::input::input_name(&args.plan)
+            ))
+        })
 }
 
 /// A simulation's progress on a terminal (standard error), shown once it has run a second: a

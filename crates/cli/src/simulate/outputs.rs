@@ -166,6 +166,41 @@ pub(super) fn write_record(
     crate::output::write_file(path, &bytes)
 }
 
+/// `--iba-log`: the delivery as an IBA-style log folder (one beam folder per arc).
+pub(super) fn write_iba_log(
+    dir: &Path,
+    delivery: &Delivery,
+    spots: &[SpotRow],
+    args: &Args,
+) -> Result<(), CliError> {
+    let start = arcsim_log::iba::start_seconds(&args.record_start)
+        .map_err(|e| CliError::usage(format!("--record-start {e}")))?;
+    if spots.iter().any(|s| s.x_mm.is_none()) {
+        return Err(CliError::failed(
+            "--iba-log: the plan gives no spot positions; an IBA-style log records each spot's position (spots' `positions_mm`)".to_string(),
+        ));
+    }
+    let files = arcsim_log::iba::iba_log_files(
+        delivery,
+        spots,
+        start,
+        &arcsim_log::iba::IbaNozzle::default(),
+    );
+    for (rel, text) in files {
+        let path = dir.join(rel);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| {
+                CliError::failed(format!(
+                    "--iba-log: cannot create {}: {e}",
+                    parent.display()
+                ))
+            })?;
+        }
+        crate::output::write_file(&path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
 pub(super) fn write_spots_csv(path: &Path, spots: &[SpotRow]) -> Result<(), CliError> {
     crate::output::write_file(path, &csv_table(&SPOT_COLUMNS, spots))
 }

@@ -15,17 +15,6 @@ pub(crate) struct TimeOfDay {
     pub resolution_s: f64,
 }
 
-/// Days from 1970-01-01 to the civil date `y-m-d` (proleptic Gregorian).
-fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
-    let y = if m <= 2 { y - 1 } else { y };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let mp = (m + 9) % 12;
-    let doy = (153 * mp + 2) / 5 + d - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    era * 146_097 + doe - 719_468
-}
-
 /// The days since 1970-01-01 of a DA value (`YYYYMMDD`; the old `YYYY.MM.DD` is accepted), or
 /// what is wrong with it.
 pub(crate) fn parse_date(text: &str) -> Result<i64, String> {
@@ -46,7 +35,7 @@ pub(crate) fn parse_date(text: &str) -> Result<i64, String> {
     if !(1..=month_days).contains(&d) {
         return Err(format!("\"{text}\": day {d} does not exist in month {m}"));
     }
-    Ok(days_from_civil(y, m, d))
+    Ok(arcsim_log::iba::days_from_civil(y, m, d))
 }
 
 /// A TM value (`HH`, `HHMM`, `HHMMSS` or `HHMMSS.F` with 1 to 6 fraction digits; the old

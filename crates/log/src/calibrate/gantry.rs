@@ -12,6 +12,10 @@ use super::gaps::*;
 use super::stats::*;
 use super::types::*;
 
+/// How a gantry limit fitted to the gaps of a log without an angle trace begins its note (and
+/// how [`decel_follows_accel`] recognises one).
+const BY_MODEL_WITHOUT_TRACE: &str = "by the model, from a log without an angle trace";
+
 pub(super) fn gantry_value(
     field: &str,
     unit: &str,
@@ -174,7 +178,7 @@ pub(super) fn fit_gantry(
                 g.max_speed_deg_per_s
             )
         } else {
-            "not determined: the logs hold no angle trace (a treatment record holds each layer's beam-on and beam-off, not the gantry's motion between them), the base value is kept".to_string()
+            "not determined: the logs hold no angle trace (a treatment record or an IBA-style log holds each layer's beam-on and beam-off, not the gantry's motion between them), the base value is kept".to_string()
         };
         let n = usize::from(obs.speed.is_some());
         for (field, unit, kept_value) in [
@@ -344,14 +348,14 @@ pub(super) fn gantry_by_gaps(
         match &fits[i] {
             Some(fit) => {
                 let note = format!(
-                    "by the model, from a log without an angle trace (a treatment record): the value whose simulated switches (constant speed per layer, the schedule re-simulated at each candidate) last as the recorded beam-off gaps (golden section over its logarithm from {:.4}, A and J in turn; a gap off by more than 0.3 s counts as 0.3 s); interval: the sandwich over the {} gaps it moves, Student's t",
+                    "{BY_MODEL_WITHOUT_TRACE} (a treatment record or an IBA-style log): the value whose simulated switches (constant speed per layer, the schedule re-simulated at each candidate) last as the recorded beam-off gaps (golden section over its logarithm from {:.4}, A and J in turn; a gap off by more than 0.3 s counts as 0.3 s); interval: the sandwich over the {} gaps it moves, Student's t",
                     starts[i], fit.transitions
                 );
                 record_gap_fit(row, fit, note);
             }
             None => {
                 row.note = format!(
-                    "not determined: the log holds no angle trace (a treatment record holds each layer's beam-on and beam-off, not the gantry's motion between them), and fitted by the model the recorded gaps do not bind it (fewer than 3 gaps move with it, or their misfit is flat around it); the base value {} is kept",
+                    "not determined: the log holds no angle trace (a treatment record or an IBA-style log holds each layer's beam-on and beam-off, not the gantry's motion between them), and fitted by the model the recorded gaps do not bind it (fewer than 3 gaps move with it, or their misfit is flat around it); the base value {} is kept",
                     row.base.unwrap_or(row.value)
                 );
                 if let Some(b) = row.base {
@@ -369,8 +373,7 @@ pub(super) fn decel_follows_accel(machine: &Machine, values: &mut [FittedValue])
     let accel_from_record = values.iter().any(|v| {
         v.field == "gantry.max_accel_deg_per_s2"
             && v.determined
-            && v.note
-                .starts_with("by the model, from a log without an angle trace")
+            && v.note.starts_with(BY_MODEL_WITHOUT_TRACE)
     });
     let Some(row) = values
         .iter_mut()

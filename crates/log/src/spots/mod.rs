@@ -7,5 +7,6 @@ mod read;
 
 pub use fit::{calibrate_spots, SpotCalibrateError, SpotCalibration, SpotResidual, SpotRun};
 pub use read::{
-    is_spot_log_header, parse_spot_log, read_spot_log, LoggedSpot, SpotLog, SPOT_LOG_COLUMNS,
+    is_spot_log_header, parse_spot_log, read_spot_log, read_spots, LoggedSpot, SpotLog,
+    SPOT_LOG_COLUMNS,
 };

@@ -65,6 +65,16 @@ pub fn read_spot_log(path: &Path) -> Result<SpotLog, LogError> {
     parse_spot_log(std::io::BufReader::new(file), &name)
 }
 
+/// Reads the per-spot log of `plan` at `path`: a folder as an IBA-style log (its spots mapped to
+/// the plan's layers in order, [`crate::iba::IbaLog::to_spot_log`]), else a per-spot CSV log.
+pub fn read_spots(path: &Path, plan: &arcsim_plan::ArcPlan) -> Result<SpotLog, LogError> {
+    if crate::iba::is_iba_folder(path) {
+        crate::iba::read_iba_log(path)?.to_spot_log(plan)
+    } else {
+        read_spot_log(path)
+    }
+}
+
 /// Whether `header` (a CSV header line) is a per-spot log's.
 pub fn is_spot_log_header(header: &str) -> bool {
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
