@@ -95,29 +95,16 @@ fn calibrate_spots_recovers_a_hidden_scanning_machine_from_iba_logs() {
     assert!(stdout.contains("clock resolution 0.00025 s"), "{stdout}");
     let report: Value =
         serde_json::from_str(&std::fs::read_to_string(&json).expect("report")).expect("json");
-    for (field, truth) in [
-        ("beam.s_per_mu_scale", 1.1),
-        ("beam.scan_speed_mm_per_s", 6000.0),
-        ("beam.settling_time_s", 0.002),
-    ] {
-        let v = report["values"]
-            .as_array()
-            .expect("values")
-            .iter()
-            .find(|v| v["field"] == field)
-            .unwrap_or_else(|| panic!("{field}"));
-        let got = v["value"].as_f64().expect("value");
-        assert!(
-            v["determined"] == true && (got / truth - 1.0).abs() < 0.03,
-            "{field}: {got}\n{stdout}"
-        );
-        let iv = v["interval"].as_array().expect("interval");
-        let (lo, hi) = (iv[0].as_f64().expect("lo"), iv[1].as_f64().expect("hi"));
-        assert!(
-            lo <= truth && truth <= hi,
-            "{field}: {truth} outside {lo}–{hi}"
-        );
-    }
+    crate::util::assert_recovered(
+        &report,
+        &[
+            ("beam.s_per_mu_scale", 1.1),
+            ("beam.scan_speed_mm_per_s", 6000.0),
+            ("beam.settling_time_s", 0.002),
+        ],
+        0.03,
+        &stdout,
+    );
     for r in report["residuals"].as_array().expect("residuals") {
         let pct = r["fitted_error_pct"].as_f64().expect("pct");
         assert!(pct.abs() < 0.1, "{r}");

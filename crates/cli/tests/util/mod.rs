@@ -140,3 +140,33 @@ pub fn one_heavy_test_at_a_time() -> std::sync::MutexGuard<'static, ()> {
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
+
+/// Asserts that each `(field, truth)` of a calibration report's `values` is determined, within
+/// `rel` of the truth, with a 95 % interval that holds it; `context` (e.g. the printed report)
+/// is shown on failure.
+pub fn assert_recovered(
+    report: &serde_json::Value,
+    truths: &[(&str, f64)],
+    rel: f64,
+    context: &str,
+) {
+    for &(field, truth) in truths {
+        let v = report["values"]
+            .as_array()
+            .expect("values")
+            .iter()
+            .find(|v| v["field"] == field)
+            .unwrap_or_else(|| panic!("{field}\n{context}"));
+        let got = v["value"].as_f64().expect("value");
+        assert!(
+            v["determined"] == true && (got / truth - 1.0).abs() < rel,
+            "{field}: {got} (truth {truth})\n{context}"
+        );
+        let iv = v["interval"].as_array().expect("interval");
+        let (lo, hi) = (iv[0].as_f64().expect("lo"), iv[1].as_f64().expect("hi"));
+        assert!(
+            lo <= truth && truth <= hi,
+            "{field}: {truth} outside {lo}–{hi}\n{context}"
+        );
+    }
+}

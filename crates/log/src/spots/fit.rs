@@ -32,9 +32,6 @@ pub enum SpotCalibrateError {
         /// The base's beam kind.
         kind: String,
     },
-    /// The base machine's beam comes in spills.
-    #[error("the base machine's beam comes in spills: a spill's refill is not told from a spot move in a per-spot log, and the spot-level fit of such a beam is not built")]
-    Spills,
     /// A logged spot names no layer of its plan.
     #[error("{log}: line {line}: arc {arc}, control point {control_point}, layer {layer} is not a layer of the plan {plan}")]
     NoSuchLayer {
@@ -125,7 +122,7 @@ struct Spot {
 }
 
 /// The logged spots of one layer, in order.
-pub(super) struct Layer<'a> {
+pub(crate) struct Layer<'a> {
     pub spots: &'a [LoggedSpot],
     pub energy_mev: f64,
 }
@@ -144,9 +141,6 @@ pub fn calibrate_spots(
             })
         }
     };
-    if beam.spill.is_some() {
-        return Err(SpotCalibrateError::Spills);
-    }
     let mut layers_of_runs = Vec::new();
     for run in runs {
         layers_of_runs.push(layers(run)?);
@@ -168,6 +162,7 @@ pub fn calibrate_spots(
         (&mut outliers, &mut warnings),
     )?;
     fit_passes(beam, &moves, clock, &mut fitted, &mut values, &mut outliers);
+    super::spills::fit_spills(beam, &all, clock, &mut fitted, &mut values, &mut outliers);
     values.push(kept_value(
         "beam.layer_overhead_s",
         "s",
@@ -241,7 +236,9 @@ fn observations(beam: &ScanningBeam, layers: &[&Layer]) -> (Vec<Spot>, Vec<Move>
                 duration_s: s.t_end_s - s.t_start_s,
                 base_irradiation_s: s.mu * rate,
             });
-            if let Some(p) = k.checked_sub(1).map(|j| &layer.spots[j]) {
+            // A refill is no move (fitted apart, [`super::spills`]).
+            let prev = k.checked_sub(1).map(|j| &layer.spots[j]);
+            if let Some(p) = prev.filter(|p| !super::spills::is_refill(beam, p, s)) {
                 moves.push(Move {
                     gap_s: s.t_start_s - p.t_end_s,
                     dx: (s.x_mm - p.x_mm).abs(),

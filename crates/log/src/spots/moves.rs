@@ -223,6 +223,23 @@ pub(super) fn fit_moves(
     Ok(())
 }
 
+/// The median of `v` with those beyond 6 robust sd of it (a gating pause, an interlock) left
+/// out: the median, the half-width of its 95 % interval widened by the clock's resolution, and
+/// how many were kept.
+pub(super) fn robust_median(v: &[f64], clock: f64) -> (f64, f64, usize) {
+    let m0 = med(v);
+    let cut = OUTLIER_SDS * robust_sd(v, clock);
+    let kept: Vec<f64> = v
+        .iter()
+        .copied()
+        .filter(|p| (p - m0).abs() <= cut)
+        .collect();
+    let n = kept.len();
+    let half =
+        student_t95((n.max(2) - 1) as f64) * 1.2533 * spread(&kept) / (n as f64).sqrt() + clock;
+    (med(&kept), half, n)
+}
+
 /// The burst switching time: the median of the pauses between passes, less each move's fitted
 /// time.
 pub(super) fn fit_passes(
@@ -243,18 +260,9 @@ pub(super) fn fit_passes(
         values.push(kept_value(FIELD, "s", base.burst_switching_time_s, &format!("not determined: {} moves between two passes over a layer's spots in the logs (fewer than 3); the base value is kept", pauses.len())));
         return;
     }
-    let m0 = med(&pauses);
-    let cut = OUTLIER_SDS * robust_sd(&pauses, clock);
-    let kept: Vec<f64> = pauses
-        .iter()
-        .copied()
-        .filter(|p| (p - m0).abs() <= cut)
-        .collect();
-    *outliers += pauses.len() - kept.len();
-    let n = kept.len();
-    let m = med(&kept).max(0.0);
-    let half =
-        student_t95((n.max(2) - 1) as f64) * 1.2533 * spread(&kept) / (n as f64).sqrt() + clock;
+    let (m, half, n) = robust_median(&pauses, clock);
+    *outliers += pauses.len() - n;
+    let m = m.max(0.0);
     fitted.burst_switching_time_s = m;
     values.push(super::fit::fitted_value(
         (FIELD, "s", base.burst_switching_time_s),
@@ -266,14 +274,21 @@ pub(super) fn fit_passes(
 }
 
 /// A layer's logged spots timed under `beam`: each spot its MU at the rate (at least the
-/// minimum spot time), each move its scanning and settling, each new pass the burst switching.
-fn layer_time(layer: &Layer, beam: &ScanningBeam) -> f64 {
+/// minimum spot time), each move its scanning and settling, each new pass the burst switching,
+/// each refill (a pause `base_of_refills` calls one) the spill's refill.
+fn layer_time(layer: &Layer, beam: &ScanningBeam, base_of_refills: &ScanningBeam) -> f64 {
     let rate = beam.s_per_mu_at(layer.energy_mev);
     let mut t = 0.0;
     for (k, s) in layer.spots.iter().enumerate() {
         t += (s.mu * rate).max(beam.min_spot_time_s);
         if let Some(p) = k.checked_sub(1).map(|j| &layer.spots[j]) {
-            t += beam.move_time_s([p.x_mm, p.y_mm], [s.x_mm, s.y_mm]);
+            let m = beam.move_time_s([p.x_mm, p.y_mm], [s.x_mm, s.y_mm]);
+            // Where the log shows a refill (judged at the base, as for every model timed), the
+            // model's refill, the magnets moving meanwhile.
+            t += match (&beam.spill, super::spills::is_refill(base_of_refills, p, s)) {
+                (Some(spill), true) => m.max(spill.refill_time_s),
+                _ => m,
+            };
             if p.painting != s.painting {
                 t += beam.burst_switching_time_s;
             }
@@ -296,8 +311,8 @@ pub(super) fn residual(
             _ => 0.0,
         })
         .sum();
-    let base_s: f64 = layers.iter().map(|l| layer_time(l, base)).sum();
-    let fitted_s: f64 = layers.iter().map(|l| layer_time(l, fitted)).sum();
+    let base_s: f64 = layers.iter().map(|l| layer_time(l, base, base)).sum();
+    let fitted_s: f64 = layers.iter().map(|l| layer_time(l, fitted, base)).sum();
     let pct = |x: f64| 100.0 * (x - logged) / logged.max(f64::MIN_POSITIVE);
     SpotResidual {
         log: log.to_string(),
