@@ -77,7 +77,10 @@ SAMPLES = 40  # sample points inside every interval in the verification
 # undetermined otherwise, and IPOPT then needs several times the iterations. It moves the total
 # by well under 1e-5 s; the total reported is the verified sum of the durations alone.
 REG = 1e-6
-MAX_WALL_S = 150.0  # IPOPT's time limit per case; the best iterate so far is still verified
+# IPOPT's time limit per case; the best iterate so far is still verified. The 722-layer head-neck
+# needs most of 150 s on an idle 2-core machine: at 150 s a slower machine stopped it before any
+# iterate held its constraints (no verified answer), so the limit leaves room for that.
+MAX_WALL_S = 300.0
 FEAS = 1e-8  # largest constraint violation of an iterate that `Watch` may keep
 STALL_REL, STALL_ITERS = 1e-9, 50  # `Watch` stops IPOPT after this many iterations without gain
 
