@@ -197,7 +197,15 @@ fn every_shell_example_in_the_docs_runs() {
                 continue;
             }
             ran += 1;
-            if let Err(e) = run_block(&block) {
+            let t0 = std::time::Instant::now();
+            let res = run_block(&block);
+            // Where the test's minutes go (printed with --nocapture or on failure).
+            eprintln!(
+                "docs_examples: {} ran in {:.1} s",
+                block.place,
+                t0.elapsed().as_secs_f64()
+            );
+            if let Err(e) = res {
                 failures.push(e);
             }
         }

@@ -4,13 +4,13 @@
 //! by dense re-integration against every limit, window, irradiation time and ELST, and the test
 //! fails when that verified answer is shorter than arcsim's free-motion total by more than 0.05 %
 //! (more on the two plans of [`KNOWN_GAPS`]), or a case has no verified answer. Cases: the three ATOM article cases on the ATOM machine with
-//! rest and free arc ends, and the bundled plans on their default machine with rest ends; and,
-//! in a test ignored for issue 45, three bundled plans on the faster machine.
+//! rest and free arc ends, and the bundled prostate, lung and two-arc plans on their default
+//! machine with rest ends; in ignored tests, the 722-layer bundled head-neck (five minutes, more
+//! than the others together) and, for issue 45, three bundled plans on the faster machine.
 //!
 //! The script runs in a virtual environment under the target directory with CasADi (pinned) and
-//! numpy from the package index, two cases at a time: about 1.5 minutes on 2 cores (the 722-layer
-//! bundled head-neck alone takes about 80 s of it). Without Python or the package index the test says so and passes,
-//! except under CI (`CI` set), where that is a failure.
+//! numpy from the package index, two cases at a time: about 2 minutes on 2 cores. Without Python
+//! or the package index the test fails, saying why.
 
 use crate::util;
 
@@ -122,16 +122,17 @@ fn beaten(cases: &[serde_json::Value], known: &[(&str, f64)]) -> Vec<String> {
     failures
 }
 
-#[test]
-fn no_independent_optimiser_beats_free_motion() {
-    let (cases, script_ran) = run_oracle(&[]);
+/// Runs the oracle on `only` (empty: its default cases, `expected` of them) and fails unless every
+/// case ran, none beats arcsim by more than its gap (`known`, else [`GAP`]) and the script itself
+/// did not fail. The oracle's log and table are printed above the failure.
+fn within_reach(only: &[&str], expected: usize, known: &[(&str, f64)]) {
+    let (cases, script_ran) = run_oracle(only);
     assert_eq!(
         cases.len(),
-        10,
+        expected,
         "every case ran (the oracle's output is above)"
     );
-    let failures = beaten(&cases, KNOWN_GAPS);
-    // The oracle's log and table are printed above.
+    let failures = beaten(&cases, known);
     assert!(
         failures.is_empty(),
         "free motion is not within reach of the independent optimiser:\n{}",
@@ -142,6 +143,19 @@ fn no_independent_optimiser_beats_free_motion() {
     assert!(script_ran, "the oracle failed (its output is above)");
 }
 
+#[test]
+fn no_independent_optimiser_beats_free_motion() {
+    within_reach(&[], 9, KNOWN_GAPS);
+}
+
+/// The 722-layer bundled head-neck on its default machine with rest ends (measured 2026-12-07:
+/// 320 s of the oracle's 327 s on 2 cores, arcsim 598.33 s, −0.29 %, its known gap).
+#[test]
+#[ignore = "about 5 minutes of IPOPT on 2 cores, more than every other case together: run with --ignored"]
+fn no_independent_optimiser_beats_free_motion_on_the_largest_plan() {
+    within_reach(&["head-neck"], 1, KNOWN_GAPS);
+}
+
 /// The bundled lung, prostate and two-arc plans on the faster machine
 /// (`scenarios/machine-fast.json`), which the cases above do not cover. Measured 2026-12-06:
 /// prostate −0.048 %, two-arc −0.024 %, but lung −6.23 % (the oracle verifies 84.82 s against
@@ -149,18 +163,5 @@ fn no_independent_optimiser_beats_free_motion() {
 #[test]
 #[ignore = "issue 45: on machine-fast the bundled lung plan's free motion is 6.2 % longer than the independent optimiser's (90.45 s against 84.82 s); run with --ignored"]
 fn no_independent_optimiser_beats_free_motion_on_a_faster_machine() {
-    let only = ["lung-fast", "prostate-fast", "two-arc-fast"];
-    let (cases, script_ran) = run_oracle(&only);
-    assert_eq!(
-        cases.len(),
-        only.len(),
-        "every case ran (the oracle's output is above)"
-    );
-    let failures = beaten(&cases, &[]);
-    assert!(
-        failures.is_empty(),
-        "free motion is not within reach of the independent optimiser:\n{}",
-        failures.join("\n")
-    );
-    assert!(script_ran, "the oracle failed (its output is above)");
+    within_reach(&["lung-fast", "prostate-fast", "two-arc-fast"], 3, &[]);
 }

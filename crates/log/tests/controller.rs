@@ -321,32 +321,32 @@ fn check(truth: Truth, seed: u64) {
     within(predicted, logged_total, 0.01, "held-out total");
 }
 
+// CI checks six fits: two seeds of each controller (an even seed and an odd one, whose logs hold an
+// encoder glitch) and one of each constant-speed variant. A fit costs about 2.5 CPU-minutes, most
+// of it free-motion simulations (issue 45); the twenty seeds of each machine issue 44 asks for run
+// in `controller_twenty_seeds` below.
 #[test]
 fn calibration_learns_a_constant_speed_controller() {
-    for seed in 0..5 {
+    for seed in [0, 1] {
         check(Truth::Constant, seed);
     }
 }
 
 #[test]
 fn calibration_learns_a_free_motion_controller() {
-    for seed in 0..5 {
+    for seed in [0, 1] {
         check(Truth::Free, seed);
     }
 }
 
 #[test]
 fn calibration_learns_a_constant_speed_machine_with_a_beam_in_bursts() {
-    for seed in 0..5 {
-        check(Truth::Burst, seed);
-    }
+    check(Truth::Burst, 1);
 }
 
 #[test]
 fn calibration_learns_a_servo_loop_as_constant_speed() {
-    for seed in 0..5 {
-        check(Truth::Servo, seed);
-    }
+    check(Truth::Servo, 2);
 }
 
 /// `--motion` forces the model: the fit is made under it and says so.
@@ -372,7 +372,7 @@ fn a_forced_motion_is_written_as_forced() {
     );
 }
 
-/// The long run issue 44 asks for: 20 seeds per machine (CI runs the first 5 of each above). `cargo test -p arcsim-log --release
+/// The long run issue 44 asks for: 20 seeds per machine (CI runs six of them, above). `cargo test -p arcsim-log --release
 /// -- --ignored controller_twenty_seeds --nocapture`.
 #[test]
 #[ignore = "about 20 minutes: run by hand, figures in the closing note"]
@@ -425,12 +425,14 @@ fn logs_of_two_machines_pooled_are_flagged() {
         &ColumnMap::default(),
     )
     .expect("reads");
+    // Under the controller all three machines share (the choice between models is tested above;
+    // here it would double the cost for nothing).
     let cal = calibrate_controller(
         &atom(),
         &runs,
         ElstFit::Constant,
         &Options::new(Schedule::Optimal),
-        None,
+        Some(Motion::Constant),
     )
     .expect("calibrated");
     assert!(
