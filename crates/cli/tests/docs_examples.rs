@@ -179,9 +179,10 @@ fn the_script_checks_an_expected_failure() {
     assert!(script.ends_with("arcsim a    --b c\n"), "{script}");
 }
 
+/// Not one of the heavy tests that take turns (`util::one_heavy_test_at_a_time`): it has no time
+/// limit, and its blocks run one command at a time, so it runs beside them on the other core.
 #[test]
 fn every_shell_example_in_the_docs_runs() {
-    let _turn = crate::util::one_heavy_test_at_a_time();
     let mut ran = 0;
     let mut not_run = Vec::new();
     let mut failures = Vec::new();
