@@ -321,22 +321,18 @@ fn check(truth: Truth, seed: u64) {
     within(predicted, logged_total, 0.01, "held-out total");
 }
 
-// CI checks six fits: two seeds of each controller (an even seed and an odd one, whose logs hold an
-// encoder glitch) and one of each constant-speed variant. A fit costs about 2.5 CPU-minutes, most
+// CI checks four fits, one per machine: two seeds whose logs hold an encoder glitch (odd) and two
+// whose logs do not. A fit costs about 2.5 CPU-minutes, most
 // of it free-motion simulations (issue 45); the twenty seeds of each machine issue 44 asks for run
 // in `controller_twenty_seeds` below.
 #[test]
 fn calibration_learns_a_constant_speed_controller() {
-    for seed in [0, 1] {
-        check(Truth::Constant, seed);
-    }
+    check(Truth::Constant, 0);
 }
 
 #[test]
 fn calibration_learns_a_free_motion_controller() {
-    for seed in [0, 1] {
-        check(Truth::Free, seed);
-    }
+    check(Truth::Free, 1);
 }
 
 #[test]
@@ -372,7 +368,7 @@ fn a_forced_motion_is_written_as_forced() {
     );
 }
 
-/// The long run issue 44 asks for: 20 seeds per machine (CI runs six of them, above). `cargo test -p arcsim-log --release
+/// The long run issue 44 asks for: 20 seeds per machine (CI runs four fits, above). `cargo test -p arcsim-log --release
 /// -- --ignored controller_twenty_seeds --nocapture`.
 #[test]
 #[ignore = "about 20 minutes: run by hand, figures in the closing note"]
