@@ -322,9 +322,9 @@ fn check(truth: Truth, seed: u64) {
 }
 
 // CI checks four fits, one per machine: two seeds whose logs hold an encoder glitch (odd) and two
-// whose logs do not. A fit costs about 2.5 CPU-minutes, most
-// of it free-motion simulations (issue 45); the twenty seeds of each machine issue 44 asks for run
-// in `controller_twenty_seeds` below.
+// whose logs do not. A fit costs about 2.5 CPU-minutes, most of it free-motion simulations
+// (issue 45); the twenty seeds of each machine issue 44 asks for run in `controller_twenty_seeds`
+// below.
 #[test]
 fn calibration_learns_a_constant_speed_controller() {
     check(Truth::Constant, 0);
