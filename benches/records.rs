@@ -15,7 +15,7 @@ use std::time::Duration;
 use arcsim_dicom::{
     read_delivery_log, treatment_record_bytes, BeamOnInterval, RecordStart, RecordedBeam,
 };
-use arcsim_log::iba::{iba_log_files, IbaNozzle};
+use arcsim_log::iba::{iba_log_files, IbaLayout, IbaNozzle};
 use arcsim_log::{calibrate_spots, compare, BeamInterval, ColumnMap, LoggedSpot, SpotLog, SpotRun};
 use arcsim_plan::{generate_shaped, load_machine, load_plan, resolve, PlanKind, Shape};
 use arcsim_sequencer::{machine_limits, simulate_resolved, spot_timeline, Options, Schedule};
@@ -111,6 +111,7 @@ fn bench_record(c: &mut Criterion) {
         plan_name: "prostate".into(),
         plan: prostate.clone(),
         log: SpotLog {
+            time_step_s: None,
             source: "prostate-spots.csv".into(),
             spots,
         },
@@ -127,7 +128,7 @@ fn bench_record(c: &mut Criterion) {
     let rows = spot_timeline(&plan, &pbs, &sim).expect("spots");
     let start = arcsim_log::iba::start_seconds("20260101080000").expect("start");
     let dir = std::env::temp_dir().join(format!("arcsim-bench-iba-{}", std::process::id()));
-    for (rel, text) in iba_log_files(&sim, &rows, start, &IbaNozzle::default()) {
+    for (rel, text) in iba_log_files(&sim, &rows, start, &IbaNozzle::default(), IbaLayout::Rows) {
         let file = dir.join(rel);
         std::fs::create_dir_all(file.parent().expect("folder")).expect("folder");
         std::fs::write(file, text).expect("written");

@@ -12,23 +12,12 @@ use std::path::{Path, PathBuf};
 use arcsim_test_support::temp_dir;
 use serde_json::Value;
 
-use crate::util::{arcsim, path_str, repo_json, text};
+use crate::util::{arcsim, path_str, text};
 
 const BASE: &str = "scenarios/machine-opentps-pbs.json";
 
 fn hidden_machine(dir: &Path) -> PathBuf {
-    let mut m = repo_json(BASE);
-    m["name"] = "hidden".into();
-    let b = &mut m["beam"];
-    b["scan_speed_mm_per_s"] = 6000.0.into();
-    b["settling_time_s"] = 0.002.into();
-    for row in b["s_per_mu_by_energy"].as_array_mut().expect("table") {
-        let r = row[1].as_f64().expect("rate");
-        row[1] = (1.1 * r).into();
-    }
-    let path = dir.join("hidden.json");
-    std::fs::write(&path, m.to_string()).expect("machine written");
-    path
+    crate::util::hidden_scanning_machine(dir, BASE, &[])
 }
 
 /// The generated plan of `kind` with spot spacings of 3–8 mm (by energy), as docs/records.md's
@@ -49,8 +38,13 @@ fn spaced_plan(dir: &Path, kind: &str) -> PathBuf {
 }
 
 fn iba_log(dir: &Path, plan: &Path, machine: &Path, start: &str) -> PathBuf {
+    iba_log_in(dir, plan, machine, start, "rows")
+}
+
+/// `simulate --iba-log` of `plan` on `machine` in the recorder's `layout`.
+fn iba_log_in(dir: &Path, plan: &Path, machine: &Path, start: &str, layout: &str) -> PathBuf {
     let stem = plan.file_stem().expect("stem").to_string_lossy();
-    let out_dir = dir.join(format!("{stem}-iba"));
+    let out_dir = dir.join(format!("{stem}-iba-{layout}"));
     let out = arcsim(&[
         "simulate",
         path_str(plan),
@@ -58,6 +52,8 @@ fn iba_log(dir: &Path, plan: &Path, machine: &Path, start: &str) -> PathBuf {
         path_str(machine),
         "--iba-log",
         path_str(&out_dir),
+        "--iba-layout",
+        layout,
         "--record-start",
         start,
     ]);
@@ -69,42 +65,59 @@ fn iba_log(dir: &Path, plan: &Path, machine: &Path, start: &str) -> PathBuf {
 fn calibrate_spots_recovers_a_hidden_scanning_machine_from_iba_logs() {
     let dir = temp_dir();
     let hidden = hidden_machine(&dir);
-    let mut args: Vec<String> = vec!["calibrate-spots".into(), "--machine".into(), BASE.into()];
-    // One delivery crosses midnight and the new year.
-    for (plan, start) in [
-        ("prostate", "20261231235950"),
-        ("lung", "20260102080000"),
-        ("two-arc", "20260103080000"),
-    ] {
+    // One delivery crosses midnight and the new year; the lung's recorder writes the element
+    // layout (`SPOT_ID`, `FPGA_COUNT`), the others a row per 0.25 ms.
+    let logs: Vec<(PathBuf, PathBuf)> = [
+        ("prostate", "20261231235950", "rows"),
+        ("lung", "20260102080000", "elements"),
+        ("two-arc", "20260103080000", "rows"),
+    ]
+    .into_iter()
+    .map(|(plan, start, layout)| {
         let plan = spaced_plan(&dir, plan);
-        let log = iba_log(&dir, &plan, &hidden, start);
-        args.push(path_str(&plan).into());
-        args.push(path_str(&log).into());
-    }
-    let (fitted, json) = (dir.join("fitted.json"), dir.join("report.json"));
-    args.extend([
-        "-o".into(),
-        path_str(&fitted).into(),
-        "--json".into(),
-        path_str(&json).into(),
-    ]);
-    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-    let out = arcsim(&refs);
-    let (stdout, stderr) = text(&out);
-    assert!(out.status.success(), "{stdout}{stderr}");
-    assert!(stdout.contains("clock resolution 0.00025 s"), "{stdout}");
-    let report: Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("report")).expect("json");
-    crate::util::assert_recovered(
-        &report,
+        let log = iba_log_in(&dir, &plan, &hidden, start, layout);
+        (plan, log)
+    })
+    .collect();
+    recovered(
+        &dir,
+        BASE,
+        &logs,
+        0.00025,
         &[
             ("beam.s_per_mu_scale", 1.1),
             ("beam.scan_speed_mm_per_s", 6000.0),
             ("beam.settling_time_s", 0.002),
         ],
-        0.03,
-        &stdout,
     );
+}
+
+/// `calibrate-spots` from `base` on `logs` (plan and log folder pairs): it reads the clock as
+/// `clock_s`, finds each of `truth` within 3 % with an interval that holds it, and times every
+/// logged layer within 0.1 %.
+fn recovered(
+    dir: &Path,
+    base: &str,
+    logs: &[(PathBuf, PathBuf)],
+    clock_s: f64,
+    truth: &[(&str, f64)],
+) {
+    let (fitted, json) = (dir.join("fitted.json"), dir.join("report.json"));
+    let mut args: Vec<&str> = vec!["calibrate-spots", "--machine", base];
+    for (plan, log) in logs {
+        args.extend([path_str(plan), path_str(log)]);
+    }
+    args.extend(["-o", path_str(&fitted), "--json", path_str(&json)]);
+    let out = arcsim(&args);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}{stderr}");
+    assert!(
+        stdout.contains(&format!("clock resolution {clock_s} s")),
+        "{stdout}"
+    );
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("report")).expect("json");
+    crate::util::assert_recovered(&report, truth, 0.03, &stdout);
     for r in report["residuals"].as_array().expect("residuals") {
         let pct = r["fitted_error_pct"].as_f64().expect("pct");
         assert!(pct.abs() < 0.1, "{r}");
@@ -116,14 +129,23 @@ fn compare_times_every_layer_of_an_iba_log_to_its_sampling_period() {
     let dir = temp_dir();
     let hidden = hidden_machine(&dir);
     let plan = spaced_plan(&dir, "two-arc");
-    let log = iba_log(&dir, &plan, &hidden, "20261231235930");
-    let json = dir.join("compare.json");
+    // The element layout places each layer by its millisecond START_IRRADIATION stamp.
+    for (layout, step) in [("rows", 0.00025), ("elements", 0.001)] {
+        let log = iba_log_in(&dir, &plan, &hidden, "20261231235930", layout);
+        compare_within(&plan, &log, &hidden, step);
+    }
+}
+
+/// `compare` of `log` with `plan` on `machine`: every planned layer matched, each beam edge
+/// within `step` s of the simulation, each angle within the events' 0.001°.
+fn compare_within(plan: &Path, log: &Path, machine: &Path, step: f64) {
+    let json = log.with_extension("compare.json");
     let out = arcsim(&[
         "compare",
-        path_str(&plan),
-        path_str(&log),
+        path_str(plan),
+        path_str(log),
         "--machine",
-        path_str(&hidden),
+        path_str(machine),
         "--json",
         path_str(&json),
     ]);
@@ -132,7 +154,7 @@ fn compare_times_every_layer_of_an_iba_log_to_its_sampling_period() {
     let c: Value =
         serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
     let layers = c["layers"].as_array().expect("layers");
-    let planned = serde_json::from_str::<Value>(&std::fs::read_to_string(&plan).expect("plan"))
+    let planned = serde_json::from_str::<Value>(&std::fs::read_to_string(plan).expect("plan"))
         .expect("json")["arcs"]
         .as_array()
         .expect("arcs")
@@ -147,7 +169,7 @@ fn compare_times_every_layer_of_an_iba_log_to_its_sampling_period() {
             ("logged_end_s", "simulated_end_s"),
         ] {
             let d = l[a].as_f64().expect("t") - l[b].as_f64().expect("t");
-            assert!(d.abs() <= 0.00025, "layer {}: {a} off by {d} s", l["index"]);
+            assert!(d.abs() <= step, "layer {}: {a} off by {d} s", l["index"]);
         }
         // The events file's actual angles (written to 0.001°, modulo 360).
         let d = (l["logged_angle_start_deg"].as_f64().expect("deg")
@@ -159,7 +181,7 @@ fn compare_times_every_layer_of_an_iba_log_to_its_sampling_period() {
             l["index"]
         );
     }
-    assert_eq!(c["edge_resolution_s"], 0.00025);
+    assert_eq!(c["edge_resolution_s"], step);
 }
 
 /// Runs `compare` on the prostate's IBA-style log after `edit` changed it; standard error.
@@ -247,17 +269,6 @@ fn malformed_iba_logs_are_refused_by_file_and_line() {
             && e.contains("expected one per layer"),
         "{e}"
     );
-    // The other layout of the recorder (Dekimo), which is not read.
-    let e = refused(|beam| {
-        let rec = file_starting(beam, "map_record_0000");
-        edit_line(&rec, 11, |_| {
-            "#ELEMENT_ID,SPOT_ID,FPGA_COUNT,PRIM_IC_CHARGE".into()
-        });
-    });
-    assert!(
-        e.contains("map_record_0000_part_01") && e.contains("the Dekimo layout"),
-        "{e}"
-    );
     // A charge per MU that is not a number.
     let e = refused(|beam| {
         let cfg = file_starting(beam, "beam_config");
@@ -303,4 +314,48 @@ fn calibrate_spots_refuses_an_iba_log_of_another_shape_of_plan() {
         "{e}"
     );
     assert!(!out.exists());
+}
+
+/// A synchrocyclotron's recorder: `burst_record` files, one element per 1 ms beam pulse, of a
+/// ProteusONE-like machine hidden here (6,000 mm/s, 2 ms settling, 0.12 s between bursts where
+/// the base has 0.15, every time per MU 10 % longer, at least one pulse per spot). Each pass
+/// over a layer's spots is one burst and passes differ in length (only spots with MU left are
+/// revisited), so the passes are found by the plan's spot order. `calibrate-spots` finds every
+/// value within 3 % with intervals that hold it, reading the 1 ms pulse as the clock; `compare`
+/// times every layer to the pulse.
+#[test]
+fn calibrate_spots_recovers_a_hidden_burst_machine_from_burst_records() {
+    const BURST_BASE: &str = "scenarios/machine-proteusone-like.json";
+    let dir = temp_dir();
+    let hidden = crate::util::hidden_scanning_machine(
+        &dir,
+        BURST_BASE,
+        &[("burst_switching_time_s", 0.12), ("min_spot_time_s", 0.001)],
+    );
+    let logs: Vec<(PathBuf, PathBuf)> = [
+        ("prostate", "20260105080000"),
+        ("lung", "20260106235958"),
+        ("two-arc", "20260107080000"),
+    ]
+    .into_iter()
+    .map(|(plan, start)| {
+        let plan = spaced_plan(&dir, plan);
+        let log = iba_log_in(&dir, &plan, &hidden, start, "bursts");
+        (plan, log)
+    })
+    .collect();
+    recovered(
+        &dir,
+        BURST_BASE,
+        &logs,
+        0.001,
+        &[
+            ("beam.s_per_mu_scale", 1.1),
+            ("beam.scan_speed_mm_per_s", 6000.0),
+            ("beam.settling_time_s", 0.002),
+            ("beam.burst_switching_time_s", 0.12),
+        ],
+    );
+    let (plan, log) = &logs[1];
+    compare_within(plan, log, &hidden, 0.001);
 }

@@ -15,19 +15,7 @@ use crate::util::{arcsim, path_str, repo_json, text};
 const BASE: &str = "scenarios/machine-proteusone-like.json";
 
 fn hidden_machine(dir: &Path) -> PathBuf {
-    let mut m = repo_json(BASE);
-    m["name"] = "hidden".into();
-    let b = &mut m["beam"];
-    b["scan_speed_mm_per_s"] = 6000.0.into();
-    b["settling_time_s"] = 0.002.into();
-    b["burst_switching_time_s"] = 0.12.into();
-    for row in b["s_per_mu_by_energy"].as_array_mut().expect("table") {
-        let r = row[1].as_f64().expect("rate");
-        row[1] = (1.1 * r).into();
-    }
-    let path = dir.join("hidden.json");
-    std::fs::write(&path, m.to_string()).expect("machine written");
-    path
+    crate::util::hidden_scanning_machine(dir, BASE, &[("burst_switching_time_s", 0.12)])
 }
 
 /// `simulate --spots` of `plan` on `machine`, every time then read by a 0.25 ms clock whose

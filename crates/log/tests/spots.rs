@@ -81,6 +81,7 @@ fn spot_log(plan: &ArcPlan, hidden: &Machine, seed: u64, pause: bool) -> SpotLog
         }
     }
     SpotLog {
+        time_step_s: None,
         source: format!("spots-{seed}.csv"),
         spots,
     }

@@ -5,5 +5,6 @@ mod compare;
 mod controller;
 mod faults;
 mod read_errors;
+mod reggui;
 mod spots;
 mod virtual_logs;

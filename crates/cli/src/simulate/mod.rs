@@ -39,6 +39,10 @@ pub fn parse_motion(text: &str) -> Result<Motion, String> {
     text.parse::<Motion>().map_err(|e| e.to_string())
 }
 
+fn parse_iba_layout(text: &str) -> Result<arcsim_log::iba::IbaLayout, String> {
+    text.parse()
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ArcEndsArg {
     /// The first and last layers of each arc are irradiated at rest.
@@ -119,6 +123,12 @@ pub struct Args {
     /// `beam` and the arc irradiation `events` (docs/records.md#iba-logs).
     #[arg(long, value_name = "DIR")]
     iba_log: Option<PathBuf>,
+    /// The recorder's layout of `--iba-log`: `rows` (a `map_record` row per 0.25 ms with
+    /// `SUBMAP_NUMBER` and `TIME`), `elements` (`map_record` elements with `SPOT_ID` and a
+    /// microsecond `FPGA_COUNT`) or `bursts` (a synchrocyclotron's `burst_record`, an element
+    /// per 1 ms pulse).
+    #[arg(long, value_name = "LAYOUT", default_value = "rows", value_parser = parse_iba_layout)]
+    iba_layout: arcsim_log::iba::IbaLayout,
     /// When the record's (and the IBA-style log's) first layer starts: YYYYMMDDHHMMSS.
     #[arg(long, value_name = "WHEN", default_value = "20260101080000")]
     record_start: String,

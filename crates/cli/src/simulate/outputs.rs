@@ -185,6 +185,7 @@ pub(super) fn write_iba_log(
         spots,
         start,
         &arcsim_log::iba::IbaNozzle::default(),
+        args.iba_layout,
     );
     for (rel, text) in files {
         let path = dir.join(rel);

@@ -170,3 +170,24 @@ pub fn assert_recovered(
         );
     }
 }
+
+/// The scanning machine `calibrate-spots` tests hide: `base` (a machine file of the repository)
+/// scanning at 6,000 mm/s with 2 ms of settling and every time per MU 10 % longer, then `extra`
+/// beam fields set; written as `dir/hidden.json`.
+pub fn hidden_scanning_machine(dir: &Path, base: &str, extra: &[(&str, f64)]) -> PathBuf {
+    let mut m = repo_json(base);
+    m["name"] = "hidden".into();
+    let b = &mut m["beam"];
+    b["scan_speed_mm_per_s"] = 6000.0.into();
+    b["settling_time_s"] = 0.002.into();
+    for (field, value) in extra {
+        b[*field] = (*value).into();
+    }
+    for row in b["s_per_mu_by_energy"].as_array_mut().expect("table") {
+        let r = row[1].as_f64().expect("rate");
+        row[1] = (1.1 * r).into();
+    }
+    let path = dir.join("hidden.json");
+    std::fs::write(&path, m.to_string()).expect("machine written");
+    path
+}

@@ -8,7 +8,7 @@ use crate::{BeamInterval, DeliveryLog, LogError, LoggedSpot, SpotLog};
 
 impl IbaLog {
     /// Each layer's beam on, from its first spot's start to its last spot's end (edges known to
-    /// the 0.25 ms sampling period), the gantry at its arc irradiation's start and end (`Actual=`)
+    /// [`IbaBeam::edge_resolution_s`](super::IbaBeam::edge_resolution_s)), the gantry at its arc irradiation's start and end (`Actual=`)
     /// or, without an events file, the beam file's gantry angle; MU from the charge where
     /// `beam_config` gives the charge per MU. The log has no energies (IBA's records hold a range
     /// instead): layers are matched to the plan's in order and by time, as for any log without
@@ -40,8 +40,13 @@ impl IbaLog {
             }
         }
         intervals.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
-        let mut log = DeliveryLog::from_intervals(&self.source, &intervals, SAMPLE_PERIOD_S)
-            .ok_or_else(|| {
+        let step = self
+            .beams
+            .iter()
+            .map(|b| b.edge_resolution_s)
+            .fold(SAMPLE_PERIOD_S, f64::max);
+        let mut log =
+            DeliveryLog::from_intervals(&self.source, &intervals, step).ok_or_else(|| {
                 LogError::file(
                     &self.source,
                     "no layer with a spot; expected a delivered beam",
@@ -64,8 +69,7 @@ impl IbaLog {
     /// plan's arcs in order and each beam's layers its arc's layers in order (the log has no
     /// energies to match them by). A spot's MU is its charge times the MU per coulomb, or, where
     /// `beam_config` gives no charge per MU, its share of its layer's charge times the plan's
-    /// layer MU. The pass over a painted layer is the spot's place in the layer divided by the
-    /// plan's spot count.
+    /// layer MU. The pass over the layer each spot belongs to is found by [`passes`].
     pub fn to_spot_log(&self, plan: &ArcPlan) -> Result<SpotLog, LogError> {
         if self.beams.len() != plan.arcs.len() {
             return Err(LogError::file(
@@ -122,12 +126,13 @@ impl IbaLog {
                         }
                     }
                 };
-                for (k, s) in layer.spots.iter().enumerate() {
+                let passes = passes(&layer.spots, energy_layer, count);
+                for (s, painting) in layer.spots.iter().zip(passes) {
                     spots.push(LoggedSpot {
                         arc: a,
                         control_point: cp,
                         layer: l,
-                        painting: k.checked_div(count).unwrap_or(0),
+                        painting,
                         x_mm: s.x_mm,
                         y_mm: s.y_mm,
                         mu: s.charge_c * per_coulomb,
@@ -140,8 +145,49 @@ impl IbaLog {
         }
         spots.sort_by(|x, y| x.t_start_s.total_cmp(&y.t_start_s));
         Ok(SpotLog {
+            time_step_s: Some(
+                self.beams
+                    .iter()
+                    .map(|b| b.time_step_s)
+                    .fold(SAMPLE_PERIOD_S, f64::max),
+            ),
             source: self.source.clone(),
             spots,
         })
     }
+}
+
+/// The pass over the layer's spots each logged spot belongs to: where the plan gives spot
+/// positions, each logged spot is the planned spot nearest to it, and a new pass starts where
+/// one is not after the spot before it in the plan's order (a beam in bursts revisits only the
+/// spots with MU left, so passes differ in length); without positions, the spot's place in the
+/// layer divided by the plan's spot count.
+fn passes(logged: &[super::IbaSpot], layer: &arcsim_plan::EnergyLayer, count: usize) -> Vec<usize> {
+    let planned = layer.spots.as_ref().and_then(|s| s.positions_mm.as_ref());
+    let Some(planned) = planned.filter(|p| !p.is_empty()) else {
+        return (0..logged.len())
+            .map(|k| k.checked_div(count).unwrap_or(0))
+            .collect();
+    };
+    let nearest = |s: &super::IbaSpot| {
+        planned
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (i, (p[0] - s.x_mm).powi(2) + (p[1] - s.y_mm).powi(2)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or(0, |(i, _)| i)
+    };
+    let mut pass = 0;
+    let mut last = None;
+    logged
+        .iter()
+        .map(|s| {
+            let i = nearest(s);
+            if last.is_some_and(|j| i <= j) {
+                pass += 1;
+            }
+            last = Some(i);
+            pass
+        })
+        .collect()
 }

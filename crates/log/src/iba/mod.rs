@@ -14,6 +14,7 @@
 //! from a simulated delivery, the fixtures the tests calibrate hidden machines from.
 
 mod convert;
+mod element;
 mod events;
 mod read;
 mod settings;
@@ -22,11 +23,16 @@ mod write;
 
 pub use read::{is_iba_folder, read_iba_log};
 pub use time::days_from_civil;
-pub use write::{iba_log_files, start_seconds, IbaNozzle};
+pub use write::{iba_log_files, start_seconds, IbaLayout, IbaNozzle};
 
 /// The recorder's sampling period, s: one `map_record` row per 0.25 ms (4 rows per ms, as both
 /// public readers take it).
 pub const SAMPLE_PERIOD_S: f64 = 0.25e-3;
+
+/// A synchrocyclotron's pulse period, s: each element of a `burst_record` is one pulse, and
+/// a spot lasts until one period after its last pulse (as REGGUI's S2C2 reader takes it) where
+/// the file does not show the period itself.
+pub const BURST_PERIOD_S: f64 = 1e-3;
 
 /// Reference conditions of the chamber's charge when the beam file gives none: 1013 hPa and
 /// 293 K, as the OncoRay reader takes them.
@@ -58,6 +64,12 @@ pub struct IbaBeam {
     /// Whether `beam_config` gave the SAD and the chamber-to-isocentre distance, so the spots'
     /// positions are at the isocentre plane (else the chamber's, offsets removed).
     pub positions_at_isocentre: bool,
+    /// The longest time step of its records (0.25 ms rows, or the element layout's element
+    /// period): the resolution of its spots' start and end.
+    pub time_step_s: f64,
+    /// The resolution of its layers' beam edges in time: the time step, or the element layout's
+    /// `START_IRRADIATION` stamp (which places each layer) where that is coarser.
+    pub edge_resolution_s: f64,
     /// The layers with at least one spot, in the order of their numbers.
     pub layers: Vec<IbaLayer>,
     /// The events file's arc irradiations, in time order (empty for a fixed beam).

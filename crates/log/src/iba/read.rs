@@ -4,10 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
+use super::element::{is_element_layout, read_element_spots};
 use super::events::{check_events, read_events};
 use super::settings::{read_beam_file, read_config, read_specif, BeamFile, Config};
 use super::time::parse_stamp;
-use super::{IbaBeam, IbaLayer, IbaLog, IbaSpot, SAMPLE_PERIOD_S};
+use super::{IbaBeam, IbaLayer, IbaLog, IbaSpot, BURST_PERIOD_S, SAMPLE_PERIOD_S};
 use crate::LogError;
 
 /// A chamber position at or below this, mm, is the recorder's "no position" (-10000).
@@ -86,9 +87,22 @@ fn file_name(p: &Path) -> String {
         .unwrap_or_default()
 }
 
+/// A layer's record: `map_record_*` (the 250 µs rows or the element layout) or, from a
+/// synchrocyclotron's recorder, `burst_record_*`; tuning records are not the plan's spots.
 fn is_record(p: &Path) -> bool {
     let n = file_name(p);
-    n.contains("map_record_") && !n.contains("tuning") && !n.starts_with('.')
+    (n.contains("map_record_") || n.contains("burst_record_"))
+        && !n.contains("tuning")
+        && !n.starts_with('.')
+}
+
+/// The kind of record file `name` is (`map_record_` or `burst_record_`) and its specif's.
+fn record_kind(name: &str) -> (&'static str, &'static str) {
+    if name.contains("burst_record_") {
+        ("burst_record_", "burst_specif_")
+    } else {
+        ("map_record_", "map_specif_")
+    }
 }
 
 pub(super) fn read_text(p: &Path) -> Result<String, LogError> {
@@ -114,22 +128,25 @@ pub(super) fn read_text(p: &Path) -> Result<String, LogError> {
     })
 }
 
-/// The layer number and part of `map_record_NNNN_part_MM…` (or `map_specif_…`).
+/// The layer number and part of `map_record_NNNN_part_MM…` (or `map_specif_…`), or of
+/// `burst_record_NNNN_MM…` (or `burst_specif_…`).
 fn layer_and_part(name: &str, kind: &str) -> Option<(u32, u32)> {
     let rest = &name[name.find(kind)? + kind.len()..];
     let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
     let layer = digits.parse().ok()?;
-    let part = rest
-        .find("_part_")
-        .map(|i| {
-            rest[i + 6..]
-                .chars()
-                .take_while(char::is_ascii_digit)
-                .collect::<String>()
-        })
-        .and_then(|d| d.parse().ok())
-        .unwrap_or(1);
-    Some((layer, part))
+    let after = &rest[digits.len()..];
+    let part_digits = |from: &str| -> Option<u32> {
+        let d: String = from.chars().take_while(char::is_ascii_digit).collect();
+        d.parse().ok()
+    };
+    let part = if let Some(i) = after.find("_part_") {
+        part_digits(&after[i + 6..])
+    } else if kind.starts_with("burst") {
+        after.strip_prefix('_').and_then(part_digits)
+    } else {
+        None
+    };
+    Some((layer, part.unwrap_or(1)))
 }
 
 /// One `map_record` row.
@@ -144,25 +161,21 @@ struct Row {
     line: u64,
 }
 
-fn read_rows(p: &Path, origin: &mut Option<i64>) -> Result<Vec<Row>, LogError> {
-    let (name, text) = (p.display().to_string(), read_text(p)?);
+fn read_rows(name: &str, text: &str, origin: &mut Option<i64>) -> Result<Vec<Row>, LogError> {
     let mut lines = text.lines().enumerate();
     let header = loop {
         match lines.next() {
-            Some((_, l)) if l.contains("FPGA_COUNT") || l.contains("#ELEMENT_ID") => {
-                return Err(LogError::file(&name, "the Dekimo layout (SPOT_ID, FPGA_COUNT) is not read; expected the 250 µs layout with SUBMAP_NUMBER and TIME"));
-            }
             Some((i, l)) if l.contains("SUBMAP_NUMBER") => break (i as u64 + 1, l),
             Some(_) => {}
             None => {
-                return Err(LogError::file(&name, "no header line with SUBMAP_NUMBER; expected a map_record file (SUBMAP_NUMBER, TIME, X_POSITION(mm), Y_POSITION(mm), DOSE_PRIM(C))"));
+                return Err(LogError::file(name, "no header line with SUBMAP_NUMBER; expected a map_record file (SUBMAP_NUMBER, TIME, X_POSITION(mm), Y_POSITION(mm), DOSE_PRIM(C))"));
             }
         }
     };
     let head: Vec<&str> = header.1.split(',').map(str::trim).collect();
     let col = |h: &str| {
         head.iter().position(|x| *x == h).ok_or_else(|| {
-            LogError::at(&name, header.0, None, format!("no column `{h}`; expected SUBMAP_NUMBER, TIME, X_POSITION(mm), Y_POSITION(mm), DOSE_PRIM(C)"))
+            LogError::at(name, header.0, None, format!("no column `{h}`; expected SUBMAP_NUMBER, TIME, X_POSITION(mm), Y_POSITION(mm), DOSE_PRIM(C)"))
         })
     };
     let cols = [
@@ -182,7 +195,7 @@ fn read_rows(p: &Path, origin: &mut Option<i64>) -> Result<Vec<Row>, LogError> {
         let get = |c: usize, what: &str| {
             f.get(c).copied().ok_or_else(|| {
                 LogError::at(
-                    &name,
+                    name,
                     line,
                     Some(what),
                     format!("{} fields; expected {}", f.len(), head.len()),
@@ -195,17 +208,17 @@ fn read_rows(p: &Path, origin: &mut Option<i64>) -> Result<Vec<Row>, LogError> {
                 .ok()
                 .filter(|v| v.is_finite())
                 .ok_or_else(|| {
-                    LogError::at(&name, line, Some(what), format!("`{s}`; expected a number"))
+                    LogError::at(name, line, Some(what), format!("`{s}`; expected a number"))
                 })
         };
         let submap = num(cols[0], "SUBMAP_NUMBER")?;
         let stamp = parse_stamp(get(cols[1], "TIME")?)
-            .map_err(|m| LogError::at(&name, line, Some("TIME"), m))?;
+            .map_err(|m| LogError::at(name, line, Some("TIME"), m))?;
         let t = stamp.since(origin);
         if let Some(prev) = rows.last().map(|r: &Row| r.t_s) {
             if t < prev {
                 return Err(LogError::at(
-                    &name,
+                    name,
                     line,
                     Some("TIME"),
                     "earlier than the row before; expected rows in time order",
@@ -257,65 +270,115 @@ fn row_times(rows: &[Row]) -> Vec<f64> {
     out
 }
 
-/// The layer's records: spots, the chamber's positions turned to the isocentre plane.
+/// A spot as a record file gives it: times (s after the log's origin), physics X and Y on the
+/// chamber (mm), charge (C) and the line of its first row.
+#[derive(Debug)]
+pub(super) struct RawSpot {
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+    pub pos: [f64; 2],
+    pub charge_c: f64,
+    pub line: u64,
+}
+
+/// The spots of a record in the 250 µs layout: runs of consecutive rows of one submap number
+/// with charge, at least one of them with a position (the last such row's is the spot's). A
+/// charged row without a position (the chamber had not yet placed the beam) counts towards its
+/// spot's time and charge.
+fn row_spots(name: &str, text: &str, origin: &mut Option<i64>) -> Result<Vec<RawSpot>, LogError> {
+    let rows = read_rows(name, text, origin)?;
+    let times = row_times(&rows);
+    let charged = |r: &Row| r.submap >= 0 && r.charge_c > 0.0;
+    let placed = |r: &Row| r.pos[0] > NO_POSITION_MM && r.pos[1] > NO_POSITION_MM;
+    let mut spots = Vec::new();
+    let mut i = 0;
+    while i < rows.len() {
+        if !charged(&rows[i]) {
+            i += 1;
+            continue;
+        }
+        let first = i;
+        let (mut charge, mut pos) = (0.0, None);
+        while i < rows.len() && charged(&rows[i]) && rows[i].submap == rows[first].submap {
+            charge += rows[i].charge_c.abs();
+            if placed(&rows[i]) {
+                pos = Some(rows[i].pos);
+            }
+            i += 1;
+        }
+        if let Some(pos) = pos {
+            spots.push(RawSpot {
+                t_start_s: times[first],
+                t_end_s: times[i - 1] + SAMPLE_PERIOD_S,
+                pos,
+                charge_c: charge,
+                line: rows[first].line,
+            });
+        }
+    }
+    Ok(spots)
+}
+
+/// The layer's records: spots, the chamber's positions turned to the isocentre plane; also the
+/// longest time step of its records and the resolution of the layer's place in time (the
+/// element layout places a layer by its `START_IRRADIATION` stamp).
 fn read_layer(
     number: u32,
     files: &[(PathBuf, Option<PathBuf>)],
     config: &Config,
     origin: &mut Option<i64>,
-) -> Result<IbaLayer, LogError> {
+) -> Result<(IbaLayer, [f64; 2]), LogError> {
     let mut spots = Vec::new();
     let mut range = None;
+    let (mut resolution_s, mut placed_s): (f64, f64) = (0.0, 0.0);
     for (record, specif) in files {
         let (r, offset) = match specif {
             Some(s) => read_specif(s)?,
             None => (None, [0.0, 0.0]),
         };
         range = range.or(r);
-        let rows = read_rows(record, origin)?;
-        let times = row_times(&rows);
         let name = record.display().to_string();
+        let burst = file_name(record).contains("burst_record_");
+        let text = read_text(record)?;
+        let raw = if burst || is_element_layout(&text) {
+            let default = if burst {
+                BURST_PERIOD_S
+            } else {
+                SAMPLE_PERIOD_S
+            };
+            let (raw, period, stamp) = read_element_spots(&name, &text, origin, default)?;
+            resolution_s = resolution_s.max(period);
+            placed_s = placed_s.max(period).max(stamp);
+            raw
+        } else {
+            resolution_s = resolution_s.max(SAMPLE_PERIOD_S);
+            placed_s = placed_s.max(SAMPLE_PERIOD_S);
+            row_spots(&name, &text, origin)?
+        };
         // Physics X ↔ IEC gantry y, physics Y ↔ IEC gantry x.
         let scale = |axis: usize| match (config.sad_mm, config.ic_to_iso_mm) {
             (Some(sad), Some(d)) => sad[axis] / (sad[axis] - d[axis]),
             _ => 1.0,
         };
-        let mut i = 0;
-        while i < rows.len() {
-            let charged = |r: &Row| {
-                r.submap >= 0
-                    && r.charge_c > 0.0
-                    && r.pos[0] > NO_POSITION_MM
-                    && r.pos[1] > NO_POSITION_MM
-            };
-            if !charged(&rows[i]) {
-                i += 1;
-                continue;
-            }
-            let first = i;
-            let mut charge = 0.0;
-            while i < rows.len() && charged(&rows[i]) && rows[i].submap == rows[first].submap {
-                charge += rows[i].charge_c.abs();
-                i += 1;
-            }
-            let last = &rows[i - 1];
-            spots.push(IbaSpot {
-                t_start_s: times[first],
-                t_end_s: times[i - 1] + SAMPLE_PERIOD_S,
-                x_mm: (last.pos[1] - offset[1]) * scale(1),
-                y_mm: (last.pos[0] - offset[0]) * scale(0),
-                charge_c: charge,
-                file: name.clone(),
-                line: rows[first].line,
-            });
-        }
+        spots.extend(raw.into_iter().map(|r| IbaSpot {
+            t_start_s: r.t_start_s,
+            t_end_s: r.t_end_s,
+            x_mm: (r.pos[1] - offset[1]) * scale(1),
+            y_mm: (r.pos[0] - offset[0]) * scale(0),
+            charge_c: r.charge_c,
+            file: name.clone(),
+            line: r.line,
+        }));
     }
     spots.sort_by(|a, b| a.t_start_s.total_cmp(&b.t_start_s));
-    Ok(IbaLayer {
-        number,
-        range,
-        spots,
-    })
+    Ok((
+        IbaLayer {
+            number,
+            range,
+            spots,
+        },
+        [resolution_s, placed_s],
+    ))
 }
 
 fn read_beam(
@@ -346,7 +409,7 @@ fn read_beam(
         .iter()
         .filter(|p| {
             let n = file_name(p);
-            n.contains("map_record") && n.contains("tuning")
+            (n.contains("map_record") || n.contains("burst_record")) && n.contains("tuning")
         })
         .count();
     if tunings > 0 {
@@ -354,26 +417,42 @@ fn read_beam(
             "{folder}: {tunings} tuning record(s) not read (their spots are not in the plan)"
         ));
     }
-    // Records grouped by layer number, parts in order, each with its specif file.
+    // Each specif file by its kind, layer and part, then the records grouped by layer number,
+    // parts in order, each with its specif file.
+    let specifs: Vec<(&str, (u32, u32), &PathBuf)> = files
+        .iter()
+        .filter_map(|q| {
+            let m = file_name(q);
+            if m.contains("tuning") {
+                return None;
+            }
+            ["map_specif_", "burst_specif_"]
+                .into_iter()
+                .find(|k| m.contains(k))
+                .and_then(|k| layer_and_part(&m, k).map(|lp| (k, lp, q)))
+        })
+        .collect();
     let mut records: Vec<(u32, u32, PathBuf, Option<PathBuf>)> = Vec::new();
     for p in files.iter().filter(|p| is_record(p)) {
         let n = file_name(p);
-        let (layer, part) = layer_and_part(&n, "map_record_").ok_or_else(|| {
+        let (kind, specif_kind) = record_kind(&n);
+        let (layer, part) = layer_and_part(&n, kind).ok_or_else(|| {
             LogError::file(
                 &p.display().to_string(),
-                "no layer number after map_record_; expected map_record_NNNN_part_MM",
+                format!(
+                    "no layer number after {kind}; expected {kind}NNNN_part_MM or {kind}NNNN_MM"
+                ),
             )
         })?;
-        let specif = files.iter().find(|q| {
-            let m = file_name(q);
-            m.contains("map_specif_")
-                && !m.contains("tuning")
-                && layer_and_part(&m, "map_specif_") == Some((layer, part))
-        });
-        records.push((layer, part, p.clone(), specif.cloned()));
+        let specif = specifs
+            .iter()
+            .find(|(k, lp, _)| *k == specif_kind && *lp == (layer, part))
+            .map(|s| s.2.clone());
+        records.push((layer, part, p.clone(), specif));
     }
     records.sort_by_key(|r| (r.0, r.1));
     let mut layers = Vec::new();
+    let (mut time_step_s, mut edge_resolution_s): (f64, f64) = (0.0, 0.0);
     let mut k = 0;
     while k < records.len() {
         let number = records[k].0;
@@ -383,15 +462,18 @@ fn read_beam(
             .map(|r| (r.2.clone(), r.3.clone()))
             .collect();
         k += group.len();
-        let layer = read_layer(number, &group, &config, origin)?;
+        let (layer, [step, placed]) = read_layer(number, &group, &config, origin)?;
+        time_step_s = time_step_s.max(step);
+        edge_resolution_s = edge_resolution_s.max(placed);
         if layer.spots.is_empty() {
             notes.push(format!("{folder}: layer {number} records no spot"));
         } else {
             layers.push(layer);
         }
     }
-    let arcs = match find(&|n| n.contains("events")) {
-        Some(p) => read_events(&p, origin)?,
+    let events = find(&|n| n.contains("events"));
+    let arcs = match &events {
+        Some(p) => read_events(p, origin)?,
         None => Vec::new(),
     };
     let beam = IbaBeam {
@@ -399,10 +481,12 @@ fn read_beam(
         gantry_angle_deg: beam.gantry_angle_deg,
         mu_per_coulomb: config.charge_per_mu_c.map(|c| 1.0 / (c * beam.correction)),
         positions_at_isocentre: config.sad_mm.is_some() && config.ic_to_iso_mm.is_some(),
+        time_step_s,
+        edge_resolution_s,
         layers,
         arcs,
     };
-    check_events(&beam, find(&|n| n.contains("events")).as_deref(), *origin)?;
+    check_events(&beam, events.as_deref(), *origin)?;
     Ok(beam)
 }
 
@@ -437,6 +521,36 @@ fn rebase(log: &mut IbaLog) {
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
+
+    /// A spot whose first rows have charge but no position yet (-10000): they count towards its
+    /// time and charge; a charged run that never gets a position is no spot.
+    #[test]
+    fn charged_rows_before_the_position_belong_to_their_spot() {
+        let mut text =
+            String::from("SUBMAP_NUMBER,TIME,X_POSITION(mm),Y_POSITION(mm),DOSE_PRIM(C)\n");
+        let rows = [
+            (-1, -10000.0, 0.0),
+            (0, -10000.0, 1e-10),
+            (0, 1.0, 1e-10),
+            (0, 1.5, 1e-10),
+            (-1, -10000.0, 0.0),
+            (1, -10000.0, 2e-10),
+            (-1, -10000.0, 0.0),
+            (-1, -10000.0, 0.0),
+        ];
+        for (k, (submap, x, q)) in rows.iter().enumerate() {
+            let ms = k / 4;
+            text.push_str(&format!(
+                "{submap},01/01/2026 08:00:00.{ms:03},{x},{x},{q:e}\n"
+            ));
+        }
+        let spots = row_spots("rec", &text, &mut None).expect("read");
+        assert_eq!(spots.len(), 1, "{spots:?}");
+        let s = &spots[0];
+        assert!((s.charge_c - 3e-10).abs() < 1e-22);
+        assert!((s.t_end_s - s.t_start_s - 3.0 * SAMPLE_PERIOD_S).abs() < 1e-12);
+        assert_eq!((s.pos, s.line), ([1.5, 1.5], 3));
+    }
 
     /// Rows every 0.25 ms from a random phase, with a pause of 1.5–50 ms somewhere, stamped by a
     /// millisecond clock that truncates: every row's time is found within half a sampling period.

@@ -50,6 +50,8 @@ fn pair(text: &str, file: &str, line: u64, what: &str) -> Result<[f64; 2], LogEr
 pub(super) fn read_config(p: &Path) -> Result<Config, LogError> {
     let (name, text) = (p.display().to_string(), read_text(p)?);
     let mut c = Config::default();
+    // SADs from per-axis lines, until a `SAD parameter` line (which takes precedence) is read.
+    let mut sad_by_axis: [Option<f64>; 2] = [None, None];
     for (i, l) in text.lines().enumerate() {
         let line = i as u64 + 1;
         let last = l.rsplit(';').next().unwrap_or("");
@@ -68,8 +70,31 @@ pub(super) fn read_config(p: &Path) -> Result<Config, LogError> {
                 ));
             }
             c.charge_per_mu_c = Some(v);
-        } else if l.contains("SAD parameter") && c.sad_mm.is_none() {
-            c.sad_mm = Some(pair(last, &name, line, "SAD")?);
+        } else if l.contains("SAD parameter") && !l.contains("according scanalgo") {
+            if c.sad_mm.is_none() || sad_by_axis.iter().any(Option::is_some) {
+                c.sad_mm = Some(pair(last, &name, line, "SAD")?);
+                sad_by_axis = [None, None];
+            }
+        } else if let Some(axis) = ["SAD_IC_X", "SAD_IC_Y"]
+            .iter()
+            .position(|k| l.contains(k) && l.contains("according scanalgo"))
+        {
+            // A synchrocyclotron's config: one line per axis (as REGGUI's S2C2 reader takes it),
+            // a constant after the last `;`, or a formula in the deflection after a `:`.
+            if l.contains(':') {
+                return Err(LogError::at(
+                    &name,
+                    line,
+                    None,
+                    "a SAD formula in the spot's deflection; expected a constant SAD (mm) after the last `;`",
+                ));
+            }
+            if c.sad_mm.is_none() || sad_by_axis.iter().any(Option::is_some) {
+                sad_by_axis[axis] = Some(number(last, &name, line, "SAD")?);
+                if let [Some(x), Some(y)] = sad_by_axis {
+                    c.sad_mm = Some([x, y]);
+                }
+            }
         } else if l.contains("distanceFromIcToIsocenter") && c.ic_to_iso_mm.is_none() {
             c.ic_to_iso_mm = Some(pair(last, &name, line, "distanceFromIcToIsocenter")?);
         }
@@ -94,13 +119,12 @@ pub(super) fn read_beam_file(p: &Path, notes: &mut Vec<String>) -> Result<BeamFi
     let (mut t, mut t_ref, mut pr, mut pr_ref, mut dose_cf) = (None, None, None, None, None);
     for (i, l) in text.lines().enumerate() {
         let line = i as u64 + 1;
-        if let (Some(a), Some(b)) = (l.find("<GantryAngle>"), l.find("</GantryAngle>")) {
-            angle = Some(number(
-                &l[a + 13..b.max(a + 13)],
-                &name,
-                line,
-                "GantryAngle",
-            )?);
+        // `<mGantryAngle>…</mGantryAngle>` (the tag REGGUI reads; OncoRay's reader takes any
+        // tag holding GantryAngle), or `<GantryAngle>…`.
+        if let Some(a) = l.find("GantryAngle>").filter(|&a| !l[..a].ends_with('/')) {
+            let value = &l[a + 12..];
+            let value = &value[..value.find('<').unwrap_or(value.len())];
+            angle = Some(number(value, &name, line, "GantryAngle")?);
             continue;
         }
         let f: Vec<&str> = l.split(',').map(str::trim).collect();

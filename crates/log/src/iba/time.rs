@@ -97,6 +97,48 @@ pub(crate) fn parse_stamp(text: &str) -> Result<Stamp, String> {
     })
 }
 
+/// Reads the element layout's `START_IRRADIATION` stamp in any of the three forms REGGUI reads:
+/// `2021-10-20 23:02:04.144 UTC`, `20170423-20:07:38.788` or `2018-06-11T11:59:54.846+02:00`
+/// (a zone suffix is not applied: every stamp of a log is taken in one zone).
+pub(crate) fn parse_element_stamp(text: &str) -> Result<Stamp, String> {
+    let t = text.trim();
+    let expected = || {
+        format!("`{t}`; expected a time stamp yyyy-MM-dd HH:MM:SS.fff UTC, yyyyMMdd-HH:MM:SS.fff or yyyy-MM-ddTHH:MM:SS.fff")
+    };
+    let (date, clock) = if let Some(rest) = t.strip_suffix(" UTC") {
+        rest.split_once(' ').ok_or_else(expected)?
+    } else if let Some((d, c)) = t.split_once('T') {
+        // Drop a zone: `Z`, or `+hh:mm` / `-hh:mm` after the seconds.
+        let c = c.trim_end_matches('Z');
+        let cut = c
+            .char_indices()
+            .skip(6)
+            .find(|&(_, ch)| ch == '+' || ch == '-')
+            .map_or(c.len(), |(i, _)| i);
+        (d, &c[..cut])
+    } else {
+        t.split_once('-').ok_or_else(expected)?
+    };
+    let digits: String = date.chars().filter(|c| *c != '-').collect();
+    if digits.len() != 8 || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return Err(expected());
+    }
+    let day_first = format!(
+        "{}/{}/{} {clock}",
+        &digits[6..8],
+        &digits[4..6],
+        &digits[0..4]
+    );
+    parse_stamp(&day_first).map_err(|_| expected())
+}
+
+/// Writes seconds since 1970-01-01 as `yyyy-MM-ddTHH:MM:SS.fff` (the element layout's
+/// `START_IRRADIATION`), truncated to the millisecond.
+pub(crate) fn format_element_stamp(seconds: f64) -> String {
+    let s = format_stamp(seconds);
+    format!("{}-{}-{}T{}", &s[6..10], &s[3..5], &s[0..2], &s[11..])
+}
+
 /// Writes seconds since 1970-01-01 as `dd/MM/yyyy HH:MM:SS.fff`, truncated to the millisecond
 /// (as a clock reads).
 pub(crate) fn format_stamp(seconds: f64) -> String {
@@ -118,6 +160,35 @@ pub(crate) fn format_stamp(seconds: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn element_stamps_read_in_each_form_reggui_reads() {
+        let want = parse_stamp("20/10/2021 23:02:04.144").expect("stamp");
+        for form in [
+            "2021-10-20 23:02:04.144 UTC",
+            "20211020-23:02:04.144",
+            "2021-10-20T23:02:04.144+02:00",
+            "2021-10-20T23:02:04.144-05:00",
+            "2021-10-20T23:02:04.144Z",
+            "2021-10-20T23:02:04.144",
+        ] {
+            assert_eq!(parse_element_stamp(form), Ok(want), "{form}");
+        }
+        let whole = parse_element_stamp("2018-06-11T11:59:54+02:00").expect("whole seconds");
+        assert_eq!(whole.resolution_s, 1.0);
+        assert_eq!(
+            parse_element_stamp(&format_element_stamp(want.seconds())),
+            Ok(want)
+        );
+        for bad in [
+            "2021-10-20",
+            "21-10-20 23:02:04.144 UTC",
+            "2021-10-20T25:00:00.000",
+            "",
+        ] {
+            assert!(parse_element_stamp(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn stamps_round_trip_across_midnight_and_leap_days() {

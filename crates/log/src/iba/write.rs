@@ -5,10 +5,49 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use arcsim_sequencer::{Delivery, SpotRow};
+use arcsim_sequencer::{Delivery, LayerRow, SpotRow};
 
-use super::time::format_stamp;
-use super::SAMPLE_PERIOD_S;
+use super::time::{format_element_stamp, format_stamp};
+use super::{BURST_PERIOD_S, SAMPLE_PERIOD_S};
+
+/// Which of the recorder's layouts a written log takes (docs/records.md#iba-logs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum IbaLayout {
+    /// `map_record` files of a row per 0.25 ms: `SUBMAP_NUMBER`, `TIME`, positions, charge.
+    #[default]
+    Rows,
+    /// `map_record` files in the element layout: an element per 0.25 ms of a spot, with its
+    /// `SPOT_ID` and a microsecond `FPGA_COUNT`, the layer's first stamped in
+    /// `START_IRRADIATION`.
+    Elements,
+    /// A synchrocyclotron's `burst_record` files: the element layout with one element per
+    /// 1 ms beam pulse.
+    Bursts,
+}
+
+impl std::str::FromStr for IbaLayout {
+    type Err = String;
+
+    /// `rows`, `elements` or `bursts`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "rows" => Ok(IbaLayout::Rows),
+            "elements" => Ok(IbaLayout::Elements),
+            "bursts" => Ok(IbaLayout::Bursts),
+            _ => Err(format!("`{s}`; expected rows, elements or bursts")),
+        }
+    }
+}
+
+impl IbaLayout {
+    /// The time between elements (or rows), s.
+    fn period_s(self) -> f64 {
+        match self {
+            IbaLayout::Rows | IbaLayout::Elements => SAMPLE_PERIOD_S,
+            IbaLayout::Bursts => BURST_PERIOD_S,
+        }
+    }
+}
 
 /// The nozzle and chamber a written log pretends to come from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,16 +105,15 @@ fn range_g_cm2(energy_mev: f64) -> f64 {
 }
 
 /// The files of the IBA-style log of `delivery` (its spot deliveries `spots`, the delivery
-/// starting `start_s` seconds after 1970-01-01): paths relative to the log's folder (one
-/// `beam_NN` folder per arc) and their text.
+/// starting `start_s` seconds after 1970-01-01) in the recorder's `layout`: paths relative to
+/// the log's folder (one `beam_NN` folder per arc) and their text.
 pub fn iba_log_files(
     delivery: &Delivery,
     spots: &[SpotRow],
     start_s: f64,
     nozzle: &IbaNozzle,
+    layout: IbaLayout,
 ) -> Vec<(PathBuf, String)> {
-    let correction = (nozzle.pressure_hpa * super::DEFAULT_REFERENCE_TEMPERATURE_K)
-        / (nozzle.temperature_k * super::DEFAULT_REFERENCE_PRESSURE_HPA);
     let stamp_name = |t: f64| {
         // ddMMyyyy HH:MM:SS.fff → yyyyMMdd_HHMMSS_fff
         let s = format_stamp(start_s + t);
@@ -91,6 +129,7 @@ pub fn iba_log_files(
         )
     };
     let mut files = Vec::new();
+    let in_layer_order = spots.is_sorted_by_key(|s| s.layer_index);
     let arcs: Vec<usize> = {
         let mut a: Vec<usize> = delivery.layers.iter().map(|l| l.arc).collect();
         a.dedup();
@@ -110,25 +149,9 @@ pub fn iba_log_files(
                 .rem_euclid(360.0)
         };
         let name0 = stamp_name(first.t_start_s);
-        files.push((
-            dir.join(format!("beam.{name0}.csv")),
-            format!(
-                "<PatientId>arcsim-fixture</PatientId>\n<BeamName>arc {}</BeamName>\n<GantryAngle>{:.3}</GantryAngle>\ntemperature,K,{}\nreferenceTemperature,K,{}\npressure,hPa,{}\nreferencePressure,hPa,{}\ndoseCorrectionFactor,,1\n",
-                arc + 1,
-                angle(first.t_start_s),
-                nozzle.temperature_k,
-                super::DEFAULT_REFERENCE_TEMPERATURE_K,
-                nozzle.pressure_hpa,
-                super::DEFAULT_REFERENCE_PRESSURE_HPA
-            ),
-        ));
-        files.push((
-            dir.join(format!("beam_config.{name0}.csv")),
-            format!(
-                "description;parameter;value\nIC23 geometry;SAD parameter;{},{}\nIC23 geometry;distanceFromIcToIsocenter;{},{}\nchargePerMUIC2;Charge per MU on IC2;{:e}\n",
-                nozzle.sad_mm[0], nozzle.sad_mm[1], nozzle.ic_to_iso_mm[0], nozzle.ic_to_iso_mm[1], nozzle.charge_per_mu_c
-            ),
-        ));
+        for (file, text) in beam_files(arc, angle(first.t_start_s), nozzle, layout) {
+            files.push((dir.join(format!("{file}.{name0}.csv")), text));
+        }
         let mut events = String::new();
         for (n, layer) in layers.iter().enumerate() {
             for (t, kind) in [(layer.t_start_s, "START"), (layer.t_end_s, "END")] {
@@ -140,30 +163,103 @@ pub fn iba_log_files(
                     angle(t)
                 );
             }
-            let layer_spots: Vec<&SpotRow> = spots
-                .iter()
-                .filter(|s| s.layer_index == layer.index)
-                .collect();
+            let layer_spots: Vec<&SpotRow> = if in_layer_order {
+                let first_spot = spots.partition_point(|s| s.layer_index < layer.index);
+                spots[first_spot..]
+                    .iter()
+                    .take_while(|s| s.layer_index == layer.index)
+                    .collect()
+            } else {
+                spots
+                    .iter()
+                    .filter(|s| s.layer_index == layer.index)
+                    .collect()
+            };
             let name = stamp_name(layer.t_start_s);
-            files.push((
-                dir.join(format!("map_specif_{n:04}_part_01.{name}.csv")),
-                format!(
-                    "LAYER_ID,RANGE,NB_PAINTS\n{n},{:.4},1\n[SMX_OFFSET],[SMY_OFFSET],[ICX_OFFSET],[ICY_OFFSET]\n0,0,{},{}\n",
-                    range_g_cm2(layer.energy_mev),
-                    nozzle.ic_offset_mm[0],
-                    nozzle.ic_offset_mm[1]
-                ),
-            ));
-            // A phase of the sampling grid that differs from layer to layer.
-            let phase = (layer.index as f64 * 0.618_033_988_75).fract() * SAMPLE_PERIOD_S;
-            files.push((
-                dir.join(format!("map_record_{n:04}_part_01.{name}.csv")),
-                record_text(&layer_spots, (start_s, phase), n, nozzle, correction),
-            ));
+            for (file, text) in
+                layer_files(layer, &layer_spots, (n, &name), start_s, (nozzle, layout))
+            {
+                files.push((dir.join(file), text));
+            }
         }
         files.push((dir.join(format!("events.{name0}.csv")), events));
     }
     files
+}
+
+/// The beam file and `beam_config` of arc `arc` (its gantry angle at the first beam on), named
+/// without their stamp.
+fn beam_files(
+    arc: usize,
+    angle_deg: f64,
+    nozzle: &IbaNozzle,
+    layout: IbaLayout,
+) -> [(&'static str, String); 2] {
+    let beam = format!(
+        "<PatientId>arcsim-fixture</PatientId>\n<mBeamId>arc{}</mBeamId>\n<mGantryAngle>{angle_deg:.3}</mGantryAngle>\ntemperature,K,{}\nreferenceTemperature,K,{}\npressure,hPa,{}\nreferencePressure,hPa,{}\ndoseCorrectionFactor,,1\n",
+        arc + 1,
+        nozzle.temperature_k,
+        super::DEFAULT_REFERENCE_TEMPERATURE_K,
+        nozzle.pressure_hpa,
+        super::DEFAULT_REFERENCE_PRESSURE_HPA
+    );
+    // A synchrocyclotron's config gives its SADs one axis per line.
+    let [sx, sy] = nozzle.sad_mm;
+    let sad = if layout == IbaLayout::Bursts {
+        format!("IC23 geometry;SAD_IC_X according scanalgo;{sx}\nIC23 geometry;SAD_IC_Y according scanalgo;{sy}")
+    } else {
+        format!("IC23 geometry;SAD parameter;{sx},{sy}")
+    };
+    let config = format!(
+        "description;parameter;value\n{sad}\nIC23 geometry;distanceFromIcToIsocenter;{},{}\nchargePerMUIC2;Charge per MU on IC2;{:e}\n",
+        nozzle.ic_to_iso_mm[0], nozzle.ic_to_iso_mm[1], nozzle.charge_per_mu_c
+    );
+    [("beam", beam), ("beam_config", config)]
+}
+
+/// The specif and record files of the `n`-th layer of a beam (`name` its start's stamp in file
+/// names), its spot deliveries `spots`.
+fn layer_files(
+    layer: &LayerRow,
+    spots: &[&SpotRow],
+    (n, name): (usize, &str),
+    start_s: f64,
+    (nozzle, layout): (&IbaNozzle, IbaLayout),
+) -> [(String, String); 2] {
+    let correction = (nozzle.pressure_hpa * super::DEFAULT_REFERENCE_TEMPERATURE_K)
+        / (nozzle.temperature_k * super::DEFAULT_REFERENCE_PRESSURE_HPA);
+    let range = range_g_cm2(layer.energy_mev);
+    let [ox, oy] = nozzle.ic_offset_mm;
+    // A phase of the sampling grid that differs from layer to layer.
+    let phase = (layer.index as f64 * 0.618_033_988_75).fract() * layout.period_s();
+    let (specif, record, text, offsets) = match layout {
+        IbaLayout::Rows => (
+            format!("map_specif_{n:04}_part_01.{name}.csv"),
+            format!("map_record_{n:04}_part_01.{name}.csv"),
+            record_text(spots, (start_s, phase), n, nozzle, correction),
+            "[SMX_OFFSET],[SMY_OFFSET],[ICX_OFFSET],[ICY_OFFSET]",
+        ),
+        IbaLayout::Elements => (
+            format!("map_specif_{n:04}_part_01.{name}.csv"),
+            format!("map_record_{n:04}_part_01.{name}.csv"),
+            element_text(spots, (start_s, phase), n, layout, (nozzle, correction)),
+            "[SMX_OFFSET],[SMY_OFFSET],[ICX_OFFSET],[ICY_OFFSET]",
+        ),
+        IbaLayout::Bursts => (
+            format!("{name}.burst_specif_{n:04}_01.csv"),
+            format!("{name}.burst_record_{n:04}_01.csv"),
+            element_text(spots, (start_s, phase), n, layout, (nozzle, correction)),
+            // The form REGGUI's S2C2 reader takes.
+            "SMX_OFFSET,SMY_OFFSET,ICX_OFFSET,ICY_OFFSET",
+        ),
+    };
+    [
+        (
+            specif,
+            format!("LAYER_ID,RANGE,NB_PAINTS\n{n},{range:.4},1\n{offsets}\n0,0,{ox},{oy}\n"),
+        ),
+        (record, text),
+    ]
 }
 
 /// One layer's `map_record`: 10 header lines, the column names, a row per 0.25 ms from 1 ms
@@ -193,8 +289,6 @@ fn record_text(
     let g0 = ((first.t_start_s - 1e-3) / SAMPLE_PERIOD_S).floor() * SAMPLE_PERIOD_S - phase;
     let k_of = |t: f64| ((t - g0) / SAMPLE_PERIOD_S).ceil() as i64;
     let k_end = k_of(last.t_end_s + 1e-3);
-    let scale =
-        |axis: usize| nozzle.sad_mm[axis] / (nozzle.sad_mm[axis] - nozzle.ic_to_iso_mm[axis]);
     let mut spot = 0;
     let mut submap = 0;
     for k in 0..k_end {
@@ -208,9 +302,7 @@ fn record_text(
             Some(sp) => {
                 let rows = (k_of(sp.t_end_s) - k_of(sp.t_start_s)).max(1) as f64;
                 let charge = sp.mu * nozzle.charge_per_mu_c * correction / rows;
-                // IEC gantry x is physics Y; y is physics X.
-                let px = sp.y_mm.unwrap_or(0.0) / scale(0) + nozzle.ic_offset_mm[0];
-                let py = sp.x_mm.unwrap_or(0.0) / scale(1) + nozzle.ic_offset_mm[1];
+                let (px, py) = chamber_position(sp, nozzle);
                 let _ = writeln!(
                     s,
                     "{submap},{stamp},4.0,4.0,{px:.4},{py:.4},{charge:.6e},{px:.4},{py:.4}"
@@ -224,6 +316,98 @@ fn record_text(
     s.push('\n');
     let _ = writeln!(s, "endOfRecord,{}", format_stamp(start_s + last.t_end_s));
     for k in 0..9 {
+        let _ = writeln!(s, "reserved,{k}");
+    }
+    s
+}
+
+/// A spot's position on the chamber in physics coordinates (mm): IEC gantry x is physics Y,
+/// y is physics X.
+fn chamber_position(sp: &SpotRow, nozzle: &IbaNozzle) -> (f64, f64) {
+    let scale =
+        |axis: usize| nozzle.sad_mm[axis] / (nozzle.sad_mm[axis] - nozzle.ic_to_iso_mm[axis]);
+    (
+        sp.y_mm.unwrap_or(0.0) / scale(0) + nozzle.ic_offset_mm[0],
+        sp.x_mm.unwrap_or(0.0) / scale(1) + nozzle.ic_offset_mm[1],
+    )
+}
+
+/// One layer's record in the element layout: a few header lines, `START_IRRADIATION` (the
+/// layer's first element), the column names and an element per grid point (`layout`'s period,
+/// from `phase`) inside each spot's delivery, at least one per spot; a microsecond counter of
+/// 23 bits that runs on across files; a blank line and footer lines.
+fn element_text(
+    spots: &[&SpotRow],
+    (start_s, phase): (f64, f64),
+    n: usize,
+    layout: IbaLayout,
+    (nozzle, correction): (&IbaNozzle, f64),
+) -> String {
+    // The grid in whole microseconds, so that the counter steps by exactly one period.
+    let (period_us, phase_us) = (
+        (layout.period_s() * 1e6).round() as i64,
+        (phase * 1e6).round() as i64,
+    );
+    let grid_us = |k: i64| k * period_us - phase_us;
+    let grid = |k: i64| grid_us(k) as f64 * 1e-6;
+    let first_at_or_after =
+        |t: f64| ((t * 1e6 + phase_us as f64) / period_us as f64 - 1e-9).ceil() as i64;
+    // Each spot's elements: the grid points in [start, end), at least one (the first free one
+    // from its start: a spot shorter than the period cannot be recorded as it was).
+    let mut elements: Vec<(usize, i64)> = Vec::new();
+    for (id, sp) in spots.iter().enumerate() {
+        let mut k = first_at_or_after(sp.t_start_s);
+        if let Some(&(_, last)) = elements.last() {
+            k = k.max(last + 1);
+        }
+        let from = elements.len();
+        while grid(k) < sp.t_end_s || elements.len() == from {
+            elements.push((id, k));
+            k += 1;
+        }
+    }
+    let start_us = (start_s * 1e6).round() as i64;
+    let mut s = String::new();
+    let Some(&(_, k0)) = elements.first() else {
+        return s;
+    };
+    let kind = if layout == IbaLayout::Bursts {
+        "burst_record"
+    } else {
+        "map_record"
+    };
+    let _ = writeln!(
+        s,
+        "beamline,arcsim fixture in the element layout of IBA-style {kind} files (not a vendor file)"
+    );
+    let _ = writeln!(s, "layerId,{n}");
+    let _ = writeln!(s, "START_IRRADIATION,NB_ELEMENTS");
+    let _ = writeln!(
+        s,
+        "{},{}",
+        format_element_stamp(start_s + grid(k0)),
+        elements.len()
+    );
+    s.push_str("#ELEMENT_ID,TIME,SPOT_ID,FPGA_COUNT,PRIM_IC_X_POSITION,PRIM_IC_Y_POSITION,PRIM_IC_CHARGE\n");
+    let mut counts = vec![0.0; spots.len()];
+    for (id, _) in &elements {
+        counts[*id] += 1.0;
+    }
+    for (e, &(id, k)) in elements.iter().enumerate() {
+        let t = start_s + grid(k);
+        let count = (start_us + grid_us(k)).rem_euclid(1 << 23);
+        let (px, py) = chamber_position(spots[id], nozzle);
+        let charge = spots[id].mu * nozzle.charge_per_mu_c * correction / counts[id];
+        let _ = writeln!(
+            s,
+            "{},{},{},{count},{px:.4},{py:.4},{charge:.6e}",
+            e + 1,
+            format_element_stamp(t),
+            id + 1
+        );
+    }
+    s.push('\n');
+    for k in 0..5 {
         let _ = writeln!(s, "reserved,{k}");
     }
     s

@@ -251,10 +251,18 @@ fn observations(beam: &ScanningBeam, layers: &[&Layer]) -> (Vec<Spot>, Vec<Move>
     (spots, moves)
 }
 
-/// The logs' clock resolution: the step every difference between two distinct logged times is
-/// a whole multiple of (to 1 % of it), found as the mean of the differences within 1 % of the
+/// The logs' clock resolution: the longest time step a log's format states (an IBA-style log's
+/// rows or elements), else the step every difference between two distinct logged times is a
+/// whole multiple of (to 1 % of it), found as the mean of the differences within 1 % of the
 /// smallest; 0 when there is none (a clock finer than the spots) or it is under 1 µs.
 fn clock_resolution(runs: &[SpotRun]) -> f64 {
+    if let Some(step) = runs
+        .iter()
+        .filter_map(|r| r.log.time_step_s)
+        .reduce(f64::max)
+    {
+        return step;
+    }
     let mut times: Vec<f64> = runs
         .iter()
         .flat_map(|r| r.log.spots.iter().flat_map(|s| [s.t_start_s, s.t_end_s]))

@@ -41,6 +41,9 @@ pub struct SpotLog {
     pub source: String,
     /// Every spot delivery, in the file's order (checked to be the delivery order).
     pub spots: Vec<LoggedSpot>,
+    /// The recorder's time step where the log's format says it (an IBA-style log's rows or
+    /// elements), s; `None` where the fit reads the clock's resolution from the times.
+    pub time_step_s: Option<f64>,
 }
 
 /// The columns a per-spot log must have (others, e.g. `layer_index` or the gantry angles, are
@@ -140,6 +143,7 @@ pub fn parse_spot_log(reader: impl Read, source: &str) -> Result<SpotLog, LogErr
         ));
     }
     Ok(SpotLog {
+        time_step_s: None,
         source: source.to_string(),
         spots,
     })
