@@ -11,10 +11,10 @@ use std::collections::BTreeMap;
 use arcsim_plan::{
     resolve, Controller, ControllerEvidence, Machine, Motion, CONTROLLER_DECISION_RATIO,
 };
-use arcsim_sequencer::{simulate, Options};
+use arcsim_sequencer::{Delivery, Options};
 use rayon::prelude::*;
 
-use crate::calibrate::{calibrate, CalibrateError, Calibration, ElstFit, LoggedRun};
+use crate::calibrate::{calibrate_simulated, CalibrateError, Calibration, ElstFit, LoggedRun};
 use crate::compare::compare;
 
 /// A residual after the fit is worth a warning above this many percent (or above 3 × the logs'
@@ -49,8 +49,8 @@ pub fn calibrate_controller(
                 motion,
                 ..options.clone()
             };
-            let cal = calibrate(base, runs, elst_fit, &opts)?;
-            let rms = rms_beam_on_start(&cal.machine, runs, &opts)?;
+            let (cal, simulated) = calibrate_simulated(base, runs, elst_fit, &opts)?;
+            let rms = rms_beam_on_start(&cal.machine, runs, &simulated)?;
             Ok((motion, cal, rms))
         })
         .collect::<Result<Vec<_>, CalibrateError>>()?;
@@ -247,29 +247,21 @@ fn extrapolation_warning(cal: &mut Calibration, runs: &[LoggedRun]) {
 pub const EXTRAPOLATION_WARNING_BELOW_MEV: f64 = 20.0;
 
 /// Pooled over every layer of every log: the rms of (logged − simulated) beam-on start, each
-/// log aligned on its first layer, for `machine` simulated with `options`.
+/// log aligned on its first layer, `simulated` being `machine`'s simulation of each run.
 fn rms_beam_on_start(
     machine: &Machine,
     runs: &[LoggedRun],
-    options: &Options,
+    simulated: &[Delivery],
 ) -> Result<f64, CalibrateError> {
-    let opts = Options {
-        build_timeline: false,
-        ..options.clone()
-    };
     let per_run = runs
         .par_iter()
-        .map(|r| {
+        .zip(simulated)
+        .map(|(r, sim)| {
             let arcs = resolve(&r.plan, machine).map_err(|source| CalibrateError::Plan {
                 plan: r.plan_name.clone(),
                 source,
             })?;
-            let sim =
-                simulate(&r.plan, machine, &opts).map_err(|source| CalibrateError::Simulate {
-                    plan: r.plan_name.clone(),
-                    source,
-                })?;
-            let c = compare(&arcs, &sim, &[], &r.log)?;
+            let c = compare(&arcs, sim, &[], &r.log)?;
             let n = c.layers.len() as f64;
             let rms = c.motion_fits.first().map_or(0.0, |f| f.rms_start_s);
             Ok((rms * rms * n, n))

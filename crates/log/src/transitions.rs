@@ -95,6 +95,22 @@ fn misfit(
     gap_pairs(machine, set, value, data, which, opts).map(|p| misfit_of(&p))
 }
 
+/// The robust rms (s) of (logged − simulated) beam-off gaps of `which` between each run's logged
+/// layers and its simulation `simulated`, and how many gaps.
+pub(crate) fn rms_of(
+    simulated: &[Delivery],
+    logged: &[&[LoggedLayer]],
+    which: Switches,
+) -> (f64, usize) {
+    let pairs: Vec<(f64, f64)> = simulated
+        .iter()
+        .zip(logged)
+        .flat_map(|(d, layers)| pairs_of(d, layers, which))
+        .collect();
+    let (ss, n) = misfit_of(&pairs);
+    ((ss / n.max(1) as f64).sqrt(), n)
+}
+
 /// The robust rms (s) of (logged − simulated) beam-off gaps of `which` with `machine` changed by
 /// `set(value)`, and how many gaps; `None` if a simulation fails.
 pub(crate) fn gap_rms(

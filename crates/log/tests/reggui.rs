@@ -1,9 +1,11 @@
-//! arcsim's reading of IBA-style logs against a public reader's: REGGUI's `load_PBS_logs.m`, run
-//! on the same folders (tests/data/reggui/README.md says how). Each spot's position, MU and time
-//! agree, up to each reader's stated convention: REGGUI places a layer at its millisecond
-//! `START_IRRADIATION` stamp where arcsim places it mid-way in what the stamp allows, ends an
-//! element-layout spot at its last element where arcsim adds the element period, and gives a
-//! 250 µs-row spot the charge of the two rows before it where arcsim counts only the spot's own.
+//! arcsim's reading of IBA-style logs against two public readers': REGGUI's `load_PBS_logs.m`
+//! and OncoRay's `logfile_extractor.py`, run on the same folders (tests/data/reggui/README.md
+//! says how). Each spot's position, MU and time agree, up to each reader's stated convention:
+//! REGGUI places a layer at its millisecond `START_IRRADIATION` stamp where arcsim places it
+//! mid-way in what the stamp allows, ends an element-layout spot at its last element where
+//! arcsim adds the element period, and gives a 250 µs-row spot the charge of the two rows
+//! before it where arcsim counts only the spot's own; OncoRay keeps only the stamp of a spot's
+//! last row.
 
 use std::path::PathBuf;
 
@@ -171,5 +173,54 @@ fn the_row_layout_reads_as_reggui_reads_it() {
                 ),
             }
         }
+    }
+}
+
+/// OncoRay's reader on the same rows (tests/data/reggui/README.md says how it was run): the same
+/// spots; positions (it takes the mean of a spot's rows, arcsim the last: one here) and MU (its
+/// air-density correction is arcsim's) to the files' rounding; its drill time (rows × 0.25 ms)
+/// is arcsim's duration; its time, the millisecond stamp of the spot's last row, holds arcsim's
+/// time of that row (its end less a row) to within the stamp.
+#[test]
+fn the_row_layout_reads_as_oncorays_reader_reads_it() {
+    let log = read_iba_log(&data("rows")).expect("arcsim reads the folder");
+    let beam = &log.beams[0];
+    let per_coulomb = beam.mu_per_coulomb.expect("a charge per MU");
+    let text = std::fs::read_to_string(data("rows-oncoray.csv")).expect("OncoRay's output");
+    let theirs: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().expect("a number")).collect())
+        .collect();
+    let ours: Vec<(usize, &arcsim_log::iba::IbaSpot)> = beam
+        .layers
+        .iter()
+        .enumerate()
+        .flat_map(|(k, l)| l.spots.iter().map(move |s| (k + 1, s)))
+        .collect();
+    assert_eq!(ours.len(), theirs.len(), "spot counts differ");
+    // The log starts at 08:00:00 plus the first spot's place in its first millisecond: arcsim
+    // counts from the first spot's start, OncoRay from 08:00.
+    let first_start = reggui("rows")[0].start_s - 8.0 * 3600.0;
+    for ((layer, s), o) in ours.iter().zip(&theirs) {
+        assert_eq!(*layer, o[0] as usize, "layer of spot {o:?}");
+        assert!(
+            (s.x_mm - o[3]).abs() < 2e-4 && (s.y_mm - o[4]).abs() < 2e-4,
+            "{s:?} {o:?}"
+        );
+        assert!(
+            (s.charge_c * per_coulomb - o[5]).abs() < 1e-6,
+            "MU: {s:?} {o:?}"
+        );
+        assert!(
+            (s.t_end_s - s.t_start_s - o[6]).abs() < 1e-9,
+            "duration: {s:?} {o:?}"
+        );
+        let last_row = first_start + s.t_end_s - SAMPLE_PERIOD_S;
+        assert!(
+            last_row >= o[2] - SAMPLE_PERIOD_S && last_row < o[2] + 1e-3 + SAMPLE_PERIOD_S,
+            "last row at {last_row} s, stamped {} s",
+            o[2]
+        );
     }
 }

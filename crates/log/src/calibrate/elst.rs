@@ -3,7 +3,7 @@
 //! the logs do not show.
 
 use arcsim_plan::{ElstModel, Machine};
-use arcsim_sequencer::Options;
+use arcsim_sequencer::{Delivery, Options};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -253,6 +253,8 @@ pub(super) fn bound_unseen_elst(
     values: &mut [FittedValue],
 ) {
     let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
+    // The machine as it stands, simulated once for every kind until a kind changes it.
+    let mut as_is: Option<Option<Vec<Delivery>>> = None;
     for &(field, class, k) in &ELST_KINDS {
         let Some(fitted) = elst_slot(&mut machine.elst, k).map(|x| *x) else {
             continue;
@@ -267,8 +269,15 @@ pub(super) fn bound_unseen_elst(
         let which = crate::transitions::Switches::Kind(class);
         let rms =
             |e: f64| crate::transitions::gap_rms(machine, &set, e, (runs, &logged), which, options);
-        let (Some((at_fit, n)), Some((at_zero, _))) = rayon::join(|| rms(fitted), || rms(0.0))
-        else {
+        let (sims, at_zero) = match as_is.take() {
+            Some(sims) => (sims, rms(0.0)),
+            None => rayon::join(|| simulate_runs(machine, runs, options), || rms(0.0)),
+        };
+        let at_fit = sims
+            .as_deref()
+            .map(|d| crate::transitions::rms_of(d, &logged, which));
+        as_is = Some(sims);
+        let (Some((at_fit, n)), Some((at_zero, _))) = (at_fit, at_zero) else {
             continue;
         };
         if n < 3 || at_zero > at_fit + (0.1 * at_fit).max(0.02) {
@@ -290,7 +299,23 @@ pub(super) fn bound_unseen_elst(
         row.interval = None;
         row.determined = false;
         set(machine, value);
+        as_is = None;
     }
+}
+
+/// `machine`'s simulation of every run without a timeline (`None` if one fails).
+fn simulate_runs(
+    machine: &Machine,
+    runs: &[LoggedRun],
+    options: &Options,
+) -> Option<Vec<Delivery>> {
+    let opts = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
+    runs.par_iter()
+        .map(|r| arcsim_sequencer::simulate(&r.plan, machine, &opts).ok())
+        .collect()
 }
 
 /// A clock this many times coarser than a switch cannot time it (s per s).

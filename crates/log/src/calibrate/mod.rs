@@ -20,7 +20,7 @@
 //! for the timings, the fit noise over the plateau for the gantry.
 
 use arcsim_plan::{Machine, TimingSpread};
-use arcsim_sequencer::Options;
+use arcsim_sequencer::{Delivery, Options};
 
 use crate::kinematics::{observe, trace};
 
@@ -52,6 +52,17 @@ pub fn calibrate(
     elst_fit: ElstFit,
     options: &Options,
 ) -> Result<Calibration, CalibrateError> {
+    calibrate_simulated(base, runs, elst_fit, options).map(|(cal, _)| cal)
+}
+
+/// [`calibrate`], with the fitted machine's simulation of each run (without a timeline, under
+/// `options`), so that a caller comparing the fit with the logs need not simulate it again.
+pub(crate) fn calibrate_simulated(
+    base: &Machine,
+    runs: &[LoggedRun],
+    elst_fit: ElstFit,
+    options: &Options,
+) -> Result<(Calibration, Vec<Delivery>), CalibrateError> {
     if runs.is_empty() {
         return Err(CalibrateError::NoRuns);
     }
@@ -139,9 +150,9 @@ pub fn calibrate(
     let uncertainty = uncertainty_of(&values);
     machine.uncertainty = uncertainty.any().then_some(uncertainty);
     describe(&mut machine, base, runs, &values);
-    let residuals = residuals(base, &machine, runs, &matched, options)?;
+    let (residuals, fitted) = residuals(base, &machine, runs, &matched, options)?;
     let warnings = table_replaced(base, &machine).into_iter().collect();
-    Ok(Calibration {
+    let cal = Calibration {
         machine,
         report: CalibrationReport {
             logs: runs.iter().map(|r| r.log.source.clone()).collect(),
@@ -153,5 +164,6 @@ pub fn calibrate(
             controller: None,
             warnings,
         },
-    })
+    };
+    Ok((cal, fitted))
 }

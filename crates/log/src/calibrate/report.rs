@@ -2,7 +2,7 @@
 //! plan re-simulated on it.
 
 use arcsim_plan::Machine;
-use arcsim_sequencer::{simulate, Options};
+use arcsim_sequencer::{simulate, Delivery, Options};
 use rayon::prelude::*;
 
 use super::gaps::*;
@@ -63,39 +63,42 @@ pub(super) fn percent(x: f64, of: f64) -> f64 {
     }
 }
 
+/// Each run's residual before and after the fit, and the fitted machine's simulation of it
+/// (without a timeline), which the controller's choice compares beam-on starts with.
 pub(super) fn residuals(
     base: &Machine,
     fitted: &Machine,
     runs: &[LoggedRun],
     matched: &[Matched],
     options: &Options,
-) -> Result<Vec<Residual>, CalibrateError> {
+) -> Result<(Vec<Residual>, Vec<Delivery>), CalibrateError> {
     let opts = Options {
         build_timeline: false,
         ..options.clone()
     };
-    runs.par_iter()
+    let per_run = runs
+        .par_iter()
         .zip(matched)
         .map(|(r, m)| {
             let sim = |machine: &Machine| {
-                simulate(&r.plan, machine, &opts)
-                    .map(|d| d.total_s)
-                    .map_err(|source| CalibrateError::Simulate {
-                        plan: r.plan_name.clone(),
-                        source,
-                    })
+                simulate(&r.plan, machine, &opts).map_err(|source| CalibrateError::Simulate {
+                    plan: r.plan_name.clone(),
+                    source,
+                })
             };
             let logged = m.layers[m.layers.len() - 1].end_s - m.layers[0].start_s;
-            let (b, f) = (sim(base)?, sim(fitted)?);
-            Ok(Residual {
+            let (b, f) = (sim(base)?.total_s, sim(fitted)?);
+            let residual = Residual {
                 plan: r.plan_name.clone(),
                 log: r.log.source.clone(),
                 logged_total_s: logged,
                 base_total_s: b,
-                fitted_total_s: f,
+                fitted_total_s: f.total_s,
                 base_error_pct: percent(b - logged, logged),
-                fitted_error_pct: percent(f - logged, logged),
-            })
+                fitted_error_pct: percent(f.total_s - logged, logged),
+            };
+            Ok((residual, f))
         })
-        .collect()
+        .collect::<Result<Vec<_>, CalibrateError>>()?;
+    Ok(per_run.into_iter().unzip())
 }
