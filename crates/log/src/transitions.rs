@@ -44,12 +44,35 @@ pub(crate) fn gap_pairs(
 ) -> Option<Vec<(f64, f64)>> {
     let mut m = machine.clone();
     set(&mut m, value);
-    let parts = runs
-        .par_iter()
+    Some(pairs_of_runs(
+        &simulate_runs(&m, runs, opts)?,
+        logged,
+        which,
+    ))
+}
+
+/// `machine`'s simulation of every run under `opts` (`None` if one fails).
+pub(crate) fn simulate_runs(
+    machine: &Machine,
+    runs: &[LoggedRun],
+    opts: &Options,
+) -> Option<Vec<Delivery>> {
+    runs.par_iter()
+        .map(|r| simulate(&r.plan, machine, opts).ok())
+        .collect()
+}
+
+/// The (logged, simulated) gaps of `which` of every run, its simulation `simulated`, in order.
+fn pairs_of_runs(
+    simulated: &[Delivery],
+    logged: &[&[LoggedLayer]],
+    which: Switches,
+) -> Vec<(f64, f64)> {
+    simulated
+        .iter()
         .zip(logged)
-        .map(|(r, layers)| Some(pairs_of(&simulate(&r.plan, &m, opts).ok()?, layers, which)))
-        .collect::<Option<Vec<_>>>()?;
-    Some(parts.concat())
+        .flat_map(|(d, layers)| pairs_of(d, layers, which))
+        .collect()
 }
 
 /// The (logged, simulated) gaps of `which` between a run's logged layers and a simulation of
@@ -82,19 +105,6 @@ pub(crate) fn misfit_of(pairs: &[(f64, f64)]) -> (f64, usize) {
     (ss, pairs.len())
 }
 
-/// Robust sum of squares of (logged − simulated) beam-off gaps over the transitions of `which`
-/// of every run, `machine` changed by `set(value)`; `None` if a simulation fails.
-fn misfit(
-    machine: &Machine,
-    set: &dyn Fn(&mut Machine, f64),
-    value: f64,
-    data: (&[LoggedRun], &[&[LoggedLayer]]),
-    which: Switches,
-    opts: &Options,
-) -> Option<(f64, usize)> {
-    gap_pairs(machine, set, value, data, which, opts).map(|p| misfit_of(&p))
-}
-
 /// The robust rms (s) of (logged − simulated) beam-off gaps of `which` between each run's logged
 /// layers and its simulation `simulated`, and how many gaps.
 pub(crate) fn rms_of(
@@ -102,12 +112,12 @@ pub(crate) fn rms_of(
     logged: &[&[LoggedLayer]],
     which: Switches,
 ) -> (f64, usize) {
-    let pairs: Vec<(f64, f64)> = simulated
-        .iter()
-        .zip(logged)
-        .flat_map(|(d, layers)| pairs_of(d, layers, which))
-        .collect();
-    let (ss, n) = misfit_of(&pairs);
+    rms_of_pairs(&pairs_of_runs(simulated, logged, which))
+}
+
+/// The robust rms (s) of (logged − simulated) gaps, and how many.
+fn rms_of_pairs(pairs: &[(f64, f64)]) -> (f64, usize) {
+    let (ss, n) = misfit_of(pairs);
     ((ss / n.max(1) as f64).sqrt(), n)
 }
 
@@ -125,8 +135,7 @@ pub(crate) fn gap_rms(
         build_timeline: false,
         ..options.clone()
     };
-    let (ss, n) = misfit(machine, set, value, data, which, &opts)?;
-    Some(((ss / n.max(1) as f64).sqrt(), n))
+    gap_pairs(machine, set, value, data, which, &opts).map(|p| rms_of_pairs(&p))
 }
 
 /// The value in [`start` / `span`, `span` × `start`] (clamped to `range`) that makes the

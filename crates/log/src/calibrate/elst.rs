@@ -253,6 +253,10 @@ pub(super) fn bound_unseen_elst(
     values: &mut [FittedValue],
 ) {
     let logged: Vec<&[LoggedLayer]> = matched.iter().map(|m| m.layers.as_slice()).collect();
+    let no_timeline = Options {
+        build_timeline: false,
+        ..options.clone()
+    };
     // The machine as it stands, simulated once for every kind until a kind changes it.
     let mut as_is: Option<Option<Vec<Delivery>>> = None;
     for &(field, class, k) in &ELST_KINDS {
@@ -271,7 +275,10 @@ pub(super) fn bound_unseen_elst(
             |e: f64| crate::transitions::gap_rms(machine, &set, e, (runs, &logged), which, options);
         let (sims, at_zero) = match as_is.take() {
             Some(sims) => (sims, rms(0.0)),
-            None => rayon::join(|| simulate_runs(machine, runs, options), || rms(0.0)),
+            None => rayon::join(
+                || crate::transitions::simulate_runs(machine, runs, &no_timeline),
+                || rms(0.0),
+            ),
         };
         let at_fit = sims
             .as_deref()
@@ -301,21 +308,6 @@ pub(super) fn bound_unseen_elst(
         set(machine, value);
         as_is = None;
     }
-}
-
-/// `machine`'s simulation of every run without a timeline (`None` if one fails).
-fn simulate_runs(
-    machine: &Machine,
-    runs: &[LoggedRun],
-    options: &Options,
-) -> Option<Vec<Delivery>> {
-    let opts = Options {
-        build_timeline: false,
-        ..options.clone()
-    };
-    runs.par_iter()
-        .map(|r| arcsim_sequencer::simulate(&r.plan, machine, &opts).ok())
-        .collect()
 }
 
 /// A clock this many times coarser than a switch cannot time it (s per s).

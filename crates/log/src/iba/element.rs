@@ -12,20 +12,25 @@
 //! - Rows whose element and spot numbers are positive count; a spot is a run of rows of one
 //!   spot number. The counter wraps at 2²³ µs.
 
-use super::read::RawSpot;
+use super::read::{CsvRow, RawSpot};
 use super::time::{parse_element_stamp, Stamp};
 use crate::LogError;
 
 /// The counter's period: it counts microseconds in 23 bits.
-const COUNTER_WRAP_US: f64 = 8_388_608.0;
+const COUNTER_WRAP_US: f64 = super::COUNTER_WRAP_US as f64;
 
-/// Whether `text` is a record in the element layout (its columns include `FPGA_COUNT`).
+/// Whether `text` is a record in the element layout: its column line (the first naming
+/// `SUBMAP_NUMBER` or `FPGA_COUNT`) includes `FPGA_COUNT`. Only the header is read.
 pub(super) fn is_element_layout(text: &str) -> bool {
-    text.lines().any(|l| l.contains("FPGA_COUNT"))
+    text.lines()
+        .find(|l| l.contains("SUBMAP_NUMBER") || l.contains("FPGA_COUNT"))
+        .is_some_and(|l| l.contains("FPGA_COUNT"))
 }
 
 /// The columns of the two header variants.
 struct Columns {
+    /// How many columns the header names.
+    width: usize,
     element: usize,
     spot: usize,
     counter: usize,
@@ -67,6 +72,7 @@ fn columns(name: &str, line: u64, header: &str) -> Result<Columns, LogError> {
         })?;
     }
     Ok(Columns {
+        width: head.len(),
         element: at[0],
         spot: at[1],
         counter: at[2],
@@ -175,24 +181,13 @@ fn read_elements(
         if l.trim().is_empty() {
             break;
         }
-        let f: Vec<&str> = l.split(',').map(str::trim).collect();
-        let num = |c: usize, what: &str| -> Result<f64, LogError> {
-            let s = f.get(c).copied().ok_or_else(|| {
-                LogError::at(
-                    name,
-                    line,
-                    Some(what),
-                    format!("{} fields; expected more", f.len()),
-                )
-            })?;
-            s.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    LogError::at(name, line, Some(what), format!("`{s}`; expected a number"))
-                })
+        let row = CsvRow {
+            fields: l.split(',').map(str::trim).collect(),
+            width: cols.width,
+            name,
+            line,
         };
-        let raw = num(cols.counter, "FPGA_COUNT")?;
+        let raw = row.number(cols.counter, "FPGA_COUNT")?;
         if !(0.0..COUNTER_WRAP_US).contains(&raw) {
             return Err(LogError::at(
                 name,
@@ -205,15 +200,21 @@ fn read_elements(
             wraps += COUNTER_WRAP_US;
         }
         last_raw = Some(raw);
-        let (element, spot) = (num(cols.element, "element id")?, num(cols.spot, "SPOT_ID")?);
+        let (element, spot) = (
+            row.number(cols.element, "element id")?,
+            row.number(cols.spot, "SPOT_ID")?,
+        );
         if element <= 0.0 || spot <= 0.0 {
             continue;
         }
         out.push(Element {
             spot: spot as i64,
             count_us: raw + wraps,
-            pos: [num(cols.x, "X position")?, num(cols.y, "Y position")?],
-            charge_c: num(cols.charge, "charge")?,
+            pos: [
+                row.number(cols.x, "X position")?,
+                row.number(cols.y, "Y position")?,
+            ],
+            charge_c: row.number(cols.charge, "charge")?,
             line,
         });
     }

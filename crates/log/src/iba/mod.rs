@@ -34,6 +34,9 @@ pub const SAMPLE_PERIOD_S: f64 = 0.25e-3;
 /// the file does not show the period itself.
 pub const BURST_PERIOD_S: f64 = 1e-3;
 
+/// The element layout's `FPGA_COUNT` counts microseconds in 23 bits: it wraps at this.
+const COUNTER_WRAP_US: i64 = 1 << 23;
+
 /// Reference conditions of the chamber's charge when the beam file gives none: 1013 hPa and
 /// 293 K, as the OncoRay reader takes them.
 pub const DEFAULT_REFERENCE_PRESSURE_HPA: f64 = 1013.0;

@@ -149,6 +149,46 @@ fn layer_and_part(name: &str, kind: &str) -> Option<(u32, u32)> {
     Some((layer, part.unwrap_or(1)))
 }
 
+/// A data line of a record, split at its commas, for reading its fields by column with errors
+/// that name the file, the line and the column.
+pub(super) struct CsvRow<'a> {
+    pub fields: Vec<&'a str>,
+    /// How many columns the header names.
+    pub width: usize,
+    pub name: &'a str,
+    pub line: u64,
+}
+
+impl<'a> CsvRow<'a> {
+    /// Column `c`'s field (`what` names it in an error).
+    pub fn get(&self, c: usize, what: &str) -> Result<&'a str, LogError> {
+        self.fields.get(c).copied().ok_or_else(|| {
+            LogError::at(
+                self.name,
+                self.line,
+                Some(what),
+                format!("{} fields; expected {}", self.fields.len(), self.width),
+            )
+        })
+    }
+
+    /// Column `c`'s field as a finite number.
+    pub fn number(&self, c: usize, what: &str) -> Result<f64, LogError> {
+        let s = self.get(c, what)?;
+        s.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| {
+                LogError::at(
+                    self.name,
+                    self.line,
+                    Some(what),
+                    format!("`{s}`; expected a number"),
+                )
+            })
+    }
+}
+
 /// One `map_record` row.
 struct Row {
     submap: i64,
@@ -191,28 +231,14 @@ fn read_rows(name: &str, text: &str, origin: &mut Option<i64>) -> Result<Vec<Row
         if l.trim().is_empty() {
             break; // the footer follows the blank line after the data
         }
-        let f: Vec<&str> = l.split(',').map(str::trim).collect();
-        let get = |c: usize, what: &str| {
-            f.get(c).copied().ok_or_else(|| {
-                LogError::at(
-                    name,
-                    line,
-                    Some(what),
-                    format!("{} fields; expected {}", f.len(), head.len()),
-                )
-            })
+        let row = CsvRow {
+            fields: l.split(',').map(str::trim).collect(),
+            width: head.len(),
+            name,
+            line,
         };
-        let num = |c: usize, what: &str| -> Result<f64, LogError> {
-            let s = get(c, what)?;
-            s.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    LogError::at(name, line, Some(what), format!("`{s}`; expected a number"))
-                })
-        };
-        let submap = num(cols[0], "SUBMAP_NUMBER")?;
-        let stamp = parse_stamp(get(cols[1], "TIME")?)
+        let submap = row.number(cols[0], "SUBMAP_NUMBER")?;
+        let stamp = parse_stamp(row.get(cols[1], "TIME")?)
             .map_err(|m| LogError::at(name, line, Some("TIME"), m))?;
         let t = stamp.since(origin);
         if let Some(prev) = rows.last().map(|r: &Row| r.t_s) {
@@ -230,10 +256,10 @@ fn read_rows(name: &str, text: &str, origin: &mut Option<i64>) -> Result<Vec<Row
             t_s: t,
             resolution_s: stamp.resolution_s,
             pos: [
-                num(cols[2], "X_POSITION(mm)")?,
-                num(cols[3], "Y_POSITION(mm)")?,
+                row.number(cols[2], "X_POSITION(mm)")?,
+                row.number(cols[3], "Y_POSITION(mm)")?,
             ],
-            charge_c: num(cols[4], "DOSE_PRIM(C)")?,
+            charge_c: row.number(cols[4], "DOSE_PRIM(C)")?,
             line,
         });
     }

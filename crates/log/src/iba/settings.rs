@@ -50,8 +50,9 @@ fn pair(text: &str, file: &str, line: u64, what: &str) -> Result<[f64; 2], LogEr
 pub(super) fn read_config(p: &Path) -> Result<Config, LogError> {
     let (name, text) = (p.display().to_string(), read_text(p)?);
     let mut c = Config::default();
-    // SADs from per-axis lines, until a `SAD parameter` line (which takes precedence) is read.
-    let mut sad_by_axis: [Option<f64>; 2] = [None, None];
+    // The SADs of a `SAD parameter` line, else of one line per axis.
+    let (mut sad_pair, mut sad_by_axis): (Option<[f64; 2]>, [Option<f64>; 2]) =
+        (None, [None, None]);
     for (i, l) in text.lines().enumerate() {
         let line = i as u64 + 1;
         let last = l.rsplit(';').next().unwrap_or("");
@@ -71,9 +72,8 @@ pub(super) fn read_config(p: &Path) -> Result<Config, LogError> {
             }
             c.charge_per_mu_c = Some(v);
         } else if l.contains("SAD parameter") && !l.contains("according scanalgo") {
-            if c.sad_mm.is_none() || sad_by_axis.iter().any(Option::is_some) {
-                c.sad_mm = Some(pair(last, &name, line, "SAD")?);
-                sad_by_axis = [None, None];
+            if sad_pair.is_none() {
+                sad_pair = Some(pair(last, &name, line, "SAD")?);
             }
         } else if let Some(axis) = ["SAD_IC_X", "SAD_IC_Y"]
             .iter()
@@ -89,16 +89,17 @@ pub(super) fn read_config(p: &Path) -> Result<Config, LogError> {
                     "a SAD formula in the spot's deflection; expected a constant SAD (mm) after the last `;`",
                 ));
             }
-            if c.sad_mm.is_none() || sad_by_axis.iter().any(Option::is_some) {
+            if sad_pair.is_none() && sad_by_axis[axis].is_none() {
                 sad_by_axis[axis] = Some(number(last, &name, line, "SAD")?);
-                if let [Some(x), Some(y)] = sad_by_axis {
-                    c.sad_mm = Some([x, y]);
-                }
             }
         } else if l.contains("distanceFromIcToIsocenter") && c.ic_to_iso_mm.is_none() {
             c.ic_to_iso_mm = Some(pair(last, &name, line, "distanceFromIcToIsocenter")?);
         }
     }
+    c.sad_mm = sad_pair.or(match sad_by_axis {
+        [Some(x), Some(y)] => Some([x, y]),
+        _ => None,
+    });
     if let (Some(sad), Some(d)) = (c.sad_mm, c.ic_to_iso_mm) {
         if !(sad[0] > d[0] && sad[1] > d[1] && d[0] >= 0.0 && d[1] >= 0.0) {
             return Err(LogError::file(&name, format!("SAD {sad:?} mm and chamber-to-isocentre distance {d:?} mm; expected each SAD above its distance (both positive)")));

@@ -2,6 +2,7 @@
 //! the public readers parse (docs/records.md#iba-logs). The nozzle's constants are invented
 //! ([`IbaNozzle::default`]); no vendor file is copied.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -80,6 +81,15 @@ impl Default for IbaNozzle {
     }
 }
 
+impl IbaNozzle {
+    /// The chamber's charge per MU relative to its reference conditions: (p · T_ref) / (T ·
+    /// p_ref), the air density the reader corrects for.
+    fn correction(&self) -> f64 {
+        (self.pressure_hpa * super::DEFAULT_REFERENCE_TEMPERATURE_K)
+            / (self.temperature_k * super::DEFAULT_REFERENCE_PRESSURE_HPA)
+    }
+}
+
 /// Seconds since 1970-01-01 of `YYYYMMDDHHMMSS` (the `--record-start` format).
 pub fn start_seconds(digits: &str) -> Result<f64, String> {
     let ok = digits.len() == 14 && digits.bytes().all(|b| b.is_ascii_digit());
@@ -129,7 +139,11 @@ pub fn iba_log_files(
         )
     };
     let mut files = Vec::new();
-    let in_layer_order = spots.is_sorted_by_key(|s| s.layer_index);
+    // Each layer's spot deliveries, in their order.
+    let mut by_layer: BTreeMap<usize, Vec<&SpotRow>> = BTreeMap::new();
+    for s in spots {
+        by_layer.entry(s.layer_index).or_default().push(s);
+    }
     let arcs: Vec<usize> = {
         let mut a: Vec<usize> = delivery.layers.iter().map(|l| l.arc).collect();
         a.dedup();
@@ -163,21 +177,10 @@ pub fn iba_log_files(
                     angle(t)
                 );
             }
-            let layer_spots: Vec<&SpotRow> = if in_layer_order {
-                let first_spot = spots.partition_point(|s| s.layer_index < layer.index);
-                spots[first_spot..]
-                    .iter()
-                    .take_while(|s| s.layer_index == layer.index)
-                    .collect()
-            } else {
-                spots
-                    .iter()
-                    .filter(|s| s.layer_index == layer.index)
-                    .collect()
-            };
+            let layer_spots = by_layer.get(&layer.index).map_or(&[][..], Vec::as_slice);
             let name = stamp_name(layer.t_start_s);
             for (file, text) in
-                layer_files(layer, &layer_spots, (n, &name), start_s, (nozzle, layout))
+                layer_files(layer, layer_spots, (n, &name), start_s, (nozzle, layout))
             {
                 files.push((dir.join(file), text));
             }
@@ -226,8 +229,7 @@ fn layer_files(
     start_s: f64,
     (nozzle, layout): (&IbaNozzle, IbaLayout),
 ) -> [(String, String); 2] {
-    let correction = (nozzle.pressure_hpa * super::DEFAULT_REFERENCE_TEMPERATURE_K)
-        / (nozzle.temperature_k * super::DEFAULT_REFERENCE_PRESSURE_HPA);
+    let correction = nozzle.correction();
     let range = range_g_cm2(layer.energy_mev);
     let [ox, oy] = nozzle.ic_offset_mm;
     // A phase of the sampling grid that differs from layer to layer.
@@ -395,7 +397,7 @@ fn element_text(
     }
     for (e, &(id, k)) in elements.iter().enumerate() {
         let t = start_s + grid(k);
-        let count = (start_us + grid_us(k)).rem_euclid(1 << 23);
+        let count = (start_us + grid_us(k)).rem_euclid(super::COUNTER_WRAP_US);
         let (px, py) = chamber_position(spots[id], nozzle);
         let charge = spots[id].mu * nozzle.charge_per_mu_c * correction / counts[id];
         let _ = writeln!(
